@@ -1,0 +1,83 @@
+//! The library's error type: one variant per cause, with the facts a user needs to find
+//! the problem in their file (path, line, byte, joint).
+
+use std::path::PathBuf;
+
+/// Result alias used across the crate.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// Everything that can go wrong between a user's file and a baked animation.
+///
+/// Messages are one sentence that names the file and the place, so the CLI can print them
+/// as they are.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// The file could not be read or written at all.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file involved.
+        path: PathBuf,
+        /// What the operating system said.
+        source: std::io::Error,
+    },
+    /// A text format (BVH, OBJ, TOML) is malformed at a known line.
+    #[error("{}: line {line}: {message}", path.display())]
+    Parse {
+        /// The file involved.
+        path: PathBuf,
+        /// 1-based line number.
+        line: usize,
+        /// What was expected or found.
+        message: String,
+    },
+    /// A binary or JSON format (glTF) is malformed; `place` says where (byte offset, JSON path).
+    #[error("{}: {place}: {message}", path.display())]
+    Format {
+        /// The file involved.
+        path: PathBuf,
+        /// Where in the file, e.g. `byte 1234` or `accessor 7`.
+        place: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// The file's extension or content is not something we import.
+    #[error("{}: unsupported file type (expected .bvh, .glb, .gltf or .toml)", path.display())]
+    UnsupportedFile {
+        /// The file involved.
+        path: PathBuf,
+    },
+    /// A skeleton breaks an invariant (for example a parent listed after its child).
+    #[error("skeleton: joint {joint:?}: {message}")]
+    Skeleton {
+        /// Name of the joint (or its index when unnamed).
+        joint: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A ragdoll spec holds a value that cannot be simulated.
+    #[error("spec: {place}: {message}")]
+    Spec {
+        /// The body, joint or key involved, e.g. `body "thigh_l".mass_kg`.
+        place: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A setting given by the user is out of range.
+    #[error("{setting}: {message}")]
+    Setting {
+        /// The option or key, e.g. `--fps`.
+        setting: String,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+impl Error {
+    /// Wraps an I/O error with the path it happened on.
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Error::Io {
+            path: path.into(),
+            source,
+        }
+    }
+}

@@ -1,0 +1,81 @@
+//! Importers: files in, [`Character`]s out, in metres with Y up. Each importer knows
+//! nothing of physics; unit and up-axis conversion happens here, at the edge.
+
+pub mod bvh;
+pub mod gltf;
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::skeleton::Character;
+
+/// Length unit of a file whose format does not say (BVH).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Units {
+    /// Metres.
+    M,
+    /// Centimetres.
+    Cm,
+    /// Millimetres.
+    Mm,
+    /// Inches.
+    In,
+}
+
+impl Units {
+    /// Metres per file unit.
+    pub fn to_metres(self) -> f32 {
+        match self {
+            Units::M => 1.0,
+            Units::Cm => 0.01,
+            Units::Mm => 0.001,
+            Units::In => 0.0254,
+        }
+    }
+}
+
+/// Up axis of a file whose format does not say (BVH).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum UpAxis {
+    /// +Y is up (glTF, most BVH).
+    Y,
+    /// +Z is up (some mocap exports).
+    Z,
+}
+
+/// Overrides for what importers otherwise detect.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ImportOptions {
+    /// Length unit; detected from the skeleton's height when `None`.
+    pub units: Option<Units>,
+    /// Up axis; detected from the skeleton's extent when `None`.
+    pub up: Option<UpAxis>,
+}
+
+/// Loads any supported character file, choosing the importer by extension.
+pub fn load(path: &Path, opts: &ImportOptions) -> Result<Character> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+        .unwrap_or_default();
+    match ext.as_str() {
+        "bvh" => bvh::load(path, opts),
+        "glb" | "gltf" => gltf::load(path),
+        _ => {
+            if !path.exists() {
+                return Err(Error::io(
+                    path,
+                    std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+                ));
+            }
+            Err(Error::UnsupportedFile {
+                path: path.to_path_buf(),
+            })
+        }
+    }
+}

@@ -1,0 +1,47 @@
+//! Turns any character into a physically simulated ragdoll and bakes what happens to it
+//! into animation files.
+//!
+//! The pipeline, one module per stage:
+//!
+//! ```text
+//! import ──► skeleton::Character ──► spec::RagdollSpec ──► world::World ──► track::Track ──► export
+//! (BVH, glTF,  joints, rest pose,     bodies, shapes,        steps the        per-frame joint   glTF, BVH,
+//!  built-in)   skin, clips            masses, joints         backend          world transforms  report
+//! ```
+//!
+//! # Conventions
+//!
+//! Right-handed, Y up, metres, kilograms, seconds, radians. Degrees appear only in
+//! user-facing fields whose names end in `_deg`. Importers convert units and up axes at
+//! the edge; nothing past them sees centimetres or Z up.
+//!
+//! # Example
+//!
+//! ```
+//! use ragdoll::{skeleton, spec, world::{World, WorldSettings}};
+//!
+//! let character = skeleton::humanoid();
+//! let spec = spec::build_spec(&character, &spec::BuildOptions::default()).unwrap();
+//! let mut world = World::new(&character, &spec, &WorldSettings::default()).unwrap();
+//! world.run(0.5);
+//! let track = world.into_track();
+//! assert_eq!(track.frames.len(), 16); // 0.5 s at 30 fps, plus the first frame
+//! ```
+//!
+//! # Note
+//!
+//! Only the rigid (rapier3d) backend exists so far; events (blasts, projectiles) come later.
+#![deny(missing_docs)]
+
+pub mod error;
+pub mod export;
+pub mod import;
+pub mod math;
+pub mod report;
+pub mod skeleton;
+pub mod spec;
+pub mod track;
+pub mod world;
+mod backend;
+
+pub use error::{Error, Result};

@@ -1,0 +1,229 @@
+//! Characters as the rest of the crate sees them: a flat joint hierarchy, optional skinned
+//! meshes and animation clips, all in metres with Y up. Importers produce these; nothing
+//! past this point knows the file format's units or up axis.
+
+mod humanoid;
+
+pub use humanoid::{DEFAULT_HEIGHT_M, humanoid};
+
+use glam::{Vec3, Vec4};
+
+use crate::error::{Error, Result};
+use crate::math::Transform;
+
+/// One joint of a [`Skeleton`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Joint {
+    /// The joint's name; may be empty (CesiumMan's joints have none). Use
+    /// [`Skeleton::joint_label`] for a printable name.
+    pub name: String,
+    /// Index of the parent joint, always lower than this joint's own index; `None` for a root.
+    pub parent: Option<usize>,
+    /// Rest (bind) transform relative to the parent joint; for a root, relative to the world.
+    pub rest: Transform,
+    /// For a leaf joint, where its bone ends, in the joint's local space (a BVH `End Site`).
+    /// `None` when the file does not say.
+    pub tip: Option<Vec3>,
+}
+
+/// A joint hierarchy stored flat, parents before children.
+///
+/// Invariant (checked by [`Skeleton::new`]): for every joint `i`, `parent < i`. Walking the
+/// array in order therefore visits every parent before its children, which is all that
+/// forward kinematics needs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Skeleton {
+    joints: Vec<Joint>,
+}
+
+impl Skeleton {
+    /// Checks the parent ordering and that every rest transform is finite.
+    pub fn new(joints: Vec<Joint>) -> Result<Self> {
+        if joints.is_empty() {
+            return Err(Error::Skeleton {
+                joint: String::new(),
+                message: "the skeleton has no joints".into(),
+            });
+        }
+        for (i, j) in joints.iter().enumerate() {
+            if let Some(p) = j.parent
+                && p >= i
+            {
+                return Err(Error::Skeleton {
+                    joint: label(&j.name, i),
+                    message: format!("parent index {p} is not before the joint's own index {i}"),
+                });
+            }
+            if !j.rest.is_finite() || j.tip.is_some_and(|t| !t.is_finite()) {
+                return Err(Error::Skeleton {
+                    joint: label(&j.name, i),
+                    message: "rest transform is not finite".into(),
+                });
+            }
+        }
+        Ok(Skeleton { joints })
+    }
+
+    /// All joints, parents before children.
+    pub fn joints(&self) -> &[Joint] {
+        &self.joints
+    }
+
+    /// Number of joints.
+    pub fn len(&self) -> usize {
+        self.joints.len()
+    }
+
+    /// Always false: a skeleton has at least one joint.
+    pub fn is_empty(&self) -> bool {
+        self.joints.is_empty()
+    }
+
+    /// Parent of joint `i`.
+    pub fn parent(&self, i: usize) -> Option<usize> {
+        self.joints[i].parent
+    }
+
+    /// Indices of the direct children of joint `i`, in order.
+    pub fn children(&self, i: usize) -> impl Iterator<Item = usize> + '_ {
+        self.joints
+            .iter()
+            .enumerate()
+            .skip(i + 1)
+            .filter(move |(_, j)| j.parent == Some(i))
+            .map(|(c, _)| c)
+    }
+
+    /// Index of the first joint named `name`.
+    pub fn find(&self, name: &str) -> Option<usize> {
+        self.joints.iter().position(|j| j.name == name)
+    }
+
+    /// The joint's name, or `joint<i>` when it has none.
+    pub fn joint_label(&self, i: usize) -> String {
+        label(&self.joints[i].name, i)
+    }
+
+    /// World transforms of the rest pose.
+    pub fn rest_world(&self) -> Vec<Transform> {
+        let locals: Vec<Transform> = self.joints.iter().map(|j| j.rest).collect();
+        let mut out = vec![Transform::IDENTITY; self.len()];
+        self.world_from_local(&locals, &mut out);
+        out
+    }
+
+    /// Forward kinematics: world transforms from local ones.
+    ///
+    /// `locals` and `out` must both have one entry per joint (panics otherwise: a
+    /// programming error, not a user-input error).
+    pub fn world_from_local(&self, locals: &[Transform], out: &mut [Transform]) {
+        assert_eq!(locals.len(), self.len());
+        assert_eq!(out.len(), self.len());
+        for (i, j) in self.joints.iter().enumerate() {
+            out[i] = match j.parent {
+                Some(p) => out[p].mul(&locals[i]),
+                None => locals[i],
+            };
+        }
+    }
+
+    /// Inverse kinematics of the hierarchy: local transforms from world ones.
+    pub fn local_from_world(&self, worlds: &[Transform], out: &mut [Transform]) {
+        assert_eq!(worlds.len(), self.len());
+        assert_eq!(out.len(), self.len());
+        for (i, j) in self.joints.iter().enumerate() {
+            out[i] = match j.parent {
+                Some(p) => worlds[p].inverse().mul(&worlds[i]),
+                None => worlds[i],
+            };
+        }
+    }
+
+    /// Where each joint's bone ends in the rest pose, in world space: the mean of its
+    /// children's positions, or its tip, or `None` for a leaf without a tip.
+    pub fn rest_bone_ends(&self) -> Vec<Option<Vec3>> {
+        let world = self.rest_world();
+        (0..self.len())
+            .map(|i| {
+                let kids: Vec<usize> = self.children(i).collect();
+                if !kids.is_empty() {
+                    let sum: Vec3 = kids.iter().map(|&c| world[c].translation).sum();
+                    Some(sum / kids.len() as f32)
+                } else {
+                    self.joints[i].tip.map(|t| world[i].transform_point(t))
+                }
+            })
+            .collect()
+    }
+}
+
+fn label(name: &str, i: usize) -> String {
+    if name.is_empty() {
+        format!("joint{i}")
+    } else {
+        name.to_string()
+    }
+}
+
+/// An animation sampled at a fixed rate: local transforms for every joint, every frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Clip {
+    /// The clip's name (empty when the file gives none).
+    pub name: String,
+    /// Seconds between frames.
+    pub frame_time: f32,
+    /// `frames[f][j]`: local transform of joint `j` at frame `f`, in the same space as
+    /// [`Joint::rest`].
+    pub frames: Vec<Vec<Transform>>,
+}
+
+impl Clip {
+    /// Duration in seconds from the first to the last frame.
+    pub fn duration(&self) -> f32 {
+        self.frames.len().saturating_sub(1) as f32 * self.frame_time
+    }
+}
+
+/// A triangle mesh skinned to a [`Skeleton`], in world space in the bind pose.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SkinnedMesh {
+    /// The mesh's name.
+    pub name: String,
+    /// Vertex positions, metres, world space, bind pose.
+    pub positions: Vec<Vec3>,
+    /// Vertex normals (unit), world space; may be empty.
+    pub normals: Vec<Vec3>,
+    /// Triangle list.
+    pub indices: Vec<u32>,
+    /// Up to four skeleton joint indices per vertex.
+    pub joints: Vec<[u16; 4]>,
+    /// Weights matching `joints`; each row sums to 1 (importers renormalise).
+    pub weights: Vec<Vec4>,
+}
+
+/// What an importer hands on: a skeleton, its meshes and clips, and what the exporters need
+/// to write the result back in the source's own layout.
+#[derive(Clone, Debug)]
+pub struct Character {
+    /// A display name (file stem, or `humanoid`).
+    pub name: String,
+    /// The joint hierarchy in metres, Y up.
+    pub skeleton: Skeleton,
+    /// Skinned meshes (empty for BVH and the built-in humanoid).
+    pub meshes: Vec<SkinnedMesh>,
+    /// Animation clips found in the file.
+    pub clips: Vec<Clip>,
+    /// The source file's layout, for exporters that write it back.
+    pub source: Source,
+}
+
+/// Where a [`Character`] came from, with what its exporters need to keep its layout.
+#[derive(Clone, Debug)]
+pub enum Source {
+    /// The built-in default humanoid.
+    BuiltIn,
+    /// A BVH file.
+    Bvh(crate::import::bvh::BvhLayout),
+    /// A glTF 2.0 file.
+    Gltf(Box<crate::import::gltf::GltfSource>),
+}

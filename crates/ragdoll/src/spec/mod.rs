@@ -1,0 +1,354 @@
+//! The offline half: a [`RagdollSpec`] describes a ragdoll as plain, editable data (bodies,
+//! shapes, masses, joints, limits, collision filtering), built automatically from a
+//! [`Skeleton`](crate::skeleton::Skeleton) and serialisable to TOML so users can tweak it.
+//! Runtime worlds are only ever made from a spec.
+//!
+//! - `roles.rs` recognises pelvis, spine, limbs… from topology and geometry;
+//! - `anthropometry.rs` holds body-segment masses and joint ranges (de Leva 1996, DESIGN §3);
+//! - `build.rs` turns a skeleton plus its roles into a spec.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// Version of the spec file layout; bumped when a field changes meaning.
+pub const SPEC_FORMAT_VERSION: u32 = 1;
+
+/// What a joint is, anatomically. Serialised as `pelvis`, `thigh_l`, `shin_r`, `chain`…
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Role {
+    /// Root of the trunk, where the legs branch.
+    Pelvis,
+    /// Lower trunk between pelvis and chest.
+    Spine,
+    /// Upper trunk, where the arms branch.
+    Chest,
+    /// Neck.
+    Neck,
+    /// Head.
+    Head,
+    /// Left upper arm (shoulder joint).
+    UpperArmL,
+    /// Right upper arm.
+    UpperArmR,
+    /// Left forearm (elbow joint).
+    ForearmL,
+    /// Right forearm.
+    ForearmR,
+    /// Left hand (wrist joint).
+    HandL,
+    /// Right hand.
+    HandR,
+    /// Left thigh (hip joint).
+    ThighL,
+    /// Right thigh.
+    ThighR,
+    /// Left shin (knee joint).
+    ShinL,
+    /// Right shin.
+    ShinR,
+    /// Left foot (ankle joint).
+    FootL,
+    /// Right foot.
+    FootR,
+    /// A generic link of a chain (non-humanoids, tails, extra spine links).
+    Chain,
+}
+
+impl Role {
+    /// The snake_case name used in files and reports.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Role::Pelvis => "pelvis",
+            Role::Spine => "spine",
+            Role::Chest => "chest",
+            Role::Neck => "neck",
+            Role::Head => "head",
+            Role::UpperArmL => "upper_arm_l",
+            Role::UpperArmR => "upper_arm_r",
+            Role::ForearmL => "forearm_l",
+            Role::ForearmR => "forearm_r",
+            Role::HandL => "hand_l",
+            Role::HandR => "hand_r",
+            Role::ThighL => "thigh_l",
+            Role::ThighR => "thigh_r",
+            Role::ShinL => "shin_l",
+            Role::ShinR => "shin_r",
+            Role::FootL => "foot_l",
+            Role::FootR => "foot_r",
+            Role::Chain => "chain",
+        }
+    }
+}
+
+/// Collision shape of a body, in the body's own frame: centred on its origin, long axis
+/// along local Y.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Shape {
+    /// A capsule: a segment of `length_m` (between the two sphere centres) swept by `radius_m`.
+    Capsule {
+        /// Sphere radius, metres.
+        radius_m: f32,
+        /// Distance between the two sphere centres, metres.
+        length_m: f32,
+    },
+    /// A box with full edge lengths `size_m` along local X, Y, Z.
+    Box {
+        /// Edge lengths, metres.
+        size_m: [f32; 3],
+    },
+}
+
+impl Shape {
+    /// Volume in m³.
+    pub fn volume(&self) -> f32 {
+        match *self {
+            Shape::Capsule { radius_m: r, length_m: l } => {
+                std::f32::consts::PI * r * r * (l + 4.0 / 3.0 * r)
+            }
+            Shape::Box { size_m: s } => s[0] * s[1] * s[2],
+        }
+    }
+}
+
+/// One rigid body of the ragdoll, attached to a skeleton bone.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodySpec {
+    /// Unique name; the bone's role name for humanoids (`thigh_l`), else the bone's name.
+    pub name: String,
+    /// The skeleton joint whose bone this body is; matched by name (or `joint<i>`).
+    pub bone: String,
+    /// The recognised role, if any (informational; editing it changes nothing).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub role: Option<Role>,
+    /// The collision shape.
+    pub shape: Shape,
+    /// Centre of the shape in the bone's rest frame (the joint's rest world rotation and
+    /// position, without scale), metres.
+    pub center_m: [f32; 3],
+    /// Orientation of the shape frame in the bone's rest frame, quaternion `[x, y, z, w]`;
+    /// the shape's long axis is this frame's Y.
+    pub rotation: [f32; 4],
+    /// Mass, kilograms. Inertia follows from the shape with uniform density.
+    pub mass_kg: f32,
+}
+
+/// How a joint may move.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum JointKind {
+    /// One axis (the joint frame's X): knees and elbows. The angle is 0 in the rest pose and
+    /// positive in flexion.
+    Hinge {
+        /// Lowest angle, degrees.
+        min_deg: f32,
+        /// Highest angle, degrees.
+        max_deg: f32,
+    },
+    /// A cone for the twist axis (the frame's X, along the child bone) plus a twist range:
+    /// hips, shoulders, spine, neck, wrists, ankles.
+    SwingTwist {
+        /// Half-angle of the swing cone, degrees.
+        swing_deg: f32,
+        /// Twist range about the bone, degrees, `[min, max]`.
+        twist_deg: [f32; 2],
+        /// Where the cone points, as rotations of the rest direction about the frame's
+        /// Y then Z axes, degrees. `[0, 0]` centres the cone on the rest pose; the hip's
+        /// cone is tilted forward so flexion reaches further than extension.
+        cone_tilt_deg: [f32; 2],
+    },
+    /// A ball joint with no limits.
+    Ball,
+    /// No relative motion.
+    Fixed,
+}
+
+/// A joint between two bodies.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JointSpec {
+    /// Unique name (the child body's name).
+    pub name: String,
+    /// Name of the parent body.
+    pub parent: String,
+    /// Name of the child body.
+    pub child: String,
+    /// Anchor position in the child bone's rest frame, metres (normally `[0, 0, 0]`: the
+    /// child's joint).
+    pub anchor_m: [f32; 3],
+    /// Orientation of the joint frame in the child bone's rest frame, `[x, y, z, w]`.
+    /// Its X is the hinge or twist axis; for limbs, rotating about Z by a positive angle
+    /// bends the limb (flexion). The parent side of the frame is the same frame in the
+    /// rest pose, so every angle is zero at rest.
+    pub frame: [f32; 4],
+    /// Kind and limits.
+    #[serde(flatten)]
+    pub kind: JointKind,
+}
+
+/// Collision filtering between bodies of one ragdoll.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CollisionSpec {
+    /// Pairs of body names that never collide with each other: every jointed pair, and pairs
+    /// that overlap in the rest pose.
+    #[serde(default)]
+    pub disabled_pairs: Vec<[String; 2]>,
+}
+
+/// A ragdoll described as plain data: what [`build_spec`] makes from a skeleton, what
+/// `ragdoll build` writes to TOML, and what a world is created from.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RagdollSpec {
+    /// Layout version, [`SPEC_FORMAT_VERSION`].
+    pub format_version: u32,
+    /// Name of the character.
+    pub name: String,
+    /// Bodies; the first is the root (the pelvis for humanoids).
+    pub bodies: Vec<BodySpec>,
+    /// Joints, each linking a parent body to a child body.
+    #[serde(default)]
+    pub joints: Vec<JointSpec>,
+    /// Collision filtering.
+    #[serde(default)]
+    pub collision: CollisionSpec,
+}
+
+impl RagdollSpec {
+    /// Sum of the bodies' masses, kg.
+    pub fn total_mass_kg(&self) -> f32 {
+        self.bodies.iter().map(|b| b.mass_kg).sum()
+    }
+
+    /// Index of the body named `name`.
+    pub fn body_index(&self, name: &str) -> Option<usize> {
+        self.bodies.iter().position(|b| b.name == name)
+    }
+
+    /// Reads a spec from TOML text; `path` is only used in error messages.
+    pub fn from_toml(text: &str, path: &std::path::Path) -> Result<Self> {
+        let spec: RagdollSpec = toml::from_str(text).map_err(|e| {
+            let line = e
+                .span()
+                .map(|s| text[..s.start.min(text.len())].lines().count().max(1))
+                .unwrap_or(1);
+            Error::Parse {
+                path: path.to_path_buf(),
+                line,
+                message: e.message().to_string(),
+            }
+        })?;
+        spec.validate()?;
+        Ok(spec)
+    }
+
+    /// Writes the spec as TOML.
+    pub fn to_toml(&self) -> String {
+        toml::to_string_pretty(self).expect("a spec always serialises")
+    }
+
+    /// Checks every value a world would trip on, collecting nothing past the first problem
+    /// per body so the message stays one sentence.
+    pub fn validate(&self) -> Result<()> {
+        let err = |place: String, message: &str| Error::Spec {
+            place,
+            message: message.to_string(),
+        };
+        if self.bodies.is_empty() {
+            return Err(err("bodies".into(), "a ragdoll needs at least one body"));
+        }
+        for (i, b) in self.bodies.iter().enumerate() {
+            let place = |field: &str| format!("body \"{}\".{field}", b.name);
+            if self.bodies[..i].iter().any(|o| o.name == b.name) {
+                return Err(err(place("name"), "two bodies have this name"));
+            }
+            if !(b.mass_kg.is_finite() && b.mass_kg > 0.0) {
+                return Err(err(place("mass_kg"), "mass must be a positive number of kilograms"));
+            }
+            match b.shape {
+                Shape::Capsule { radius_m, length_m } => {
+                    if !(radius_m.is_finite() && radius_m > 0.0) {
+                        return Err(err(place("shape.radius_m"), "radius must be positive"));
+                    }
+                    if !(length_m.is_finite() && length_m >= 0.0) {
+                        return Err(err(place("shape.length_m"), "length must be zero or positive"));
+                    }
+                }
+                Shape::Box { size_m } => {
+                    if size_m.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
+                        return Err(err(place("shape.size_m"), "box sizes must be positive"));
+                    }
+                }
+            }
+            if b.center_m.iter().chain(b.rotation.iter()).any(|v| !v.is_finite()) {
+                return Err(err(place("center_m"), "values must be finite"));
+            }
+            let q = glam::Quat::from_array(b.rotation);
+            if (q.length() - 1.0).abs() > 1e-2 {
+                return Err(err(place("rotation"), "rotation must be a unit quaternion [x, y, z, w]"));
+            }
+        }
+        for j in &self.joints {
+            let place = |field: &str| format!("joint \"{}\".{field}", j.name);
+            if self.body_index(&j.parent).is_none() {
+                return Err(err(place("parent"), "no body has this name"));
+            }
+            if self.body_index(&j.child).is_none() {
+                return Err(err(place("child"), "no body has this name"));
+            }
+            if j.parent == j.child {
+                return Err(err(place("child"), "a joint cannot link a body to itself"));
+            }
+            let q = glam::Quat::from_array(j.frame);
+            if !q.is_finite() || (q.length() - 1.0).abs() > 1e-2 {
+                return Err(err(place("frame"), "frame must be a unit quaternion [x, y, z, w]"));
+            }
+            let bad_range = |lo: f32, hi: f32| !(lo.is_finite() && hi.is_finite() && lo <= hi);
+            match j.kind {
+                JointKind::Hinge { min_deg, max_deg } => {
+                    if bad_range(min_deg, max_deg) {
+                        return Err(err(place("min_deg"), "min_deg must not exceed max_deg"));
+                    }
+                }
+                JointKind::SwingTwist {
+                    swing_deg,
+                    twist_deg,
+                    cone_tilt_deg,
+                } => {
+                    if !(swing_deg.is_finite() && (0.0..=180.0).contains(&swing_deg)) {
+                        return Err(err(place("swing_deg"), "swing must be between 0 and 180 degrees"));
+                    }
+                    if bad_range(twist_deg[0], twist_deg[1]) {
+                        return Err(err(place("twist_deg"), "twist range must be [min, max]"));
+                    }
+                    if cone_tilt_deg.iter().any(|v| !v.is_finite()) {
+                        return Err(err(place("cone_tilt_deg"), "values must be finite"));
+                    }
+                }
+                JointKind::Ball | JointKind::Fixed => {}
+            }
+        }
+        for pair in &self.collision.disabled_pairs {
+            for name in pair {
+                if self.body_index(name).is_none() {
+                    return Err(err(
+                        "collision.disabled_pairs".into(),
+                        &format!("no body is named \"{name}\""),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+mod anthropometry;
+mod build;
+mod roles;
+
+pub use build::{BuildOptions, build_spec};
+pub use roles::{Roles, recognise_roles};
