@@ -1,1 +1,170 @@
-fn main() {}
+//! `ragdoll`: the command-line tool. A thin layer over the `ragdoll` library: clap parses
+//! raw values, `settings.rs`-style validation turns them into library settings, and each
+//! command lives in its own module. Errors print as one line and exit non-zero; outputs are
+//! written atomically, so a failed run leaves no partial file.
+
+mod bench;
+mod commands;
+mod progress;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+/// Turn any character into a physically simulated ragdoll and bake the motion to glTF/BVH.
+#[derive(Parser, Debug)]
+#[command(name = "ragdoll", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Release the built-in humanoid standing and let it collapse; writes demo.glb, demo.bvh
+    /// and report.json.
+    Demo(DemoArgs),
+    /// Print a character's joint tree with roles, and the ragdoll built from it.
+    Inspect(InspectArgs),
+    /// Build a ragdoll spec from a character and write it as TOML for editing.
+    Build(BuildArgs),
+    /// Simulate a character falling as a ragdoll and bake the result to .glb or .bvh.
+    Simulate(SimulateArgs),
+    /// Measure simulation speed on the pile workload (DESIGN §6). A benchmark, not a test.
+    Bench(bench::BenchArgs),
+}
+
+/// How to read a character file.
+#[derive(Args, Debug, Clone)]
+struct ImportArgs {
+    /// Length unit of a BVH file (detected from the skeleton's height by default).
+    #[arg(long, value_enum)]
+    units: Option<UnitsArg>,
+    /// Up axis of a BVH file (detected by default).
+    #[arg(long, value_enum)]
+    up: Option<UpArg>,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum UnitsArg {
+    M,
+    Cm,
+    Mm,
+    In,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum UpArg {
+    Y,
+    Z,
+}
+
+/// How to build the ragdoll.
+#[derive(Args, Debug, Clone)]
+struct RagdollArgs {
+    /// Total body mass in kg (humanoids default to 75 kg; other creatures to their volume
+    /// times the density of water).
+    #[arg(long)]
+    mass: Option<f32>,
+    /// Use the female table of body-segment masses (de Leva 1996).
+    #[arg(long)]
+    female: bool,
+    /// Use this spec (written by `ragdoll build`, possibly edited) instead of building one.
+    #[arg(long, value_name = "SPEC.toml")]
+    spec: Option<PathBuf>,
+}
+
+/// How long and how finely to simulate.
+#[derive(Args, Debug, Clone)]
+struct SimArgs {
+    /// Simulated seconds.
+    #[arg(long, default_value_t = 3.0)]
+    seconds: f32,
+    /// Output frames per second.
+    #[arg(long, default_value_t = 30.0)]
+    fps: f32,
+    /// Start from the rest pose instead of the first animation frame.
+    #[arg(long)]
+    rest_pose: bool,
+}
+
+#[derive(Args, Debug)]
+struct DemoArgs {
+    /// Output directory.
+    #[arg(short, long, default_value = "out")]
+    output: PathBuf,
+    #[command(flatten)]
+    ragdoll: RagdollArgs,
+    #[command(flatten)]
+    sim: SimArgs,
+}
+
+#[derive(Args, Debug)]
+struct InspectArgs {
+    /// A .bvh, .glb or .gltf file.
+    file: PathBuf,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    import: ImportArgs,
+    #[command(flatten)]
+    ragdoll: RagdollArgs,
+}
+
+#[derive(Args, Debug)]
+struct BuildArgs {
+    /// A .bvh, .glb or .gltf file.
+    file: PathBuf,
+    /// Where to write the spec (TOML).
+    #[arg(short, long, value_name = "SPEC.toml")]
+    output: PathBuf,
+    #[command(flatten)]
+    import: ImportArgs,
+    #[command(flatten)]
+    ragdoll: RagdollArgs,
+}
+
+#[derive(Args, Debug)]
+struct SimulateArgs {
+    /// A .bvh, .glb or .gltf file.
+    file: PathBuf,
+    /// Output file: .glb or .bvh. The report goes next to it as <stem>.report.json.
+    #[arg(short, long, value_name = "OUT.glb|OUT.bvh")]
+    output: PathBuf,
+    #[command(flatten)]
+    import: ImportArgs,
+    #[command(flatten)]
+    ragdoll: RagdollArgs,
+    #[command(flatten)]
+    sim: SimArgs,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Demo(a) => commands::demo(&a),
+        Command::Inspect(a) => commands::inspect(&a),
+        Command::Build(a) => commands::build(&a),
+        Command::Simulate(a) => commands::simulate(&a),
+        Command::Bench(a) => bench::run(&a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => {
+            if is_broken_pipe(&err) {
+                return ExitCode::SUCCESS;
+            }
+            eprintln!("error: {err:#}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+fn is_broken_pipe(err: &anyhow::Error) -> bool {
+    err.chain().any(|e| {
+        e.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
+}

@@ -22,8 +22,9 @@
 //!
 //! let character = skeleton::humanoid();
 //! let spec = spec::build_spec(&character, &spec::BuildOptions::default()).unwrap();
-//! let mut world = World::new(&character, &spec, &WorldSettings::default()).unwrap();
+//! let (mut world, _id) = World::with_ragdoll(&character, &spec, &WorldSettings::default()).unwrap();
 //! world.run(0.5);
+//! assert!(!world.metrics().nan);
 //! let track = world.into_track();
 //! assert_eq!(track.frames.len(), 16); // 0.5 s at 30 fps, plus the first frame
 //! ```
@@ -33,6 +34,7 @@
 //! Only the rigid (rapier3d) backend exists so far; events (blasts, projectiles) come later.
 #![deny(missing_docs)]
 
+mod backend;
 pub mod error;
 pub mod export;
 pub mod import;
@@ -42,6 +44,5 @@ pub mod skeleton;
 pub mod spec;
 pub mod track;
 pub mod world;
-mod backend;
 
 pub use error::{Error, Result};

@@ -1,1 +1,69 @@
-//! The JSON report.
+//! The JSON report written next to every baked result (DESIGN §5): what was simulated and
+//! how well the simulation kept its promises.
+
+use serde::{Deserialize, Serialize};
+
+use crate::spec::RagdollSpec;
+use crate::track::{Metrics, Track};
+
+/// One JSON object; numbers in SI units unless the key says otherwise.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Report {
+    /// Name of the character.
+    pub character: String,
+    /// Input file, or `built-in` for the default humanoid.
+    pub input: String,
+    /// Backend that ran the simulation (`rigid`).
+    pub backend: String,
+    /// Number of output frames.
+    pub frames: usize,
+    /// Output frames per second.
+    pub fps: f32,
+    /// Simulated seconds.
+    pub seconds: f32,
+    /// Number of rigid bodies.
+    pub bodies: usize,
+    /// Number of joints between bodies.
+    pub joints: usize,
+    /// Number of skeleton joints in the track.
+    pub skeleton_joints: usize,
+    /// Sum of the body masses, kg.
+    pub total_mass_kg: f32,
+    /// Quality metrics, flattened into the report.
+    #[serde(flatten)]
+    pub metrics: Metrics,
+    /// Wall-clock seconds spent simulating (not importing or exporting).
+    pub wall_seconds: f64,
+}
+
+impl Report {
+    /// Assembles a report from a finished simulation.
+    pub fn new(
+        input: &str,
+        spec: &RagdollSpec,
+        track: &Track,
+        metrics: Metrics,
+        seconds: f32,
+        wall_seconds: f64,
+    ) -> Self {
+        Report {
+            character: spec.name.clone(),
+            input: input.to_string(),
+            backend: "rigid".into(),
+            frames: track.frames.len(),
+            fps: track.fps,
+            seconds,
+            bodies: spec.bodies.len(),
+            joints: spec.joints.len(),
+            skeleton_joints: track.frames.first().map_or(0, |f| f.len()),
+            total_mass_kg: spec.total_mass_kg(),
+            metrics,
+            wall_seconds,
+        }
+    }
+
+    /// Pretty-printed JSON.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("a report always serialises")
+    }
+}

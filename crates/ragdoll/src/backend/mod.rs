@@ -1,1 +1,64 @@
-//! Physics backends behind one interface.
+//! Physics backends behind one small interface, so the world, the metrics and the exporters
+//! never see which engine moved the bodies.
+//!
+//! - `rigid`: rapier3d rigid bodies and impulse joints (the accurate default).
+
+pub(crate) mod rigid;
+
+use glam::Vec3;
+
+use crate::math::Transform;
+
+/// The state of one body after a step: world pose of its centre frame and velocities.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct BodyState {
+    /// World transform of the body frame (unit scale).
+    pub pose: Transform,
+    /// Linear velocity of the centre of mass, m/s.
+    pub linvel: Vec3,
+    /// Angular velocity, rad/s, world space.
+    pub angvel: Vec3,
+}
+
+/// What every backend does for the world.
+pub(crate) trait Backend {
+    /// Advances the simulation by `dt` seconds.
+    fn step(&mut self, dt: f32);
+    /// Writes the state of every body of every ragdoll, in insertion order.
+    fn body_states(&self, out: &mut Vec<BodyState>);
+    /// Deepest contact penetration seen in the last step, metres (0 when none).
+    fn max_penetration(&self) -> f32;
+    /// Kinetic energy of everything, joules.
+    fn kinetic_energy(&self) -> f64;
+}
+
+/// A body to create, in world space.
+#[derive(Clone, Debug)]
+pub(crate) struct BodyDesc {
+    /// Start pose of the body frame (shape centre, long axis = local Y).
+    pub pose: Transform,
+    /// Collision shape.
+    pub shape: crate::spec::Shape,
+    /// Mass, kg.
+    pub mass: f32,
+    /// Initial linear velocity, m/s.
+    pub linvel: Vec3,
+    /// Initial angular velocity, rad/s.
+    pub angvel: Vec3,
+}
+
+/// A joint to create between two bodies of the same ragdoll (indices into the ragdoll's
+/// bodies), with its frame expressed in each body's frame.
+#[derive(Clone, Debug)]
+pub(crate) struct JointDesc {
+    /// Parent body index within the ragdoll.
+    pub parent: usize,
+    /// Child body index within the ragdoll.
+    pub child: usize,
+    /// Joint frame in the parent body's frame (the cone's centre for swing-twist).
+    pub frame_parent: Transform,
+    /// Joint frame in the child body's frame.
+    pub frame_child: Transform,
+    /// Kind and limits.
+    pub kind: crate::spec::JointKind,
+}

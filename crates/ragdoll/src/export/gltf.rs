@@ -1,13 +1,879 @@
-//! glTF (.glb) export.
-// HELPER-B: replace this stub.
+//! glTF (.glb) export: the baked [`Track`] as a new animation named `ragdoll`.
+//!
+//! - **glTF input**: the file is written back as it came (meshes, skins, materials,
+//!   textures, images, samplers, scenes, extensions and the old animations, which follow
+//!   the new one) so an artist gets their own asset back, plus the new animation as
+//!   `animations[0]`, where viewers look first. Everything goes into one GLB: the input's
+//!   buffers are merged into the binary chunk and external or `data:` images become buffer
+//!   views. Skin weights are renormalised to sum 1 (CesiumMan's do not, which the Khronos
+//!   validator counts as errors), joint indices with zero weight are set to 0, and joint
+//!   nodes given as a `matrix` are rewritten as TRS (animated nodes must not use `matrix`).
+//! - **BVH or built-in input** (no mesh): a fresh glTF with one node per joint, a skin, and
+//!   the ragdoll's bodies drawn as their capsules and boxes, rigidly skinned, so the motion
+//!   is visible in any viewer.
+//!
+//! The output is meant to pass the Khronos glTF validator with no errors; the tests and
+//! `.ci/gltf_validate.mjs` check that.
 
-use crate::error::Result;
-use crate::skeleton::Character;
+mod shapes;
+
+use std::collections::{HashMap, HashSet};
+
+use glam::{Mat4, Quat, Vec3};
+use gltf::mesh::Semantic;
+use serde_json::{Map, Value, json};
+
+use crate::error::{Error, Result};
+use crate::import::gltf::{
+    AccessorReader, GltfSource, decode_data_uri, external_path, format_err, parse_document,
+    read_influences,
+};
+use crate::math::Transform;
+use crate::skeleton::{Character, Skeleton, Source};
 use crate::spec::RagdollSpec;
 use crate::track::Track;
 
-/// Writes `track` as a binary glTF.
+/// Name of the animation the exporter adds.
+pub const ANIMATION_NAME: &str = "ragdoll";
+
+const ARRAY_BUFFER: u32 = 34962;
+const ELEMENT_ARRAY_BUFFER: u32 = 34963;
+const UNSIGNED_BYTE: u32 = 5121;
+const UNSIGNED_SHORT: u32 = 5123;
+const UNSIGNED_INT: u32 = 5125;
+const FLOAT: u32 = 5126;
+
+/// Writes `track` as a binary glTF (.glb) and returns its bytes (the caller writes the file,
+/// atomically).
+///
+/// For a glTF character the input is kept and the track added as the animation `ragdoll`;
+/// `spec` is only used for characters without a mesh, whose bodies it draws.
 pub fn to_glb(character: &Character, spec: &RagdollSpec, track: &Track) -> Result<Vec<u8>> {
-    let _ = (character, spec, track);
-    todo!()
+    check_track(&character.skeleton, track)?;
+    match &character.source {
+        Source::Gltf(src) => from_source(character, src, track),
+        Source::BuiltIn | Source::Bvh(_) => fresh(character, spec, track),
+    }
+}
+
+fn track_err(message: String) -> Error {
+    Error::Setting {
+        setting: "track".into(),
+        message,
+    }
+}
+
+fn check_track(skeleton: &Skeleton, track: &Track) -> Result<()> {
+    if !(track.fps.is_finite() && track.fps > 0.0) {
+        return Err(track_err(format!(
+            "frame rate {} is not a positive number",
+            track.fps
+        )));
+    }
+    if track.frames.is_empty() {
+        return Err(track_err("has no frames to export".into()));
+    }
+    for (f, frame) in track.frames.iter().enumerate() {
+        if frame.len() != skeleton.len() {
+            return Err(track_err(format!(
+                "frame {f} has {} joints but the skeleton has {}",
+                frame.len(),
+                skeleton.len()
+            )));
+        }
+        if let Some(j) = frame.iter().position(|t| !t.is_finite()) {
+            return Err(track_err(format!(
+                "frame {f}: joint {} has a non-finite transform",
+                skeleton.joint_label(j)
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// The GLB binary chunk under construction, with the buffer views and accessors that
+/// point into it.
+#[derive(Default)]
+struct Bin {
+    data: Vec<u8>,
+    views: Vec<Value>,
+    accessors: Vec<Value>,
+}
+
+fn pad_to_4(v: &mut Vec<u8>, fill: u8) {
+    while v.len() % 4 != 0 {
+        v.push(fill);
+    }
+}
+
+fn f32_bytes(values: impl IntoIterator<Item = f32>) -> Vec<u8> {
+    values.into_iter().flat_map(f32::to_le_bytes).collect()
+}
+
+impl Bin {
+    /// Appends bytes as a new buffer view, 4-byte aligned (enough for every component type).
+    fn push_view(&mut self, bytes: &[u8], target: Option<u32>) -> usize {
+        pad_to_4(&mut self.data, 0);
+        let mut v = json!({"buffer": 0, "byteOffset": self.data.len(), "byteLength": bytes.len()});
+        if let Some(t) = target {
+            v["target"] = json!(t);
+        }
+        self.data.extend_from_slice(bytes);
+        self.views.push(v);
+        self.views.len() - 1
+    }
+
+    fn push_accessor(&mut self, accessor: Value) -> usize {
+        self.accessors.push(accessor);
+        self.accessors.len() - 1
+    }
+
+    /// A float accessor in a view of its own.
+    fn floats(
+        &mut self,
+        values: &[f32],
+        kind: &str,
+        target: Option<u32>,
+        with_bounds: bool,
+    ) -> usize {
+        let comps = components(kind);
+        let view = self.push_view(&f32_bytes(values.iter().copied()), target);
+        let mut a = json!({
+            "bufferView": view,
+            "componentType": FLOAT,
+            "count": values.len() / comps,
+            "type": kind,
+        });
+        if with_bounds {
+            let (min, max) = bounds(values, comps);
+            a["min"] = json!(min);
+            a["max"] = json!(max);
+        }
+        self.push_accessor(a)
+    }
+}
+
+fn components(kind: &str) -> usize {
+    match kind {
+        "SCALAR" => 1,
+        "VEC2" => 2,
+        "VEC3" => 3,
+        "VEC4" => 4,
+        "MAT4" => 16,
+        _ => unreachable!("accessor type {kind} is not written here"),
+    }
+}
+
+fn bounds(values: &[f32], comps: usize) -> (Vec<f32>, Vec<f32>) {
+    let mut min = vec![f32::INFINITY; comps];
+    let mut max = vec![f32::NEG_INFINITY; comps];
+    for e in values.chunks_exact(comps) {
+        for c in 0..comps {
+            min[c] = min[c].min(e[c]);
+            max[c] = max[c].max(e[c]);
+        }
+    }
+    (min, max)
+}
+
+/// Joint node local transforms per frame, and the `ragdoll` animation that plays them.
+///
+/// `offsets[j]` is the static transform between joint `j`'s parent joint (or the world) and
+/// its node's parent; `node_scales[j]` the node's own scale, so a scale channel is only
+/// written when the track actually changes it.
+fn ragdoll_animation(
+    bin: &mut Bin,
+    skeleton: &Skeleton,
+    nodes: &[usize],
+    offsets: &[Transform],
+    node_scales: &[Vec3],
+    track: &Track,
+) -> Result<Value> {
+    let nj = skeleton.len();
+    let nf = track.frames.len();
+    let mut trans = vec![Vec::with_capacity(nf * 3); nj];
+    let mut rots = vec![Vec::with_capacity(nf * 4); nj];
+    let mut scales = vec![Vec::with_capacity(nf * 3); nj];
+    let mut prev = vec![Quat::IDENTITY; nj];
+    for (f, frame) in track.frames.iter().enumerate() {
+        for j in 0..nj {
+            let parent = match skeleton.parent(j) {
+                Some(p) => frame[p],
+                None => Transform::IDENTITY,
+            };
+            let parent = if offsets[j] == Transform::IDENTITY {
+                parent
+            } else {
+                parent.mul(&offsets[j])
+            };
+            let local = parent.inverse().mul(&frame[j]);
+            if !local.is_finite() {
+                return Err(track_err(format!(
+                    "frame {f}: joint {} has no finite local transform (a zero scale?)",
+                    skeleton.joint_label(j)
+                )));
+            }
+            let mut q = local.rotation.normalize();
+            // Keep consecutive keys in the same hemisphere so LINEAR playback takes the
+            // short way round.
+            if f > 0 && prev[j].dot(q) < 0.0 {
+                q = -q;
+            }
+            prev[j] = q;
+            trans[j].extend(local.translation.to_array());
+            rots[j].extend(q.to_array());
+            scales[j].extend(local.scale.to_array());
+        }
+    }
+    let times: Vec<f32> = (0..nf).map(|f| f as f32 / track.fps).collect();
+    let mut bytes = f32_bytes(times.iter().copied());
+    let accessor = |bytes: &mut Vec<u8>, data: &[f32], kind: &str| {
+        let offset = bytes.len();
+        bytes.extend(f32_bytes(data.iter().copied()));
+        (offset, data.len() / components(kind), kind.to_string())
+    };
+    let mut layout = Vec::new();
+    let mut channels = Vec::new();
+    for j in 0..nj {
+        layout.push(accessor(&mut bytes, &trans[j], "VEC3"));
+        channels.push((nodes[j], "translation"));
+        layout.push(accessor(&mut bytes, &rots[j], "VEC4"));
+        channels.push((nodes[j], "rotation"));
+        let moves_scale = scales[j]
+            .chunks_exact(3)
+            .any(|s| (Vec3::from_slice(s) - node_scales[j]).abs().max_element() > 1e-4);
+        if moves_scale {
+            layout.push(accessor(&mut bytes, &scales[j], "VEC3"));
+            channels.push((nodes[j], "scale"));
+        }
+    }
+    let view = bin.push_view(&bytes, None);
+    let input = bin.push_accessor(json!({
+        "bufferView": view,
+        "componentType": FLOAT,
+        "count": nf,
+        "type": "SCALAR",
+        "min": [times[0]],
+        "max": [times[nf - 1]],
+    }));
+    let mut samplers = Vec::new();
+    let mut chans = Vec::new();
+    for (k, ((offset, count, kind), (node, path))) in layout.into_iter().zip(channels).enumerate() {
+        let output = bin.push_accessor(json!({
+            "bufferView": view,
+            "byteOffset": offset,
+            "componentType": FLOAT,
+            "count": count,
+            "type": kind,
+        }));
+        samplers.push(json!({"input": input, "output": output, "interpolation": "LINEAR"}));
+        chans.push(json!({"sampler": k, "target": {"node": node, "path": path}}));
+    }
+    Ok(json!({"name": ANIMATION_NAME, "channels": chans, "samplers": samplers}))
+}
+
+fn glb(json: &Value, bin: &[u8]) -> Result<Vec<u8>> {
+    let mut j = serde_json::to_vec(json).expect("a JSON value always serialises");
+    pad_to_4(&mut j, b' ');
+    let mut b = bin.to_vec();
+    pad_to_4(&mut b, 0);
+    let total = 12 + 8 + j.len() + 8 + b.len();
+    if total > u32::MAX as usize {
+        return Err(track_err(format!(
+            "the glTF would take {total} bytes, more than a GLB can hold (4 GiB)"
+        )));
+    }
+    let mut out = Vec::with_capacity(total);
+    out.extend_from_slice(b"glTF");
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&(total as u32).to_le_bytes());
+    out.extend_from_slice(&(j.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(&j);
+    out.extend_from_slice(&(b.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"BIN\0");
+    out.extend_from_slice(&b);
+    Ok(out)
+}
+
+fn generator() -> String {
+    format!("ragdoll {}", env!("CARGO_PKG_VERSION"))
+}
+
+fn take_array(obj: &mut Map<String, Value>, key: &str) -> Vec<Value> {
+    match obj.remove(key) {
+        Some(Value::Array(a)) => a,
+        _ => Vec::new(),
+    }
+}
+
+/// The input glTF with the track as a new first animation.
+fn from_source(character: &Character, src: &GltfSource, track: &Track) -> Result<Vec<u8>> {
+    let path = src.path.as_path();
+    let skeleton = &character.skeleton;
+    if src.joint_nodes.len() != skeleton.len() || src.parent_offsets.len() != skeleton.len() {
+        return Err(format_err(
+            path,
+            format!("skin {}", src.skin),
+            format!(
+                "the source records {} joint nodes for a skeleton of {} joints",
+                src.joint_nodes.len(),
+                skeleton.len()
+            ),
+        ));
+    }
+    let doc = parse_document(&src.json, path)?;
+    if src.buffers.len() != doc.buffers().len() {
+        return Err(format_err(
+            path,
+            "buffers",
+            "the resolved buffers do not match the document",
+        ));
+    }
+    let mut root = src.json.clone();
+    let Some(obj) = root.as_object_mut() else {
+        return Err(format_err(
+            path,
+            "JSON",
+            "the document is not a JSON object",
+        ));
+    };
+    // One buffer: the input's buffers back to back, views moved along with them.
+    let mut bin = Bin::default();
+    let mut bases = Vec::with_capacity(src.buffers.len());
+    for b in &src.buffers {
+        pad_to_4(&mut bin.data, 0);
+        bases.push(bin.data.len());
+        bin.data.extend_from_slice(b);
+    }
+    bin.views = take_array(obj, "bufferViews");
+    for (i, v) in bin.views.iter_mut().enumerate() {
+        let buffer = v.get("buffer").and_then(Value::as_u64).unwrap_or(u64::MAX) as usize;
+        let base = *bases.get(buffer).ok_or_else(|| {
+            format_err(
+                path,
+                format!("bufferView {i}"),
+                "refers to a missing buffer",
+            )
+        })?;
+        let offset = v.get("byteOffset").and_then(Value::as_u64).unwrap_or(0) as usize;
+        v["buffer"] = json!(0);
+        v["byteOffset"] = json!(base + offset);
+    }
+    bin.accessors = take_array(obj, "accessors");
+    embed_images(obj, &mut bin, src)?;
+    renormalise_weights(obj, &doc, &mut bin, src)?;
+    let node_scales = joint_nodes_as_trs(obj, &src.joint_nodes, path)?;
+    let animation = ragdoll_animation(
+        &mut bin,
+        skeleton,
+        &src.joint_nodes,
+        &src.parent_offsets,
+        &node_scales,
+        track,
+    )?;
+    let mut animations = take_array(obj, "animations");
+    animations.insert(0, animation);
+    obj.insert("animations".into(), Value::Array(animations));
+    obj.insert(
+        "bufferViews".into(),
+        Value::Array(std::mem::take(&mut bin.views)),
+    );
+    obj.insert(
+        "accessors".into(),
+        Value::Array(std::mem::take(&mut bin.accessors)),
+    );
+    obj.insert("buffers".into(), json!([{"byteLength": bin.data.len()}]));
+    let asset = obj
+        .entry("asset")
+        .or_insert_with(|| json!({"version": "2.0"}));
+    if let Some(a) = asset.as_object_mut() {
+        a.insert("generator".into(), json!(generator()));
+    }
+    glb(&root, &bin.data)
+}
+
+/// The media type of encoded image bytes, from their magic numbers.
+fn sniff_image(bytes: &[u8]) -> Option<&'static str> {
+    if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
+        Some("image/png")
+    } else if bytes.starts_with(&[0xFF, 0xD8, 0xFF]) {
+        Some("image/jpeg")
+    } else if bytes.len() >= 12 && &bytes[..4] == b"RIFF" && &bytes[8..12] == b"WEBP" {
+        Some("image/webp")
+    } else if bytes.starts_with(b"\xABKTX 20\xBB") {
+        Some("image/ktx2")
+    } else {
+        None
+    }
+}
+
+/// Moves every image given by URI into the binary chunk: a GLB travels alone, and relative
+/// paths would break as soon as it is written somewhere else.
+fn embed_images(obj: &mut Map<String, Value>, bin: &mut Bin, src: &GltfSource) -> Result<()> {
+    let path = src.path.as_path();
+    let Some(Value::Array(images)) = obj.get_mut("images") else {
+        return Ok(());
+    };
+    for (i, image) in images.iter_mut().enumerate() {
+        let Some(o) = image.as_object_mut() else {
+            continue;
+        };
+        let Some(uri) = o.get("uri").and_then(Value::as_str).map(str::to_string) else {
+            continue;
+        };
+        let place = format!("image {i}");
+        let (bytes, declared) = match decode_data_uri(&uri) {
+            Some(Ok(x)) => x,
+            Some(Err(m)) => return Err(format_err(path, place, m)),
+            None => {
+                let file =
+                    external_path(&src.dir, &uri).map_err(|m| format_err(path, &place, m))?;
+                (
+                    std::fs::read(&file).map_err(|e| Error::io(file, e))?,
+                    String::new(),
+                )
+            }
+        };
+        let mime = match sniff_image(&bytes) {
+            Some(m) => m.to_string(),
+            None if declared.starts_with("image/") => declared,
+            None => {
+                return Err(format_err(
+                    path,
+                    place,
+                    "is neither PNG, JPEG, WebP nor KTX2, so it cannot be embedded",
+                ));
+            }
+        };
+        let view = bin.push_view(&bytes, None);
+        o.remove("uri");
+        o.insert("bufferView".into(), json!(view));
+        o.insert("mimeType".into(), json!(mime));
+    }
+    Ok(())
+}
+
+/// Accessors read for something other than skin influences; those cannot be rewritten in
+/// place.
+fn other_accessor_uses(doc: &gltf::Document) -> HashSet<usize> {
+    let mut used = HashSet::new();
+    for mesh in doc.meshes() {
+        for prim in mesh.primitives() {
+            for (sem, a) in prim.attributes() {
+                if !matches!(sem, Semantic::Joints(_) | Semantic::Weights(_)) {
+                    used.insert(a.index());
+                }
+            }
+            if let Some(a) = prim.indices() {
+                used.insert(a.index());
+            }
+            for target in prim.morph_targets() {
+                for a in [target.positions(), target.normals(), target.tangents()]
+                    .into_iter()
+                    .flatten()
+                {
+                    used.insert(a.index());
+                }
+            }
+        }
+    }
+    for skin in doc.skins() {
+        if let Some(a) = skin.inverse_bind_matrices() {
+            used.insert(a.index());
+        }
+    }
+    for anim in doc.animations() {
+        for s in anim.samplers() {
+            used.insert(s.input().index());
+            used.insert(s.output().index());
+        }
+    }
+    used
+}
+
+/// Rewrites every primitive's `JOINTS_n`/`WEIGHTS_n` so weights sum to 1 (over all sets),
+/// a vertex's duplicate joints are merged, and unused slots hold joint 0 with weight 0.
+///
+/// A primitive with one influence set whose accessors serve nothing else is rewritten in
+/// place (same accessor indices, new float data), so the file gains no unused accessors;
+/// other cases get new accessors.
+fn renormalise_weights(
+    obj: &mut Map<String, Value>,
+    doc: &gltf::Document,
+    bin: &mut Bin,
+    src: &GltfSource,
+) -> Result<()> {
+    let reader = AccessorReader {
+        buffers: &src.buffers,
+        path: &src.path,
+    };
+    type Key = Vec<(usize, usize)>;
+    let mut prims: Vec<(usize, usize, Key)> = Vec::new();
+    let mut keys_of: HashMap<usize, HashSet<Key>> = HashMap::new();
+    for mesh in doc.meshes() {
+        for prim in mesh.primitives() {
+            let mut key = Vec::new();
+            for k in 0.. {
+                match (
+                    prim.get(&Semantic::Joints(k)),
+                    prim.get(&Semantic::Weights(k)),
+                ) {
+                    (Some(j), Some(w)) => key.push((j.index(), w.index())),
+                    _ => break,
+                }
+            }
+            if key.is_empty() {
+                continue;
+            }
+            for &(j, w) in &key {
+                keys_of.entry(j).or_default().insert(key.clone());
+                keys_of.entry(w).or_default().insert(key.clone());
+            }
+            prims.push((mesh.index(), prim.index(), key));
+        }
+    }
+    let other = other_accessor_uses(doc);
+    let mut done: HashMap<Key, Key> = HashMap::new();
+    for (m, p, key) in prims {
+        if let Some(new_key) = done.get(&key) {
+            set_influence_attributes(obj, m, p, new_key);
+            continue;
+        }
+        let prim = doc
+            .meshes()
+            .nth(m)
+            .and_then(|mesh| mesh.primitives().nth(p))
+            .expect("indices come from the same document");
+        let vertex_count = prim
+            .get(&Semantic::Positions)
+            .map(|a| a.count())
+            .unwrap_or_else(|| doc.accessors().nth(key[0].1).map_or(0, |a| a.count()));
+        let Some(influences) = read_influences(&prim, vertex_count, usize::MAX, &reader)? else {
+            continue;
+        };
+        let sets = key.len();
+        let mut joints = vec![vec![0u32; vertex_count * 4]; sets];
+        let mut weights = vec![vec![0f32; vertex_count * 4]; sets];
+        for (v, infl) in influences.iter().enumerate() {
+            for (slot, &(j, w)) in infl.iter().enumerate().take(4 * sets) {
+                joints[slot / 4][v * 4 + slot % 4] = j as u32;
+                weights[slot / 4][v * 4 + slot % 4] = w;
+            }
+        }
+        let in_place = sets == 1
+            && [key[0].0, key[0].1]
+                .iter()
+                .all(|a| !other.contains(a) && keys_of.get(a).is_some_and(|k| k.len() == 1));
+        let mut new_key = Vec::with_capacity(sets);
+        for (s, &(ja, wa)) in key.iter().enumerate() {
+            let jtype = match doc.accessors().nth(ja).map(|a| a.data_type()) {
+                Some(gltf::accessor::DataType::U8) => UNSIGNED_BYTE,
+                _ => UNSIGNED_SHORT,
+            };
+            let jbytes: Vec<u8> = if jtype == UNSIGNED_BYTE {
+                joints[s].iter().map(|&j| j as u8).collect()
+            } else {
+                joints[s]
+                    .iter()
+                    .flat_map(|&j| (j as u16).to_le_bytes())
+                    .collect()
+            };
+            let wbytes = f32_bytes(weights[s].iter().copied());
+            if in_place {
+                for (a, bytes, ctype) in [(ja, &jbytes, jtype), (wa, &wbytes, FLOAT)] {
+                    if !overwrite_elements(bin, a, ctype, vertex_count, bytes) {
+                        let view = bin.push_view(bytes, Some(ARRAY_BUFFER));
+                        let Some(o) = bin.accessors.get_mut(a).and_then(Value::as_object_mut)
+                        else {
+                            continue;
+                        };
+                        for k in ["byteOffset", "normalized", "sparse"] {
+                            o.remove(k);
+                        }
+                        o.insert("bufferView".into(), json!(view));
+                        o.insert("componentType".into(), json!(ctype));
+                    }
+                    if let Some(o) = bin.accessors.get_mut(a).and_then(Value::as_object_mut) {
+                        o.remove("min");
+                        o.remove("max");
+                    }
+                }
+                new_key.push((ja, wa));
+            } else {
+                let jview = bin.push_view(&jbytes, Some(ARRAY_BUFFER));
+                let wview = bin.push_view(&wbytes, Some(ARRAY_BUFFER));
+                let jacc = json!({"bufferView": jview, "componentType": jtype, "count": vertex_count, "type": "VEC4"});
+                let wacc = json!({"bufferView": wview, "componentType": FLOAT, "count": vertex_count, "type": "VEC4"});
+                new_key.push((bin.push_accessor(jacc), bin.push_accessor(wacc)));
+            }
+        }
+        set_influence_attributes(obj, m, p, &new_key);
+        done.insert(key, new_key);
+    }
+    Ok(())
+}
+
+/// Writes new element data over an accessor's own bytes in the merged binary, when it is
+/// stored plainly (a buffer view, no sparse substitution) with the same component type:
+/// the file then keeps its layout and gains no orphaned buffer views. Returns whether it
+/// could.
+fn overwrite_elements(
+    bin: &mut Bin,
+    accessor: usize,
+    component_type: u32,
+    count: usize,
+    bytes: &[u8],
+) -> bool {
+    let Some(a) = bin.accessors.get(accessor) else {
+        return false;
+    };
+    let same_type = a.get("componentType").and_then(Value::as_u64) == Some(component_type as u64);
+    if !same_type || a.get("sparse").is_some() || count == 0 || bytes.len() % count != 0 {
+        return false;
+    }
+    let elem = bytes.len() / count;
+    let Some(view) = a
+        .get("bufferView")
+        .and_then(Value::as_u64)
+        .and_then(|v| bin.views.get(v as usize))
+    else {
+        return false;
+    };
+    let int = |v: &Value, k: &str| v.get(k).and_then(Value::as_u64).map(|x| x as usize);
+    let base = int(view, "byteOffset").unwrap_or(0) + int(a, "byteOffset").unwrap_or(0);
+    let stride = int(view, "byteStride").unwrap_or(elem);
+    let end = base + (count - 1) * stride + elem;
+    let view_end = int(view, "byteOffset").unwrap_or(0) + int(view, "byteLength").unwrap_or(0);
+    if stride < elem || end > view_end || end > bin.data.len() {
+        return false;
+    }
+    for (i, e) in bytes.chunks_exact(elem).enumerate() {
+        let at = base + i * stride;
+        bin.data[at..at + elem].copy_from_slice(e);
+    }
+    true
+}
+
+fn set_influence_attributes(
+    obj: &mut Map<String, Value>,
+    mesh: usize,
+    prim: usize,
+    key: &[(usize, usize)],
+) {
+    let Some(attrs) = obj
+        .get_mut("meshes")
+        .and_then(|m| m.get_mut(mesh))
+        .and_then(|m| m.get_mut("primitives"))
+        .and_then(|p| p.get_mut(prim))
+        .and_then(|p| p.get_mut("attributes"))
+        .and_then(Value::as_object_mut)
+    else {
+        return;
+    };
+    for (k, &(j, w)) in key.iter().enumerate() {
+        attrs.insert(format!("JOINTS_{k}"), json!(j));
+        attrs.insert(format!("WEIGHTS_{k}"), json!(w));
+    }
+}
+
+/// Rewrites joint nodes given by `matrix` as TRS (glTF forbids animating a `matrix` node)
+/// and returns each joint node's scale.
+fn joint_nodes_as_trs(
+    obj: &mut Map<String, Value>,
+    joint_nodes: &[usize],
+    path: &std::path::Path,
+) -> Result<Vec<Vec3>> {
+    let Some(Value::Array(nodes)) = obj.get_mut("nodes") else {
+        return Err(format_err(path, "nodes", "the file has no nodes"));
+    };
+    let mut scales = Vec::with_capacity(joint_nodes.len());
+    for &n in joint_nodes {
+        let Some(node) = nodes.get_mut(n).and_then(Value::as_object_mut) else {
+            return Err(format_err(path, format!("node {n}"), "does not exist"));
+        };
+        if let Some(m) = node.remove("matrix") {
+            let cols: Vec<f32> = m
+                .as_array()
+                .map(|a| {
+                    a.iter()
+                        .filter_map(Value::as_f64)
+                        .map(|x| x as f32)
+                        .collect()
+                })
+                .unwrap_or_default();
+            if cols.len() != 16 {
+                return Err(format_err(
+                    path,
+                    format!("node {n}"),
+                    "matrix must have 16 numbers",
+                ));
+            }
+            let t = Transform::from_mat4(Mat4::from_cols_slice(&cols));
+            node.insert("translation".into(), json!(t.translation.to_array()));
+            node.insert("rotation".into(), json!(t.rotation.to_array()));
+            node.insert("scale".into(), json!(t.scale.to_array()));
+        }
+        let scale = node
+            .get("scale")
+            .and_then(Value::as_array)
+            .map(|a| {
+                a.iter()
+                    .filter_map(Value::as_f64)
+                    .map(|x| x as f32)
+                    .collect::<Vec<_>>()
+            })
+            .filter(|v| v.len() == 3)
+            .map_or(Vec3::ONE, |v| Vec3::from_slice(&v));
+        scales.push(scale);
+    }
+    Ok(scales)
+}
+
+/// A new glTF for a character without a source glTF: joints, skin, body meshes, animation.
+fn fresh(character: &Character, spec: &RagdollSpec, track: &Track) -> Result<Vec<u8>> {
+    spec.validate()?;
+    let skeleton = &character.skeleton;
+    let n = skeleton.len();
+    let mesh = shapes::bodies_mesh(skeleton, spec)?;
+    let mut bin = Bin::default();
+    let mut nodes: Vec<Value> = skeleton
+        .joints()
+        .iter()
+        .enumerate()
+        .map(|(i, j)| {
+            let mut node = json!({"name": skeleton.joint_label(i)});
+            let r = j.rest;
+            if r.translation != Vec3::ZERO {
+                node["translation"] = json!(r.translation.to_array());
+            }
+            if r.rotation != Quat::IDENTITY {
+                node["rotation"] = json!(r.rotation.normalize().to_array());
+            }
+            if r.scale != Vec3::ONE {
+                node["scale"] = json!(r.scale.to_array());
+            }
+            node
+        })
+        .collect();
+    let mut roots = Vec::new();
+    for i in 0..n {
+        match skeleton.parent(i) {
+            Some(p) => match nodes[p].get_mut("children").and_then(Value::as_array_mut) {
+                Some(c) => c.push(json!(i)),
+                None => nodes[p]["children"] = json!([i]),
+            },
+            None => roots.push(i),
+        }
+    }
+    let ibms: Vec<f32> = skeleton
+        .rest_world()
+        .iter()
+        .flat_map(|w| w.to_mat4().inverse().to_cols_array())
+        .collect();
+    let ibm = bin.floats(&ibms, "MAT4", None, false);
+    let positions: Vec<f32> = mesh.positions.iter().flat_map(|p| p.to_array()).collect();
+    let normals: Vec<f32> = mesh.normals.iter().flat_map(|p| p.to_array()).collect();
+    let weights: Vec<f32> = mesh
+        .joints
+        .iter()
+        .flat_map(|_| [1.0, 0.0, 0.0, 0.0])
+        .collect();
+    let vertex_count = mesh.positions.len();
+    let pos_acc = bin.floats(&positions, "VEC3", Some(ARRAY_BUFFER), true);
+    let nrm_acc = bin.floats(&normals, "VEC3", Some(ARRAY_BUFFER), false);
+    let wgt_acc = bin.floats(&weights, "VEC4", Some(ARRAY_BUFFER), false);
+    let (jtype, jbytes): (u32, Vec<u8>) = if n <= 256 {
+        (
+            UNSIGNED_BYTE,
+            mesh.joints
+                .iter()
+                .flat_map(|&j| [j as u8, 0, 0, 0])
+                .collect(),
+        )
+    } else {
+        (
+            UNSIGNED_SHORT,
+            mesh.joints
+                .iter()
+                .flat_map(|&j| [j, 0, 0, 0])
+                .flat_map(u16::to_le_bytes)
+                .collect(),
+        )
+    };
+    let jview = bin.push_view(&jbytes, Some(ARRAY_BUFFER));
+    let jnt_acc = bin.push_accessor(json!({
+        "bufferView": jview, "componentType": jtype, "count": vertex_count, "type": "VEC4",
+    }));
+    let (itype, ibytes): (u32, Vec<u8>) = if vertex_count <= u16::MAX as usize {
+        (
+            UNSIGNED_SHORT,
+            mesh.indices
+                .iter()
+                .flat_map(|&i| (i as u16).to_le_bytes())
+                .collect(),
+        )
+    } else {
+        (
+            UNSIGNED_INT,
+            mesh.indices.iter().flat_map(|&i| i.to_le_bytes()).collect(),
+        )
+    };
+    let iview = bin.push_view(&ibytes, Some(ELEMENT_ARRAY_BUFFER));
+    let idx_acc = bin.push_accessor(json!({
+        "bufferView": iview, "componentType": itype, "count": mesh.indices.len(), "type": "SCALAR",
+    }));
+    let mesh_node = nodes.len();
+    nodes.push(json!({"name": format!("{} ragdoll bodies", character.name), "mesh": 0, "skin": 0}));
+    let joint_nodes: Vec<usize> = (0..n).collect();
+    let node_scales: Vec<Vec3> = skeleton.joints().iter().map(|j| j.rest.scale).collect();
+    let animation = ragdoll_animation(
+        &mut bin,
+        skeleton,
+        &joint_nodes,
+        &vec![Transform::IDENTITY; n],
+        &node_scales,
+        track,
+    )?;
+    let mut skin =
+        json!({"name": character.name, "joints": joint_nodes, "inverseBindMatrices": ibm});
+    if let [root] = roots[..] {
+        skin["skeleton"] = json!(root);
+    }
+    let mut scene_nodes = roots.clone();
+    scene_nodes.push(mesh_node);
+    let root = json!({
+        "asset": {"version": "2.0", "generator": generator()},
+        "scene": 0,
+        "scenes": [{"name": character.name, "nodes": scene_nodes}],
+        "nodes": nodes,
+        "skins": [skin],
+        "meshes": [{
+            "name": format!("{} ragdoll bodies", character.name),
+            "primitives": [{
+                "attributes": {
+                    "POSITION": pos_acc,
+                    "NORMAL": nrm_acc,
+                    "JOINTS_0": jnt_acc,
+                    "WEIGHTS_0": wgt_acc,
+                },
+                "indices": idx_acc,
+                "material": 0,
+                "mode": 4,
+            }],
+        }],
+        "materials": [{
+            "name": "ragdoll body",
+            "pbrMetallicRoughness": {
+                "baseColorFactor": [0.8, 0.62, 0.48, 1.0],
+                "metallicFactor": 0.0,
+                "roughnessFactor": 0.7,
+            },
+        }],
+        "animations": [animation],
+        "accessors": bin.accessors,
+        "bufferViews": bin.views,
+        "buffers": [{"byteLength": bin.data.len()}],
+    });
+    glb(&root, &bin.data)
 }

@@ -11,7 +11,7 @@ pub const DEFAULT_HEIGHT_M: f32 = 1.75;
 /// A 1.75 m humanoid standing on Y = 0, facing +Z (glTF's forward), its left side toward +X,
 /// arms hanging 25° away from the body.
 ///
-/// Fifteen joints with the role names the rest of the crate uses (`pelvis`, `thigh_l`, …),
+/// Seventeen joints with the role names the rest of the crate uses (`pelvis`, `thigh_l`, …),
 /// proportions after Winter's segment lengths (Biomechanics and Motor Control of Human
 /// Movement, 4th ed., fig. 4.1) rounded to the centimetre.
 pub fn humanoid() -> Character {
@@ -37,9 +37,24 @@ pub fn humanoid() -> Character {
         let names = leak_names(side);
         rows.push((names[0], Some("chest"), shoulder * mirror, None));
         rows.push((names[1], Some(names[0]), elbow * mirror, None));
-        rows.push((names[2], Some(names[1]), wrist * mirror, Some(arm * 0.18 * mirror)));
-        rows.push((names[3], Some("pelvis"), Vec3::new(0.09 * s, 0.91, 0.0), None));
-        rows.push((names[4], Some(names[3]), Vec3::new(0.09 * s, 0.50, 0.0), None));
+        rows.push((
+            names[2],
+            Some(names[1]),
+            wrist * mirror,
+            Some(arm * 0.18 * mirror),
+        ));
+        rows.push((
+            names[3],
+            Some("pelvis"),
+            Vec3::new(0.09 * s, 0.91, 0.0),
+            None,
+        ));
+        rows.push((
+            names[4],
+            Some(names[3]),
+            Vec3::new(0.09 * s, 0.50, 0.0),
+            None,
+        ));
         rows.push((
             names[5],
             Some(names[4]),
@@ -49,7 +64,12 @@ pub fn humanoid() -> Character {
     }
     let mut joints: Vec<Joint> = Vec::with_capacity(rows.len());
     for (name, parent, pos, tip) in &rows {
-        let parent = parent.map(|p| joints.iter().position(|j| j.name == p).expect("parent row first"));
+        let parent = parent.map(|p| {
+            joints
+                .iter()
+                .position(|j| j.name == p)
+                .expect("parent row first")
+        });
         let parent_pos = parent.map_or(Vec3::ZERO, |p| rows[p].2);
         joints.push(Joint {
             name: (*name).to_string(),
@@ -69,9 +89,23 @@ pub fn humanoid() -> Character {
 
 fn leak_names(side: &str) -> [&'static str; 6] {
     if side == "l" {
-        ["upper_arm_l", "forearm_l", "hand_l", "thigh_l", "shin_l", "foot_l"]
+        [
+            "upper_arm_l",
+            "forearm_l",
+            "hand_l",
+            "thigh_l",
+            "shin_l",
+            "foot_l",
+        ]
     } else {
-        ["upper_arm_r", "forearm_r", "hand_r", "thigh_r", "shin_r", "foot_r"]
+        [
+            "upper_arm_r",
+            "forearm_r",
+            "hand_r",
+            "thigh_r",
+            "shin_r",
+            "foot_r",
+        ]
     }
 }
 
@@ -83,7 +117,7 @@ mod tests {
     fn humanoid_is_1_75_m_tall_and_stands_on_the_ground() {
         let h = humanoid();
         let s = &h.skeleton;
-        assert_eq!(s.len(), 15);
+        assert_eq!(s.len(), 17);
         let world = s.rest_world();
         let ends = s.rest_bone_ends();
         let top = (0..s.len())

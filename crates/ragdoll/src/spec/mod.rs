@@ -105,9 +105,10 @@ impl Shape {
     /// Volume in m³.
     pub fn volume(&self) -> f32 {
         match *self {
-            Shape::Capsule { radius_m: r, length_m: l } => {
-                std::f32::consts::PI * r * r * (l + 4.0 / 3.0 * r)
-            }
+            Shape::Capsule {
+                radius_m: r,
+                length_m: l,
+            } => std::f32::consts::PI * r * r * (l + 4.0 / 3.0 * r),
             Shape::Box { size_m: s } => s[0] * s[1] * s[2],
         }
     }
@@ -167,8 +168,9 @@ pub enum JointKind {
 }
 
 /// A joint between two bodies.
+// No `deny_unknown_fields` here: serde does not support it together with `flatten` (every
+// key of the flattened `kind` would be reported as unknown and no joint could be read back).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
 pub struct JointSpec {
     /// Unique name (the child body's name).
     pub name: String,
@@ -267,7 +269,10 @@ impl RagdollSpec {
                 return Err(err(place("name"), "two bodies have this name"));
             }
             if !(b.mass_kg.is_finite() && b.mass_kg > 0.0) {
-                return Err(err(place("mass_kg"), "mass must be a positive number of kilograms"));
+                return Err(err(
+                    place("mass_kg"),
+                    "mass must be a positive number of kilograms",
+                ));
             }
             match b.shape {
                 Shape::Capsule { radius_m, length_m } => {
@@ -275,7 +280,10 @@ impl RagdollSpec {
                         return Err(err(place("shape.radius_m"), "radius must be positive"));
                     }
                     if !(length_m.is_finite() && length_m >= 0.0) {
-                        return Err(err(place("shape.length_m"), "length must be zero or positive"));
+                        return Err(err(
+                            place("shape.length_m"),
+                            "length must be zero or positive",
+                        ));
                     }
                 }
                 Shape::Box { size_m } => {
@@ -284,12 +292,19 @@ impl RagdollSpec {
                     }
                 }
             }
-            if b.center_m.iter().chain(b.rotation.iter()).any(|v| !v.is_finite()) {
+            if b.center_m
+                .iter()
+                .chain(b.rotation.iter())
+                .any(|v| !v.is_finite())
+            {
                 return Err(err(place("center_m"), "values must be finite"));
             }
             let q = glam::Quat::from_array(b.rotation);
             if (q.length() - 1.0).abs() > 1e-2 {
-                return Err(err(place("rotation"), "rotation must be a unit quaternion [x, y, z, w]"));
+                return Err(err(
+                    place("rotation"),
+                    "rotation must be a unit quaternion [x, y, z, w]",
+                ));
             }
         }
         for j in &self.joints {
@@ -305,7 +320,10 @@ impl RagdollSpec {
             }
             let q = glam::Quat::from_array(j.frame);
             if !q.is_finite() || (q.length() - 1.0).abs() > 1e-2 {
-                return Err(err(place("frame"), "frame must be a unit quaternion [x, y, z, w]"));
+                return Err(err(
+                    place("frame"),
+                    "frame must be a unit quaternion [x, y, z, w]",
+                ));
             }
             let bad_range = |lo: f32, hi: f32| !(lo.is_finite() && hi.is_finite() && lo <= hi);
             match j.kind {
@@ -320,7 +338,10 @@ impl RagdollSpec {
                     cone_tilt_deg,
                 } => {
                     if !(swing_deg.is_finite() && (0.0..=180.0).contains(&swing_deg)) {
-                        return Err(err(place("swing_deg"), "swing must be between 0 and 180 degrees"));
+                        return Err(err(
+                            place("swing_deg"),
+                            "swing must be between 0 and 180 degrees",
+                        ));
                     }
                     if bad_range(twist_deg[0], twist_deg[1]) {
                         return Err(err(place("twist_deg"), "twist range must be [min, max]"));

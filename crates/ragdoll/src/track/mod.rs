@@ -1,5 +1,8 @@
 //! What a simulation leaves behind: every skeleton joint's world transform for every output
-//! frame, ready for the exporters, which know nothing of backends.
+//! frame, ready for the exporters (which know nothing of backends), and the quality metrics
+//! of DESIGN §5.
+
+use serde::{Deserialize, Serialize};
 
 use crate::math::Transform;
 
@@ -18,4 +21,22 @@ impl Track {
     pub fn frame_time(&self) -> f32 {
         1.0 / self.fps
     }
+}
+
+/// How well the simulation kept its promises, worst case over the run (DESIGN §5).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Metrics {
+    /// Worst excursion of any joint beyond its limits, degrees (a hinge bending off its axis
+    /// counts too).
+    pub max_limit_violation_deg: f32,
+    /// Deepest contact seen (ground or between bodies that may collide), metres.
+    pub max_penetration_m: f32,
+    /// Worst gap opening between the two sides of a joint anchor, metres.
+    pub max_joint_separation_m: f32,
+    /// Largest rise of total energy (kinetic + potential) between two output frames,
+    /// relative to the energy at the start; 0 when it never rises. A passive ragdoll must
+    /// not gain energy.
+    pub energy_drift: f32,
+    /// Whether any non-finite value appeared.
+    pub nan: bool,
 }

@@ -1,0 +1,189 @@
+//! `ragdoll bench`: the pile workload of DESIGN §6. N built-in humanoids dropped from
+//! staggered heights in a grid of piles; reports ragdoll-steps per second (N × steps / wall
+//! seconds of stepping) and whether the run stayed stable. Piles are independent, so with
+//! several threads each thread steps its own world holding a share of the piles.
+
+use std::time::Instant;
+
+use anyhow::{Result, bail};
+use clap::Args;
+use glam::{Quat, Vec3};
+use ragdoll::math::Transform;
+use ragdoll::skeleton;
+use ragdoll::spec::{self, BuildOptions};
+use ragdoll::track::Metrics;
+use ragdoll::world::{World, WorldSettings};
+use rayon::prelude::*;
+use serde_json::json;
+
+/// Ragdolls stacked in one pile.
+const PILE_HEIGHT: usize = 4;
+/// Distance between pile centres, metres: far enough that piles never touch.
+const PILE_SPACING_M: f32 = 4.0;
+/// Extra drop height per level of a pile, metres.
+const LEVEL_HEIGHT_M: f32 = 0.6;
+
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// Numbers of ragdolls to run, comma-separated.
+    #[arg(long, value_delimiter = ',', default_values_t = vec![1, 16, 256, 1024])]
+    ragdolls: Vec<usize>,
+    /// Steps of 1/60 s per run.
+    #[arg(long, default_value_t = 600)]
+    steps: usize,
+    /// Thread counts to run each size with, comma-separated (default: 1 and all cores).
+    #[arg(long, value_delimiter = ',')]
+    threads: Vec<usize>,
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+struct Row {
+    ragdolls: usize,
+    threads: usize,
+    seconds: f64,
+    metrics: Metrics,
+}
+
+pub fn run(a: &BenchArgs) -> Result<()> {
+    if a.ragdolls.is_empty() || a.ragdolls.iter().any(|&n| n == 0 || n > 100_000) {
+        bail!("--ragdolls: each count must be between 1 and 100000");
+    }
+    if a.steps == 0 || a.steps > 1_000_000 {
+        bail!("--steps: must be between 1 and 1000000");
+    }
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let mut threads = a.threads.clone();
+    if threads.is_empty() {
+        threads = if cores > 1 { vec![1, cores] } else { vec![1] };
+    }
+    if threads.iter().any(|&t| t == 0 || t > 1024) {
+        bail!("--threads: each count must be between 1 and 1024");
+    }
+    let character = skeleton::humanoid();
+    let spec = spec::build_spec(&character, &BuildOptions::default())?;
+    let mut rows = Vec::new();
+    for &n in &a.ragdolls {
+        for &t in &threads {
+            let row = run_pile(&character, &spec, n, t, a.steps)?;
+            if !a.json {
+                print_row(&row, a.steps);
+            }
+            rows.push(row);
+        }
+    }
+    if a.json {
+        let runs: Vec<_> = rows
+            .iter()
+            .map(|r| {
+                json!({
+                    "workload": "pile",
+                    "backend": "rigid",
+                    "ragdolls": r.ragdolls,
+                    "threads": r.threads,
+                    "steps": a.steps,
+                    "wall_seconds": r.seconds,
+                    "ragdoll_steps_per_second": (r.ragdolls * a.steps) as f64 / r.seconds,
+                    "stable": stable(&r.metrics),
+                    "metrics": r.metrics,
+                })
+            })
+            .collect();
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&json!({ "runs": runs }))?
+        );
+    }
+    Ok(())
+}
+
+fn stable(m: &Metrics) -> bool {
+    !m.nan && m.max_joint_separation_m < 0.05 && m.max_penetration_m < 0.1
+}
+
+fn print_row(r: &Row, steps: usize) {
+    let m = &r.metrics;
+    println!(
+        "pile  N={:<5} threads={:<2} {:>10.0} ragdoll-steps/s  ({:.2} s)  stable={}  limit {:.1}°  penetration {:.1} mm  separation {:.1} mm",
+        r.ragdolls,
+        r.threads,
+        (r.ragdolls * steps) as f64 / r.seconds,
+        r.seconds,
+        stable(m),
+        m.max_limit_violation_deg,
+        m.max_penetration_m * 1000.0,
+        m.max_joint_separation_m * 1000.0,
+    );
+}
+
+/// Where ragdoll `k` of `n` starts: pile `k / PILE_HEIGHT` on a square grid, one level up
+/// per ragdoll in the pile, each level turned a further 70° so limbs cross.
+fn placement(k: usize, n: usize) -> Transform {
+    let piles = n.div_ceil(PILE_HEIGHT);
+    let side = (piles as f64).sqrt().ceil() as usize;
+    let pile = k / PILE_HEIGHT;
+    let level = k % PILE_HEIGHT;
+    let x = (pile % side) as f32 * PILE_SPACING_M;
+    let z = (pile / side) as f32 * PILE_SPACING_M;
+    // Lie the humanoid down (its head toward +X) so a pile forms instead of a row of falls.
+    let lie = Quat::from_rotation_z(-std::f32::consts::FRAC_PI_2);
+    let yaw = Quat::from_rotation_y((70.0 * level as f32).to_radians());
+    Transform::new(
+        Vec3::new(x, 0.3 + LEVEL_HEIGHT_M * level as f32, z),
+        yaw * lie,
+    )
+}
+
+fn run_pile(
+    character: &skeleton::Character,
+    spec: &spec::RagdollSpec,
+    n: usize,
+    threads: usize,
+    steps: usize,
+) -> Result<Row> {
+    let piles = n.div_ceil(PILE_HEIGHT);
+    let worlds_n = threads.min(piles);
+    // Contiguous shares of whole piles per world.
+    let per_world = piles.div_ceil(worlds_n) * PILE_HEIGHT;
+    let mut worlds = Vec::new();
+    let mut k = 0;
+    while k < n {
+        let mut world = World::new(&WorldSettings::default())?;
+        for i in k..(k + per_world).min(n) {
+            world.add_ragdoll(character, spec, placement(i, n))?;
+        }
+        worlds.push(world);
+        k += per_world;
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()?;
+    let started = Instant::now();
+    pool.install(|| {
+        worlds.par_iter_mut().for_each(|w| {
+            for _ in 0..steps {
+                w.step();
+            }
+        })
+    });
+    let seconds = started.elapsed().as_secs_f64();
+    let mut metrics = Metrics::default();
+    for w in &worlds {
+        let m = w.metrics();
+        metrics.max_limit_violation_deg = metrics
+            .max_limit_violation_deg
+            .max(m.max_limit_violation_deg);
+        metrics.max_penetration_m = metrics.max_penetration_m.max(m.max_penetration_m);
+        metrics.max_joint_separation_m =
+            metrics.max_joint_separation_m.max(m.max_joint_separation_m);
+        metrics.energy_drift = metrics.energy_drift.max(m.energy_drift);
+        metrics.nan |= m.nan;
+    }
+    Ok(Row {
+        ragdolls: n,
+        threads,
+        seconds,
+        metrics,
+    })
+}

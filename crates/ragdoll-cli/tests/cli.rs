@@ -1,0 +1,288 @@
+//! End-to-end tests of the `ragdoll` binary in a temporary directory, ripgrep style: each
+//! test runs the real executable and checks the files and the exit status it leaves.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use serde_json::Value;
+
+/// Bounds every simulation must keep (issue #2).
+const MAX_LIMIT_VIOLATION_DEG: f64 = 2.0;
+const MAX_PENETRATION_M: f64 = 0.03;
+const MAX_JOINT_SEPARATION_M: f64 = 0.005;
+
+fn ragdoll(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_ragdoll"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .expect("the ragdoll binary runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// The shared test data, or `None` (with a loud message) when it is missing. Under CI
+/// (`RAGDOLL_REQUIRE_DATA` set) a missing folder is a failure.
+fn data_dir() -> Option<PathBuf> {
+    let dir = std::env::var_os("RAGDOLL_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
+    if dir.is_dir() {
+        return Some(dir);
+    }
+    if std::env::var_os("RAGDOLL_REQUIRE_DATA").is_some() {
+        panic!("shared data folder {} is missing", dir.display());
+    }
+    eprintln!("SKIPPING: shared data folder {} is missing", dir.display());
+    None
+}
+
+fn data_files(dir: &Path) -> Vec<PathBuf> {
+    let mut files = Vec::new();
+    for sub in ["bvh", "gltf"] {
+        for e in std::fs::read_dir(dir.join(sub)).unwrap() {
+            let p = e.unwrap().path();
+            if matches!(
+                p.extension().and_then(|e| e.to_str()),
+                Some("bvh" | "glb" | "gltf")
+            ) {
+                files.push(p);
+            }
+        }
+    }
+    files.sort();
+    files
+}
+
+fn read_json(path: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+fn assert_metrics_in_bounds(report: &Value, what: &str) {
+    let f = |k: &str| {
+        report[k]
+            .as_f64()
+            .unwrap_or_else(|| panic!("{what}: report has no number {k}"))
+    };
+    assert_eq!(report["nan"], Value::Bool(false), "{what}: NaN seen");
+    assert!(
+        f("max_limit_violation_deg") <= MAX_LIMIT_VIOLATION_DEG,
+        "{what}: {report}"
+    );
+    assert!(
+        f("max_penetration_m") <= MAX_PENETRATION_M,
+        "{what}: {report}"
+    );
+    assert!(
+        f("max_joint_separation_m") <= MAX_JOINT_SEPARATION_M,
+        "{what}: {report}"
+    );
+    for key in [
+        "frames",
+        "fps",
+        "bodies",
+        "joints",
+        "total_mass_kg",
+        "energy_drift",
+        "wall_seconds",
+    ] {
+        assert!(report[key].is_number(), "{what}: report lacks {key}");
+    }
+}
+
+#[test]
+fn demo_writes_glb_bvh_and_report_within_bounds() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = ragdoll(tmp.path(), &["demo", "-o", "out"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = tmp.path().join("out");
+    let glb = std::fs::read(out.join("demo.glb")).unwrap();
+    assert_eq!(&glb[..4], b"glTF");
+    let bvh = std::fs::read_to_string(out.join("demo.bvh")).unwrap();
+    assert!(bvh.starts_with("HIERARCHY"));
+    let report = read_json(&out.join("report.json"));
+    assert_metrics_in_bounds(&report, "demo");
+    assert_eq!(report["frames"], 91, "3 s at 30 fps plus the first frame");
+    assert!((report["total_mass_kg"].as_f64().unwrap() - 75.0).abs() < 0.01);
+}
+
+#[test]
+fn every_data_file_simulates_to_glb_and_bvh_within_bounds() {
+    let Some(data) = data_dir() else { return };
+    let tmp = tempfile::tempdir().unwrap();
+    for file in data_files(&data) {
+        let stem = file.file_stem().unwrap().to_string_lossy().into_owned();
+        for ext in ["glb", "bvh"] {
+            let out = tmp.path().join(format!("{stem}.{ext}"));
+            let o = ragdoll(
+                tmp.path(),
+                &[
+                    "simulate",
+                    file.to_str().unwrap(),
+                    "--seconds",
+                    "3",
+                    "-o",
+                    out.to_str().unwrap(),
+                ],
+            );
+            assert!(o.status.success(), "{}: {}", file.display(), stderr(&o));
+            assert!(out.is_file());
+            let report = read_json(&tmp.path().join(format!("{stem}.report.json")));
+            assert_metrics_in_bounds(&report, &format!("{} -> {ext}", file.display()));
+        }
+    }
+}
+
+#[test]
+fn inspect_json_lists_roles_bodies_and_constraints() {
+    let Some(data) = data_dir() else { return };
+    let tmp = tempfile::tempdir().unwrap();
+    let file = data.join("bvh/biovision_example_bvhio.bvh");
+    let o = ragdoll(tmp.path(), &["inspect", file.to_str().unwrap(), "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+    let roles: Vec<&str> = v["joints"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|j| j["role"].as_str())
+        .collect();
+    for want in [
+        "pelvis",
+        "head",
+        "thigh_l",
+        "shin_r",
+        "upper_arm_l",
+        "forearm_r",
+    ] {
+        assert!(roles.contains(&want), "no {want} in {roles:?}");
+    }
+    assert!(v["bodies"].as_array().unwrap().len() >= 13);
+    assert!(!v["constraints"].as_array().unwrap().is_empty());
+    assert!((v["total_mass_kg"].as_f64().unwrap() - 75.0).abs() < 0.01);
+}
+
+#[test]
+fn build_writes_a_spec_that_simulate_accepts_and_uses() {
+    let tmp = tempfile::tempdir().unwrap();
+    let Some(data) = data_dir() else { return };
+    let file = data.join("bvh/mocapbank_bvh-python.bvh");
+    let o = ragdoll(
+        tmp.path(),
+        &[
+            "build",
+            file.to_str().unwrap(),
+            "-o",
+            "spec.toml",
+            "--mass",
+            "90",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = ragdoll(
+        tmp.path(),
+        &[
+            "simulate",
+            file.to_str().unwrap(),
+            "--spec",
+            "spec.toml",
+            "--seconds",
+            "0.5",
+            "-o",
+            "out.glb",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report = read_json(&tmp.path().join("out.report.json"));
+    assert!((report["total_mass_kg"].as_f64().unwrap() - 90.0).abs() < 0.01);
+}
+
+/// Every bad input: non-zero exit, one line on stderr naming the file or flag, no output.
+#[test]
+fn bad_input_fails_cleanly_without_output() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    // Promises three frames, holds two.
+    let truncated = "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n  JOINT Chest\n  {\n    OFFSET 0 10 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n    End Site\n    {\n      OFFSET 0 10 0\n    }\n  }\n}\nMOTION\nFrames: 3\nFrame Time: 0.033333\n0 90 0 0 0 0 0 0 0\n0 90 0 0 0 0 0 0 0\n";
+    std::fs::write(dir.join("truncated.bvh"), truncated).unwrap();
+    std::fs::write(dir.join("empty.gltf"), r#"{"asset":{"version":"2.0"}}"#).unwrap();
+    let cases: [(&[&str], &str, &str); 6] = [
+        (
+            &["simulate", "missing.bvh", "-o", "a.glb"],
+            "missing.bvh",
+            "a.glb",
+        ),
+        (
+            &["simulate", "truncated.bvh", "-o", "b.glb"],
+            "truncated.bvh",
+            "b.glb",
+        ),
+        (
+            &["simulate", "empty.gltf", "-o", "c.glb"],
+            "empty.gltf",
+            "c.glb",
+        ),
+        (
+            &["simulate", "truncated.bvh", "--bogus-flag", "-o", "d.glb"],
+            "--bogus-flag",
+            "d.glb",
+        ),
+        (
+            &["simulate", "truncated.bvh", "-o", "e.fbx"],
+            "e.fbx",
+            "e.fbx",
+        ),
+        (
+            &["build", "truncated.bvh", "-o", "f.toml"],
+            "truncated.bvh",
+            "f.toml",
+        ),
+    ];
+    for (args, needle, output) in cases {
+        let o = ragdoll(dir, args);
+        let err = stderr(&o);
+        assert!(!o.status.success(), "{args:?} succeeded");
+        assert!(
+            err.contains(needle),
+            "{args:?}: stderr does not name {needle}: {err}"
+        );
+        assert!(!dir.join(output).exists(), "{args:?} left {output}");
+        let report = Path::new(output).with_extension("report.json");
+        assert!(!dir.join(report).exists(), "{args:?} left a report");
+    }
+    // The truncated BVH's error says on which line the data ran out.
+    let o = ragdoll(dir, &["simulate", "truncated.bvh", "-o", "g.glb"]);
+    assert!(stderr(&o).contains("line"), "{}", stderr(&o));
+    assert_eq!(stderr(&o).trim().lines().count(), 1, "{}", stderr(&o));
+
+    // A spec whose first mass is made negative.
+    let o = ragdoll(dir, &["demo", "-o", "d", "--seconds", "0.1"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let Some(data) = data_dir() else { return };
+    let file = data.join("bvh/biovision_example_bvhio.bvh");
+    let o = ragdoll(dir, &["build", file.to_str().unwrap(), "-o", "spec.toml"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(dir.join("spec.toml")).unwrap();
+    std::fs::write(
+        dir.join("bad.toml"),
+        text.replacen("mass_kg = ", "mass_kg = -", 1),
+    )
+    .unwrap();
+    let o = ragdoll(
+        dir,
+        &[
+            "simulate",
+            file.to_str().unwrap(),
+            "--spec",
+            "bad.toml",
+            "-o",
+            "h.glb",
+        ],
+    );
+    let err = stderr(&o);
+    assert!(!o.status.success());
+    assert!(err.contains("mass_kg"), "{err}");
+    assert!(!dir.join("h.glb").exists());
+}

@@ -1,0 +1,246 @@
+//! The rigid backend: rapier3d rigid bodies, impulse joints and contacts.
+//!
+//! Swing-twist joints map to rapier's coupled angular limit (the angle between the two
+//! frames' X axes, a true cone) plus an X twist limit; hinges to a revolute joint limited on
+//! X. Pairs of bodies the spec filters out are dropped by a contact-pair hook.
+
+use std::collections::HashSet;
+
+use glam::Vec3;
+use rapier3d::prelude::*;
+
+use super::{Backend, BodyDesc, BodyState, JointDesc};
+use crate::math::Transform;
+use crate::spec::{JointKind, Shape};
+
+/// Friction of body-body and body-ground contacts: skin and clothing on a hard floor are
+/// around 0.5-0.8.
+const FRICTION: f32 = 0.7;
+/// Collider user data of the ground, distinct from any ragdoll body key.
+const GROUND_KEY: u128 = u128::MAX;
+
+/// Settings the rigid backend takes from the world.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RigidSettings {
+    /// Gravity, m/s².
+    pub gravity: Vec3,
+    /// Height of the ground plane, or `None` for no ground.
+    pub ground: Option<f32>,
+    /// Solver substeps per step (rapier's TGS-soft iterations).
+    pub substeps: usize,
+}
+
+/// Filters contacts between pairs of bodies the spec says never collide.
+struct PairFilter {
+    /// Unordered pairs of global body keys.
+    disabled: HashSet<(u32, u32)>,
+}
+
+impl PhysicsHooks for PairFilter {
+    fn filter_contact_pair(&self, ctx: &PairFilterContext) -> Option<SolverFlags> {
+        let k1 = ctx.colliders[ctx.collider1].user_data;
+        let k2 = ctx.colliders[ctx.collider2].user_data;
+        if k1 != GROUND_KEY && k2 != GROUND_KEY {
+            let (a, b) = (k1 as u32, k2 as u32);
+            if self.disabled.contains(&(a.min(b), a.max(b))) {
+                return None;
+            }
+        }
+        Some(SolverFlags::COMPUTE_RIGID_IMPULSES)
+    }
+}
+
+/// rapier3d world holding every ragdoll.
+pub(crate) struct RigidBackend {
+    world: PhysicsWorld,
+    bodies: Vec<RigidBodyHandle>,
+    filter: PairFilter,
+}
+
+fn pose(t: &Transform) -> Pose {
+    Pose::from_parts(t.translation, t.rotation)
+}
+
+impl RigidBackend {
+    pub(crate) fn new(settings: RigidSettings, dt: f32) -> Self {
+        let mut world = PhysicsWorld::new();
+        world.gravity = settings.gravity;
+        world.integration_parameters.dt = dt;
+        world.integration_parameters.num_solver_iterations = settings.substeps.max(1);
+        if let Some(y) = settings.ground {
+            // A thick box rather than a half-space, so fast bodies cannot tunnel under it.
+            let ground = ColliderBuilder::cuboid(500.0, 1.0, 500.0)
+                .translation(Vec3::new(0.0, y - 1.0, 0.0))
+                .friction(FRICTION)
+                .user_data(GROUND_KEY)
+                .build();
+            world.colliders.insert(ground);
+        }
+        RigidBackend {
+            world,
+            bodies: Vec::new(),
+            filter: PairFilter {
+                disabled: HashSet::new(),
+            },
+        }
+    }
+
+    /// Adds one ragdoll; returns the global index of its first body.
+    pub(crate) fn add_ragdoll(
+        &mut self,
+        bodies: &[BodyDesc],
+        joints: &[JointDesc],
+        disabled_pairs: &[(usize, usize)],
+    ) -> usize {
+        let first = self.bodies.len();
+        for (i, b) in bodies.iter().enumerate() {
+            let rb = RigidBodyBuilder::dynamic()
+                .pose(pose(&b.pose))
+                .linvel(b.linvel)
+                .angvel(b.angvel)
+                .can_sleep(false)
+                .build();
+            let handle = self.world.bodies.insert(rb);
+            let builder = match b.shape {
+                Shape::Capsule { radius_m, length_m } => {
+                    ColliderBuilder::capsule_y(0.5 * length_m, radius_m)
+                }
+                Shape::Box { size_m } => {
+                    ColliderBuilder::cuboid(0.5 * size_m[0], 0.5 * size_m[1], 0.5 * size_m[2])
+                }
+            };
+            let collider = builder
+                .mass(b.mass)
+                .friction(FRICTION)
+                .restitution(0.0)
+                .user_data((first + i) as u128)
+                .active_hooks(ActiveHooks::FILTER_CONTACT_PAIRS)
+                .build();
+            self.world
+                .colliders
+                .insert_with_parent(collider, handle, &mut self.world.bodies);
+            self.bodies.push(handle);
+        }
+        for j in joints {
+            let joint = make_joint(j);
+            let (h1, h2) = (self.bodies[first + j.parent], self.bodies[first + j.child]);
+            self.world.impulse_joints.insert(h1, h2, joint, true);
+        }
+        for &(a, b) in disabled_pairs {
+            let (a, b) = ((first + a) as u32, (first + b) as u32);
+            self.filter.disabled.insert((a.min(b), a.max(b)));
+        }
+        first
+    }
+}
+
+fn make_joint(j: &JointDesc) -> GenericJoint {
+    let builder = match j.kind {
+        JointKind::Hinge { min_deg, max_deg } => {
+            GenericJointBuilder::new(JointAxesMask::LOCKED_REVOLUTE_AXES).limits(
+                JointAxis::AngX,
+                [min_deg.to_radians(), max_deg.to_radians()],
+            )
+        }
+        JointKind::SwingTwist {
+            swing_deg,
+            twist_deg,
+            ..
+        } => GenericJointBuilder::new(JointAxesMask::LOCKED_SPHERICAL_AXES)
+            .coupled_axes(JointAxesMask::ANG_Y | JointAxesMask::ANG_Z)
+            .limits(JointAxis::AngY, [0.0, swing_deg.to_radians()])
+            .limits(
+                JointAxis::AngX,
+                [twist_deg[0].to_radians(), twist_deg[1].to_radians()],
+            ),
+        JointKind::Ball => GenericJointBuilder::new(JointAxesMask::LOCKED_SPHERICAL_AXES),
+        JointKind::Fixed => GenericJointBuilder::new(JointAxesMask::LOCKED_FIXED_AXES),
+    };
+    builder
+        .local_frame1(pose(&j.frame_parent))
+        .local_frame2(pose(&j.frame_child))
+        .contacts_enabled(false)
+        .build()
+}
+
+impl Backend for RigidBackend {
+    fn step(&mut self, dt: f32) {
+        self.world.integration_parameters.dt = dt;
+        let w = &mut self.world;
+        w.physics_pipeline.step(
+            w.gravity,
+            &w.integration_parameters,
+            &mut w.islands,
+            &mut w.broad_phase,
+            &mut w.narrow_phase,
+            &mut w.bodies,
+            &mut w.colliders,
+            &mut w.impulse_joints,
+            &mut w.multibody_joints,
+            &mut w.soft_bodies,
+            &mut w.ccd_solver,
+            &self.filter,
+            &(),
+        );
+    }
+
+    fn body_states(&self, out: &mut Vec<BodyState>) {
+        out.clear();
+        out.extend(self.bodies.iter().map(|&h| {
+            let rb = &self.world.bodies[h];
+            let p = rb.position();
+            BodyState {
+                pose: Transform::new(p.translation, p.rotation),
+                linvel: rb.linvel(),
+                angvel: rb.angvel(),
+            }
+        }));
+    }
+
+    fn max_penetration(&self) -> f32 {
+        let mut deepest = 0.0f32;
+        for pair in self.world.narrow_phase.contact_pairs() {
+            let PairContacts::Rigid(contacts) = &pair.contacts else {
+                continue;
+            };
+            let k1 = self.world.colliders[pair.collider1].user_data;
+            let k2 = self.world.colliders[pair.collider2].user_data;
+            if k1 != GROUND_KEY && k2 != GROUND_KEY {
+                let (a, b) = (k1 as u32, k2 as u32);
+                if self.filter.disabled.contains(&(a.min(b), a.max(b))) {
+                    continue;
+                }
+            }
+            for m in &contacts.manifolds {
+                for p in &m.points {
+                    deepest = deepest.max(-p.dist);
+                }
+            }
+        }
+        deepest
+    }
+
+    fn kinetic_energy(&self) -> f64 {
+        self.bodies
+            .iter()
+            .map(|&h| {
+                let rb = &self.world.bodies[h];
+                let m = rb.mass() as f64;
+                let v = rb.linvel();
+                let w = rb.angvel();
+                // Rotational energy ½ ωᵀ I ω, in the principal frame of the inertia.
+                let rot = rb.position().rotation;
+                let local_w = rot.conjugate() * w;
+                let props = rb.mass_properties().local_mprops;
+                let frame = props.principal_inertia_local_frame;
+                let pw = frame.conjugate() * local_w;
+                let inertia = props.principal_inertia();
+                0.5 * m * v.length_squared() as f64
+                    + 0.5
+                        * (inertia.x * pw.x * pw.x
+                            + inertia.y * pw.y * pw.y
+                            + inertia.z * pw.z * pw.z) as f64
+            })
+            .sum()
+    }
+}

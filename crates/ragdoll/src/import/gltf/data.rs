@@ -1,0 +1,608 @@
+//! The binary side of glTF: the GLB container, buffer resolution and accessor reads.
+//!
+//! The `gltf` crate is built without its `import` feature (which would pull in image
+//! decoders), and its own readers trust offsets and lengths. Every read here is bounds
+//! checked instead, so a truncated or hostile file gives an [`Error::Format`] that says where,
+//! never a panic. The exporter reuses these readers to renormalise skin weights.
+
+use std::path::{Path, PathBuf};
+
+use base64::Engine;
+use glam::Mat4;
+use gltf::accessor::{DataType, Dimensions};
+
+use crate::error::{Error, Result};
+
+/// Builds an [`Error::Format`] for `path`.
+pub(crate) fn format_err(
+    path: &Path,
+    place: impl Into<String>,
+    message: impl Into<String>,
+) -> Error {
+    Error::Format {
+        path: path.to_path_buf(),
+        place: place.into(),
+        message: message.into(),
+    }
+}
+
+/// The JSON text of a glTF file and, for a GLB, its binary chunk.
+pub(crate) struct Container<'a> {
+    /// The JSON document.
+    pub json: &'a [u8],
+    /// Byte offset of the JSON in the file, so JSON errors can point into a GLB.
+    pub json_offset: usize,
+    /// The GLB `BIN` chunk, if any.
+    pub bin: Option<&'a [u8]>,
+}
+
+const GLB_MAGIC: &[u8; 4] = b"glTF";
+const CHUNK_JSON: u32 = 0x4E4F_534A;
+const CHUNK_BIN: u32 = 0x004E_4942;
+
+fn u32_at(bytes: &[u8], at: usize) -> u32 {
+    u32::from_le_bytes([bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]])
+}
+
+/// Splits a file into JSON and binary chunk. A file is read as GLB when it starts with the
+/// GLB magic or is named `.glb`, so that a damaged `.glb` reports its header rather than
+/// a confusing JSON error.
+pub(crate) fn split_container<'a>(bytes: &'a [u8], path: &Path) -> Result<Container<'a>> {
+    let named_glb = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("glb"));
+    if !bytes.starts_with(GLB_MAGIC) {
+        let truncated_magic = !bytes.is_empty() && GLB_MAGIC.starts_with(bytes);
+        if named_glb || truncated_magic {
+            return Err(format_err(
+                path,
+                "byte 0",
+                "not a binary glTF: the file does not start with the GLB magic \"glTF\"",
+            ));
+        }
+        return Ok(Container {
+            json: bytes,
+            json_offset: 0,
+            bin: None,
+        });
+    }
+    let err = |at: usize, message: String| format_err(path, format!("byte {at}"), message);
+    if bytes.len() < 12 {
+        return Err(err(
+            bytes.len(),
+            format!(
+                "truncated GLB header: the file has {} bytes, the header alone needs 12",
+                bytes.len()
+            ),
+        ));
+    }
+    let version = u32_at(bytes, 4);
+    if version != 2 {
+        return Err(err(
+            4,
+            format!("GLB version {version}; only version 2 is supported"),
+        ));
+    }
+    let length = u32_at(bytes, 8) as usize;
+    if length > bytes.len() {
+        return Err(err(
+            8,
+            format!(
+                "the GLB header declares {length} bytes but the file has only {} (truncated?)",
+                bytes.len()
+            ),
+        ));
+    }
+    let data = &bytes[..length];
+    if data.len() < 20 {
+        return Err(err(12, "the GLB has no JSON chunk".into()));
+    }
+    let json_len = u32_at(data, 12) as usize;
+    if u32_at(data, 16) != CHUNK_JSON {
+        return Err(err(16, "the first GLB chunk is not JSON".into()));
+    }
+    let json_end = 20usize.saturating_add(json_len);
+    if json_end > data.len() {
+        return Err(err(
+            12,
+            format!(
+                "the JSON chunk declares {json_len} bytes but only {} remain in the file",
+                data.len() - 20
+            ),
+        ));
+    }
+    let json = &data[20..json_end];
+    let mut bin = None;
+    let mut at = json_end.next_multiple_of(4);
+    while at < data.len() {
+        if at + 8 > data.len() {
+            return Err(err(at, "truncated GLB chunk header".into()));
+        }
+        let len = u32_at(data, at) as usize;
+        let kind = u32_at(data, at + 4);
+        let start = at + 8;
+        let end = start.saturating_add(len);
+        if end > data.len() {
+            return Err(err(
+                at,
+                format!(
+                    "a GLB chunk declares {len} bytes but only {} remain in the file",
+                    data.len() - start
+                ),
+            ));
+        }
+        if kind == CHUNK_BIN && bin.is_none() {
+            bin = Some(&data[start..end]);
+        }
+        at = end.next_multiple_of(4);
+    }
+    Ok(Container {
+        json,
+        json_offset: 20,
+        bin,
+    })
+}
+
+/// Decodes `%XX` escapes, as glTF URIs are URI-encoded (`my%20model.bin`).
+pub(crate) fn percent_decode(s: &str) -> Vec<u8> {
+    let b = s.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        if b[i] == b'%'
+            && i + 2 < b.len()
+            && let (Some(h), Some(l)) = (hex(b[i + 1]), hex(b[i + 2]))
+        {
+            out.push(h * 16 + l);
+            i += 3;
+            continue;
+        }
+        out.push(b[i]);
+        i += 1;
+    }
+    out
+}
+
+fn hex(c: u8) -> Option<u8> {
+    match c {
+        b'0'..=b'9' => Some(c - b'0'),
+        b'a'..=b'f' => Some(c - b'a' + 10),
+        b'A'..=b'F' => Some(c - b'A' + 10),
+        _ => None,
+    }
+}
+
+/// Decodes a `data:` URI into its bytes and media type (empty when the URI gives none);
+/// `None` when `uri` is not a data URI.
+pub(crate) fn decode_data_uri(uri: &str) -> Option<std::result::Result<(Vec<u8>, String), String>> {
+    let rest = uri.strip_prefix("data:")?;
+    let Some((header, payload)) = rest.split_once(',') else {
+        return Some(Err("a data: URI without a comma".into()));
+    };
+    let (mime, is_base64) = match header.strip_suffix(";base64") {
+        Some(m) => (m, true),
+        None => (header, false),
+    };
+    let mime = mime.split(';').next().unwrap_or("").to_string();
+    if is_base64 {
+        let cleaned: String = payload
+            .chars()
+            .filter(|c| !c.is_ascii_whitespace())
+            .collect();
+        Some(
+            base64::engine::general_purpose::STANDARD
+                .decode(cleaned.as_bytes())
+                .map(|bytes| (bytes, mime))
+                .map_err(|e| format!("bad base64 in a data: URI: {e}")),
+        )
+    } else {
+        Some(Ok((percent_decode(payload), mime)))
+    }
+}
+
+/// Where an external URI points, relative to the glTF file's folder. Only relative paths
+/// are accepted: a file that reaches out to the network or elsewhere on disk is refused.
+pub(crate) fn external_path(dir: &Path, uri: &str) -> std::result::Result<PathBuf, String> {
+    let has_scheme = uri.split_once(':').is_some_and(|(s, _)| {
+        !s.is_empty()
+            && s.chars()
+                .all(|c| c.is_ascii_alphanumeric() || "+-.".contains(c))
+    });
+    if has_scheme {
+        return Err(format!("the URI \"{uri}\" is not a relative file path"));
+    }
+    let decoded = String::from_utf8(percent_decode(uri))
+        .map_err(|_| format!("the URI \"{uri}\" is not valid UTF-8 once decoded"))?;
+    Ok(dir.join(decoded))
+}
+
+/// Resolves every buffer: the GLB binary chunk, `data:` URIs, or files next to the glTF.
+/// Each result is cut to the buffer's declared `byteLength`, so later bounds checks hold
+/// against what the file promised.
+pub(crate) fn resolve_buffers(
+    doc: &gltf::Document,
+    bin: Option<&[u8]>,
+    dir: &Path,
+    path: &Path,
+) -> Result<Vec<Vec<u8>>> {
+    let mut out = Vec::new();
+    for buffer in doc.buffers() {
+        let place = format!("buffer {}", buffer.index());
+        let mut data = match buffer.source() {
+            gltf::buffer::Source::Bin => match bin {
+                Some(b) => b.to_vec(),
+                None => {
+                    return Err(format_err(
+                        path,
+                        place,
+                        "has no URI but the file has no GLB binary chunk to take it from",
+                    ));
+                }
+            },
+            gltf::buffer::Source::Uri(uri) => match decode_data_uri(uri) {
+                Some(Ok((bytes, _))) => bytes,
+                Some(Err(message)) => return Err(format_err(path, place, message)),
+                None => {
+                    let file = external_path(dir, uri).map_err(|m| format_err(path, &place, m))?;
+                    std::fs::read(&file).map_err(|e| Error::io(file, e))?
+                }
+            },
+        };
+        let declared = buffer.length();
+        if data.len() < declared {
+            return Err(format_err(
+                path,
+                place,
+                format!(
+                    "declares {declared} bytes but its data has only {}",
+                    data.len()
+                ),
+            ));
+        }
+        data.truncate(declared);
+        out.push(data);
+    }
+    Ok(out)
+}
+
+/// Largest number of components an accessor without a buffer view may ask for: such an
+/// accessor is all zeros and costs no file bytes, so its count alone must not be trusted.
+const MAX_ZERO_COMPONENTS: usize = 1 << 26;
+
+/// Reads accessors with bounds checks against the resolved buffers.
+pub(crate) struct AccessorReader<'a> {
+    /// Resolved buffers, each cut to its declared length.
+    pub buffers: &'a [Vec<u8>],
+    /// The file, for error messages.
+    pub path: &'a Path,
+}
+
+fn layout(dims: Dimensions, component_size: usize) -> (usize, usize, usize) {
+    let (cols, rows) = match dims {
+        Dimensions::Scalar => (1, 1),
+        Dimensions::Vec2 => (1, 2),
+        Dimensions::Vec3 => (1, 3),
+        Dimensions::Vec4 => (1, 4),
+        Dimensions::Mat2 => (2, 2),
+        Dimensions::Mat3 => (3, 3),
+        Dimensions::Mat4 => (4, 4),
+    };
+    // Matrix columns start on 4-byte boundaries (glTF 2.0 §3.6.2.4).
+    let col_stride = if cols > 1 {
+        (rows * component_size).next_multiple_of(4)
+    } else {
+        rows * component_size
+    };
+    (cols, rows, col_stride)
+}
+
+fn component_size(dt: DataType) -> usize {
+    match dt {
+        DataType::I8 | DataType::U8 => 1,
+        DataType::I16 | DataType::U16 => 2,
+        DataType::U32 | DataType::F32 => 4,
+    }
+}
+
+fn component(bytes: &[u8], at: usize, dt: DataType) -> f64 {
+    match dt {
+        DataType::I8 => bytes[at] as i8 as f64,
+        DataType::U8 => bytes[at] as f64,
+        DataType::I16 => i16::from_le_bytes([bytes[at], bytes[at + 1]]) as f64,
+        DataType::U16 => u16::from_le_bytes([bytes[at], bytes[at + 1]]) as f64,
+        DataType::U32 => u32_at(bytes, at) as f64,
+        DataType::F32 => {
+            f32::from_le_bytes([bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]]) as f64
+        }
+    }
+}
+
+impl AccessorReader<'_> {
+    fn err(&self, a: &gltf::Accessor, message: String) -> Error {
+        format_err(self.path, format!("accessor {}", a.index()), message)
+    }
+
+    /// The bytes of a buffer view, checked against its buffer.
+    fn view_bytes(&self, view: &gltf::buffer::View) -> Result<&[u8]> {
+        let buf_index = view.buffer().index();
+        let place = format!("bufferView {}", view.index());
+        let buf = self.buffers.get(buf_index).ok_or_else(|| {
+            format_err(
+                self.path,
+                &place,
+                format!("buffer {buf_index} does not exist"),
+            )
+        })?;
+        let start = view.offset();
+        let end = start
+            .checked_add(view.length())
+            .filter(|&e| e <= buf.len())
+            .ok_or_else(|| {
+                format_err(
+                    self.path,
+                    &place,
+                    format!(
+                        "bytes {start}..{} run past the end of buffer {buf_index} ({} bytes)",
+                        start.saturating_add(view.length()),
+                        buf.len()
+                    ),
+                )
+            })?;
+        Ok(&buf[start..end])
+    }
+
+    /// Every component as `f64`, element by element, with sparse substitution applied but
+    /// no normalisation; also returns the number of components per element.
+    fn raw(&self, a: &gltf::Accessor) -> Result<(Vec<f64>, usize)> {
+        let dt = a.data_type();
+        let cs = component_size(dt);
+        let (cols, rows, col_stride) = layout(a.dimensions(), cs);
+        let elem = cols * col_stride;
+        let comps = cols * rows;
+        let count = a.count();
+        let total = count
+            .checked_mul(comps)
+            .ok_or_else(|| self.err(a, format!("count {count} is too large")))?;
+        let read_into = |out: &mut [f64], data: &[u8], base: usize| {
+            for c in 0..cols {
+                for r in 0..rows {
+                    out[c * rows + r] = component(data, base + c * col_stride + r * cs, dt);
+                }
+            }
+        };
+        let mut out;
+        if let Some(view) = a.view() {
+            let data = self.view_bytes(&view)?;
+            let stride = view.stride().unwrap_or(elem);
+            if stride < elem {
+                return Err(self.err(
+                    a,
+                    format!("bufferView {} has byteStride {stride}, less than one element ({elem} bytes)", view.index()),
+                ));
+            }
+            if count > 0 {
+                let need = (count - 1)
+                    .checked_mul(stride)
+                    .and_then(|n| n.checked_add(a.offset()))
+                    .and_then(|n| n.checked_add(elem));
+                match need {
+                    Some(n) if n <= data.len() => {}
+                    _ => {
+                        return Err(self.err(
+                            a,
+                            format!(
+                                "{count} elements from byte {} need more than the {} bytes of bufferView {}",
+                                a.offset(),
+                                data.len(),
+                                view.index()
+                            ),
+                        ));
+                    }
+                }
+            }
+            out = vec![0.0; total];
+            for i in 0..count {
+                read_into(
+                    &mut out[i * comps..(i + 1) * comps],
+                    data,
+                    a.offset() + i * stride,
+                );
+            }
+        } else {
+            if total > MAX_ZERO_COMPONENTS {
+                return Err(self.err(
+                    a,
+                    format!("count {count} is too large for an accessor without data"),
+                ));
+            }
+            out = vec![0.0; total];
+        }
+        if let Some(sparse) = a.sparse() {
+            let n = sparse.count();
+            let idx = sparse.indices();
+            let (isize, idt) = match idx.index_type() {
+                gltf::accessor::sparse::IndexType::U8 => (1, DataType::U8),
+                gltf::accessor::sparse::IndexType::U16 => (2, DataType::U16),
+                gltf::accessor::sparse::IndexType::U32 => (4, DataType::U32),
+            };
+            let idata = self.view_bytes(&idx.view())?;
+            let vals = sparse.values();
+            let vdata = self.view_bytes(&vals.view())?;
+            let fits = |offset: usize, size: usize, len: usize| {
+                n.checked_mul(size)
+                    .and_then(|b| b.checked_add(offset))
+                    .is_some_and(|end| end <= len)
+            };
+            if !fits(idx.offset(), isize, idata.len()) || !fits(vals.offset(), elem, vdata.len()) {
+                return Err(self.err(
+                    a,
+                    format!("its {n} sparse entries run past the end of their buffer views"),
+                ));
+            }
+            for k in 0..n {
+                let i = component(idata, idx.offset() + k * isize, idt) as usize;
+                if i >= count {
+                    return Err(self.err(
+                        a,
+                        format!("sparse index {i} is not below the count {count}"),
+                    ));
+                }
+                read_into(
+                    &mut out[i * comps..(i + 1) * comps],
+                    vdata,
+                    vals.offset() + k * elem,
+                );
+            }
+        }
+        Ok((out, comps))
+    }
+
+    /// Components as `f32`, normalised integers mapped to [0, 1] or [−1, 1]; also returns the
+    /// number of components per element.
+    pub fn floats(&self, a: &gltf::Accessor) -> Result<(Vec<f32>, usize)> {
+        let (raw, comps) = self.raw(a)?;
+        let scale = if a.normalized() {
+            match a.data_type() {
+                DataType::I8 => Some(127.0),
+                DataType::U8 => Some(255.0),
+                DataType::I16 => Some(32767.0),
+                DataType::U16 => Some(65535.0),
+                DataType::U32 => Some(4_294_967_295.0),
+                DataType::F32 => None,
+            }
+        } else {
+            None
+        };
+        let out: Vec<f32> = match scale {
+            Some(s) => raw.iter().map(|v| (v / s).max(-1.0) as f32).collect(),
+            None => raw.iter().map(|&v| v as f32).collect(),
+        };
+        if out.iter().any(|v| !v.is_finite()) {
+            return Err(self.err(a, "holds a value that is not a finite number".into()));
+        }
+        Ok((out, comps))
+    }
+
+    /// Components of an integer accessor (indices, joint indices); also returns the number
+    /// of components per element.
+    pub fn uints(&self, a: &gltf::Accessor) -> Result<(Vec<u32>, usize)> {
+        if a.data_type() == DataType::F32 || a.normalized() {
+            return Err(self.err(
+                a,
+                "must hold unsigned integers (it holds floats or normalised values)".into(),
+            ));
+        }
+        if matches!(a.data_type(), DataType::I8 | DataType::I16) {
+            return Err(self.err(
+                a,
+                "must hold unsigned integers (it holds signed ones)".into(),
+            ));
+        }
+        let (raw, comps) = self.raw(a)?;
+        Ok((raw.into_iter().map(|v| v as u32).collect(), comps))
+    }
+
+    /// A `MAT4` float accessor as matrices.
+    pub fn mat4s(&self, a: &gltf::Accessor) -> Result<Vec<Mat4>> {
+        if a.dimensions() != Dimensions::Mat4 {
+            return Err(self.err(a, "must be of type MAT4".into()));
+        }
+        let (f, _) = self.floats(a)?;
+        Ok(f.chunks_exact(16).map(Mat4::from_cols_slice).collect())
+    }
+
+    /// Checks that an accessor has the element type a use needs, e.g. `VEC3` for positions.
+    pub fn expect_dims(&self, a: &gltf::Accessor, dims: &[Dimensions], what: &str) -> Result<()> {
+        if dims.contains(&a.dimensions()) {
+            Ok(())
+        } else {
+            Err(self.err(
+                a,
+                format!("used as {what} but its type is {:?}", a.dimensions()),
+            ))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn glb(json: &[u8], bin: Option<&[u8]>) -> Vec<u8> {
+        let mut out = Vec::new();
+        let mut j = json.to_vec();
+        while j.len() % 4 != 0 {
+            j.push(b' ');
+        }
+        let mut total = 12 + 8 + j.len();
+        if let Some(b) = bin {
+            total += 8 + b.len().next_multiple_of(4);
+        }
+        out.extend_from_slice(b"glTF");
+        out.extend_from_slice(&2u32.to_le_bytes());
+        out.extend_from_slice(&(total as u32).to_le_bytes());
+        out.extend_from_slice(&(j.len() as u32).to_le_bytes());
+        out.extend_from_slice(&CHUNK_JSON.to_le_bytes());
+        out.extend_from_slice(&j);
+        if let Some(b) = bin {
+            let mut b = b.to_vec();
+            b.resize(b.len().next_multiple_of(4), 0);
+            out.extend_from_slice(&(b.len() as u32).to_le_bytes());
+            out.extend_from_slice(&CHUNK_BIN.to_le_bytes());
+            out.extend_from_slice(&b);
+        }
+        out
+    }
+
+    #[test]
+    fn splits_a_well_formed_glb() {
+        let bytes = glb(b"{}", Some(&[1, 2, 3]));
+        let c = split_container(&bytes, Path::new("a.glb")).unwrap();
+        assert_eq!(c.json, b"{}  ");
+        assert_eq!(c.bin, Some(&[1u8, 2, 3, 0][..]));
+    }
+
+    #[test]
+    fn every_truncation_of_a_glb_is_an_error_with_a_byte_offset() {
+        let bytes = glb(b"{\"asset\":{\"version\":\"2.0\"}}", Some(&[7; 16]));
+        for len in 0..bytes.len() {
+            let e = split_container(&bytes[..len], Path::new("t.glb"));
+            let Err(Error::Format { place, .. }) = e else {
+                panic!("truncated at {len}: expected a format error");
+            };
+            assert!(place.starts_with("byte "), "{place}");
+        }
+    }
+
+    #[test]
+    fn bad_version_points_at_its_byte() {
+        let mut bytes = glb(b"{}", None);
+        bytes[4] = 1;
+        let e = split_container(&bytes, Path::new("v.glb")).err().unwrap();
+        assert!(e.to_string().contains("byte 4"), "{e}");
+    }
+
+    #[test]
+    fn json_files_pass_through() {
+        let c = split_container(b"{\"a\":1}", Path::new("x.gltf")).unwrap();
+        assert_eq!(c.json, b"{\"a\":1}");
+        assert!(c.bin.is_none());
+    }
+
+    #[test]
+    fn data_uris_and_percent_escapes_decode() {
+        let (bytes, mime) = decode_data_uri("data:application/octet-stream;base64,AAEC")
+            .unwrap()
+            .unwrap();
+        assert_eq!(bytes, vec![0, 1, 2]);
+        assert_eq!(mime, "application/octet-stream");
+        assert!(decode_data_uri("data:;base64,@@@").unwrap().is_err());
+        assert!(decode_data_uri("model.bin").is_none());
+        assert_eq!(percent_decode("a%20b%2"), b"a b%2");
+        assert!(external_path(Path::new("/d"), "https://example.com/x.bin").is_err());
+        assert_eq!(
+            external_path(Path::new("/d"), "my%20x.bin").unwrap(),
+            Path::new("/d/my x.bin")
+        );
+    }
+}
