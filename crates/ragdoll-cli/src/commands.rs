@@ -105,6 +105,7 @@ fn simulate_character(
     let track = world.into_track();
     let report = Report::new(
         input,
+        character.skeleton.rest_height(),
         spec,
         &track,
         metrics,

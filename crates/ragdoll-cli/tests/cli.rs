@@ -60,23 +60,26 @@ fn read_json(path: &Path) -> Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
+/// The bounds are for human-sized characters; lengths scale with the character for bigger
+/// ones (Fox.glb is 79 m tall in its own units, and a millimetre means nothing there).
 fn assert_metrics_in_bounds(report: &Value, what: &str) {
     let f = |k: &str| {
         report[k]
             .as_f64()
             .unwrap_or_else(|| panic!("{what}: report has no number {k}"))
     };
+    let scale = (f("height_m") / 1.75).max(1.0);
     assert_eq!(report["nan"], Value::Bool(false), "{what}: NaN seen");
     assert!(
         f("max_limit_violation_deg") <= MAX_LIMIT_VIOLATION_DEG,
         "{what}: {report}"
     );
     assert!(
-        f("max_penetration_m") <= MAX_PENETRATION_M,
+        f("max_penetration_m") <= MAX_PENETRATION_M * scale,
         "{what}: {report}"
     );
     assert!(
-        f("max_joint_separation_m") <= MAX_JOINT_SEPARATION_M,
+        f("max_joint_separation_m") <= MAX_JOINT_SEPARATION_M * scale,
         "{what}: {report}"
     );
     for key in [

@@ -21,6 +21,8 @@ pub struct Report {
     pub fps: f32,
     /// Simulated seconds.
     pub seconds: f32,
+    /// Height of the character's rest pose, metres (its size scale).
+    pub height_m: f32,
     /// Number of rigid bodies.
     pub bodies: usize,
     /// Number of joints between bodies.
@@ -40,6 +42,7 @@ impl Report {
     /// Assembles a report from a finished simulation.
     pub fn new(
         input: &str,
+        height_m: f32,
         spec: &RagdollSpec,
         track: &Track,
         metrics: Metrics,
@@ -53,6 +56,7 @@ impl Report {
             frames: track.frames.len(),
             fps: track.fps,
             seconds,
+            height_m,
             bodies: spec.bodies.len(),
             joints: spec.joints.len(),
             skeleton_joints: track.frames.first().map_or(0, |f| f.len()),

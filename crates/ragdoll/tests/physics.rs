@@ -70,10 +70,10 @@ fn free_body_falls_as_half_g_t_squared() {
     assert!((last - y).abs() < 1e-4);
 }
 
-#[test]
-fn hinge_limit_holds_and_is_measured_small() {
-    // A link hinged to a heavy block, limited to [0, 30]°: released horizontal, it must
-    // stop at the limit, not swing down past it.
+/// A link hanging off the top edge of a heavy block on the ground, joined by `kind` with
+/// the given joint frame, released horizontal (along +X). Returns how far below
+/// horizontal it ends after a second, in degrees, and the metrics.
+fn drop_link(kind: JointKind, frame: Quat) -> (f32, ragdoll::track::Metrics) {
     let skeleton = Skeleton::new(vec![
         Joint {
             name: "root".into(),
@@ -117,13 +117,8 @@ fn hinge_limit_holds_and_is_measured_small() {
             parent: "root".into(),
             child: "link".into(),
             anchor_m: [0.0; 3],
-            // Hinge axis along Z: gravity turns the link (along +X) toward −Y, a negative
-            // rotation about +Z, so flexion toward −Y is positive about −Z.
-            frame: Quat::from_rotation_y(std::f32::consts::FRAC_PI_2).to_array(),
-            kind: JointKind::Hinge {
-                min_deg: 0.0,
-                max_deg: 30.0,
-            },
+            frame: frame.to_array(),
+            kind,
         }],
         collision: Default::default(),
     };
@@ -133,17 +128,56 @@ fn hinge_limit_holds_and_is_measured_small() {
     world.run(1.0);
     let poses = world.body_poses(id);
     // The link's long axis (its local Y) relative to the root.
-    let rel = poses[0].rotation.conjugate() * poses[1].rotation;
-    let dir = rel * Vec3::Y;
-    let below_deg = (-dir.y).atan2(dir.x).to_degrees();
-    // Without the limit it would hang straight down (90°); the hinge stops it at 30°.
+    let dir = (poses[0].rotation.conjugate() * poses[1].rotation) * Vec3::Y;
+    ((-dir.y).atan2(dir.x).to_degrees(), world.metrics())
+}
+
+#[test]
+fn hinge_limit_holds_and_is_measured_small() {
+    // Hinge axis along −Z: gravity turns the link (along +X) toward −Y, a negative rotation
+    // about +Z, so the fall is a positive angle about the frame's X. Limited to [0, 30]°,
+    // it must stop at 30° instead of hanging straight down (90°).
+    let frame = Quat::from_rotation_y(std::f32::consts::FRAC_PI_2);
+    let kind = JointKind::Hinge {
+        min_deg: 0.0,
+        max_deg: 30.0,
+    };
+    let (below_deg, m) = drop_link(kind, frame);
     assert!(
         (below_deg - 30.0).abs() < 2.0,
         "link is {below_deg}° below horizontal"
     );
-    let m = world.metrics();
     assert!(!m.nan);
     assert!(m.max_joint_separation_m < 5e-3, "{m:?}");
+    assert!(m.max_limit_violation_deg < 2.0, "{m:?}");
+}
+
+#[test]
+fn swing_cone_holds_and_its_tilt_moves_the_stop() {
+    // Twist axis along the link (+X), a 30° cone around the rest direction: the link must
+    // stop 30° below horizontal.
+    let kind = JointKind::SwingTwist {
+        swing_deg: 30.0,
+        twist_deg: [-10.0, 10.0],
+        cone_tilt_deg: [0.0, 0.0],
+    };
+    let (below_deg, m) = drop_link(kind, Quat::IDENTITY);
+    assert!(
+        (below_deg - 30.0).abs() < 2.0,
+        "link is {below_deg}° below horizontal"
+    );
+    assert!(m.max_limit_violation_deg < 2.0, "{m:?}");
+    // The same cone turned 20° about the frame's Z (toward −Y): the stop moves to 50°.
+    let kind = JointKind::SwingTwist {
+        swing_deg: 30.0,
+        twist_deg: [-10.0, 10.0],
+        cone_tilt_deg: [0.0, -20.0],
+    };
+    let (below_deg, m) = drop_link(kind, Quat::IDENTITY);
+    assert!(
+        (below_deg - 50.0).abs() < 2.0,
+        "link is {below_deg}° below horizontal"
+    );
     assert!(m.max_limit_violation_deg < 2.0, "{m:?}");
 }
 
@@ -199,10 +233,12 @@ fn humanoid_released_standing_ends_lying_at_rest_above_the_ground() {
     let before = world.body_poses(id);
     world.run(1.0);
     let after = world.body_poses(id);
-    for (a, b) in before.iter().zip(&after) {
+    for ((a, b), body) in before.iter().zip(&after).zip(&spec.bodies) {
+        let moved = (a.translation - b.translation).length();
         assert!(
-            (a.translation - b.translation).length() < 0.01,
-            "still moving"
+            moved < 0.01,
+            "{} still moving: {moved} m in the last second",
+            body.name
         );
     }
     let m = world.metrics();

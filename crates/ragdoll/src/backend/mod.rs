@@ -30,6 +30,8 @@ pub(crate) trait Backend {
     fn max_penetration(&self) -> f32;
     /// Kinetic energy of everything, joules.
     fn kinetic_energy(&self) -> f64;
+    /// Moves body `index` (global) to `pose` without changing its velocities.
+    fn set_body_pose(&mut self, index: usize, pose: &Transform);
 }
 
 /// A body to create, in world space.

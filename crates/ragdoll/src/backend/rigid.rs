@@ -26,8 +26,12 @@ pub(crate) struct RigidSettings {
     pub gravity: Vec3,
     /// Height of the ground plane, or `None` for no ground.
     pub ground: Option<f32>,
-    /// Solver substeps per step (rapier's TGS-soft iterations).
+    /// rapier steps per world step, each with its own collision detection.
+    pub collision_substeps: usize,
+    /// Solver substeps per rapier step (rapier's TGS-soft iterations).
     pub substeps: usize,
+    /// Constraint iterations per solver substep.
+    pub iterations: usize,
 }
 
 /// Filters contacts between pairs of bodies the spec says never collide.
@@ -53,6 +57,7 @@ impl PhysicsHooks for PairFilter {
 /// rapier3d world holding every ragdoll.
 pub(crate) struct RigidBackend {
     world: PhysicsWorld,
+    collision_substeps: usize,
     bodies: Vec<RigidBodyHandle>,
     filter: PairFilter,
 }
@@ -67,6 +72,7 @@ impl RigidBackend {
         world.gravity = settings.gravity;
         world.integration_parameters.dt = dt;
         world.integration_parameters.num_solver_iterations = settings.substeps.max(1);
+        world.integration_parameters.num_internal_pgs_iterations = settings.iterations.max(1);
         if let Some(y) = settings.ground {
             // A thick box rather than a half-space, so fast bodies cannot tunnel under it.
             let ground = ColliderBuilder::cuboid(500.0, 1.0, 500.0)
@@ -78,6 +84,7 @@ impl RigidBackend {
         }
         RigidBackend {
             world,
+            collision_substeps: settings.collision_substeps.max(1),
             bodies: Vec::new(),
             filter: PairFilter {
                 disabled: HashSet::new(),
@@ -98,7 +105,6 @@ impl RigidBackend {
                 .pose(pose(&b.pose))
                 .linvel(b.linvel)
                 .angvel(b.angvel)
-                .can_sleep(false)
                 .build();
             let handle = self.world.bodies.insert(rb);
             let builder = match b.shape {
@@ -125,6 +131,10 @@ impl RigidBackend {
             let joint = make_joint(j);
             let (h1, h2) = (self.bodies[first + j.parent], self.bodies[first + j.child]);
             self.world.impulse_joints.insert(h1, h2, joint, true);
+            // rapier 0.36 does not read `contacts_enabled` for impulse joints, so jointed
+            // pairs go through the contact filter like any other pair.
+            let (a, b) = ((first + j.parent) as u32, (first + j.child) as u32);
+            self.filter.disabled.insert((a.min(b), a.max(b)));
         }
         for &(a, b) in disabled_pairs {
             let (a, b) = ((first + a) as u32, (first + b) as u32);
@@ -148,7 +158,13 @@ fn make_joint(j: &JointDesc) -> GenericJoint {
             ..
         } => GenericJointBuilder::new(JointAxesMask::LOCKED_SPHERICAL_AXES)
             .coupled_axes(JointAxesMask::ANG_Y | JointAxesMask::ANG_Z)
-            .limits(JointAxis::AngY, [0.0, swing_deg.to_radians()])
+            // The cone angle is never negative; a lower limit of 0 would make rapier block
+            // one arbitrary direction while the angle is exactly 0 (its Jacobian is then
+            // any vector perpendicular to X), pinning a joint that starts at rest.
+            .limits(
+                JointAxis::AngY,
+                [-swing_deg.to_radians(), swing_deg.to_radians()],
+            )
             .limits(
                 JointAxis::AngX,
                 [twist_deg[0].to_radians(), twist_deg[1].to_radians()],
@@ -165,23 +181,26 @@ fn make_joint(j: &JointDesc) -> GenericJoint {
 
 impl Backend for RigidBackend {
     fn step(&mut self, dt: f32) {
-        self.world.integration_parameters.dt = dt;
-        let w = &mut self.world;
-        w.physics_pipeline.step(
-            w.gravity,
-            &w.integration_parameters,
-            &mut w.islands,
-            &mut w.broad_phase,
-            &mut w.narrow_phase,
-            &mut w.bodies,
-            &mut w.colliders,
-            &mut w.impulse_joints,
-            &mut w.multibody_joints,
-            &mut w.soft_bodies,
-            &mut w.ccd_solver,
-            &self.filter,
-            &(),
-        );
+        let split = self.collision_substeps;
+        for _ in 0..split {
+            self.world.integration_parameters.dt = dt / split as f32;
+            let w = &mut self.world;
+            w.physics_pipeline.step(
+                w.gravity,
+                &w.integration_parameters,
+                &mut w.islands,
+                &mut w.broad_phase,
+                &mut w.narrow_phase,
+                &mut w.bodies,
+                &mut w.colliders,
+                &mut w.impulse_joints,
+                &mut w.multibody_joints,
+                &mut w.soft_bodies,
+                &mut w.ccd_solver,
+                &self.filter,
+                &(),
+            );
+        }
     }
 
     fn body_states(&self, out: &mut Vec<BodyState>) {
@@ -218,6 +237,10 @@ impl Backend for RigidBackend {
             }
         }
         deepest
+    }
+
+    fn set_body_pose(&mut self, index: usize, p: &Transform) {
+        self.world.bodies[self.bodies[index]].set_position(pose(p), false);
     }
 
     fn kinetic_energy(&self) -> f64 {

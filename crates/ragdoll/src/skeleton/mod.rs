@@ -139,6 +139,21 @@ impl Skeleton {
         }
     }
 
+    /// Vertical extent of the rest pose over joints and bone tips, metres: the standing
+    /// height of a humanoid, the size scale of anything else.
+    pub fn rest_height(&self) -> f32 {
+        let world = self.rest_world();
+        let ends = self.rest_bone_ends();
+        let ys = world
+            .iter()
+            .map(|t| t.translation.y)
+            .chain(ends.iter().flatten().map(|p| p.y));
+        let (lo, hi) = ys.fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), y| {
+            (lo.min(y), hi.max(y))
+        });
+        (hi - lo).max(0.0)
+    }
+
     /// Where each joint's bone ends in the rest pose, in world space: the mean of its
     /// children's positions, or its tip, or `None` for a leaf without a tip.
     pub fn rest_bone_ends(&self) -> Vec<Option<Vec3>> {

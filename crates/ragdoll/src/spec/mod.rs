@@ -369,7 +369,12 @@ impl RagdollSpec {
 
 mod anthropometry;
 mod build;
+mod frames;
 mod roles;
+
+pub use frames::{
+    JointAngles, Resolved, ResolvedJoint, find_label, fit_limits_to_pose, start_pose,
+};
 
 pub use build::{BuildOptions, build_spec};
 pub use roles::{Roles, recognise_roles};
