@@ -257,25 +257,28 @@ impl World {
         let root_body = (0..spec.bodies.len())
             .min_by_key(|&i| bone_of_body[i])
             .expect("a spec has bodies");
-        let mut riders = Vec::with_capacity(skeleton.len());
-        for j in 0..skeleton.len() {
-            let mut k = Some(j);
-            let body = loop {
-                match k {
-                    Some(k2) => {
-                        if let Some(b) = bone_of_body.iter().position(|&bj| bj == k2) {
-                            break b;
+        let riders: Vec<Rider> = start
+            .iter()
+            .enumerate()
+            .map(|(j, joint_start)| {
+                let mut k = Some(j);
+                let body = loop {
+                    match k {
+                        Some(k2) => {
+                            if let Some(b) = bone_of_body.iter().position(|&bj| bj == k2) {
+                                break b;
+                            }
+                            k = skeleton.parent(k2);
                         }
-                        k = skeleton.parent(k2);
+                        None => break root_body,
                     }
-                    None => break root_body,
+                };
+                Rider {
+                    body,
+                    offset: body_start[body].inverse().mul(joint_start),
                 }
-            };
-            riders.push(Rider {
-                body,
-                offset: body_start[body].inverse().mul(&start[j]),
-            });
-        }
+            })
+            .collect();
         let bodies: Vec<BodyDesc> = spec
             .bodies
             .iter()
