@@ -289,3 +289,78 @@ fn bad_input_fails_cleanly_without_output() {
     assert!(err.contains("mass_kg"), "{err}");
     assert!(!dir.join("h.glb").exists());
 }
+
+/// The glTF and the BVH written from one simulation of a BVH file, read back by our own
+/// importers, put every joint in the same place on every frame: both exporters and both
+/// importers agree on the track. The glTF keeps each joint's translation; a BVH joint has
+/// only rotations, so it cannot show the few millimetres a physics joint opens: the
+/// tolerance is 1 mm plus the reported worst joint gap for every joint up the chain.
+#[test]
+fn glb_and_bvh_outputs_of_one_simulation_agree_joint_by_joint() {
+    use ragdoll::import::{ImportOptions, load};
+    let Some(data) = data_dir() else { return };
+    let tmp = tempfile::tempdir().unwrap();
+    for name in ["mocapbank_bvh-python", "cmu_pirouette_threejs"] {
+        let file = data.join(format!("bvh/{name}.bvh"));
+        for ext in ["glb", "bvh"] {
+            let o = ragdoll(
+                tmp.path(),
+                &[
+                    "simulate",
+                    file.to_str().unwrap(),
+                    "--seconds",
+                    "1",
+                    "-o",
+                    &format!("out.{ext}"),
+                ],
+            );
+            assert!(o.status.success(), "{}", stderr(&o));
+        }
+        let glb = load(&tmp.path().join("out.glb"), &ImportOptions::default()).unwrap();
+        let bvh = load(&tmp.path().join("out.bvh"), &ImportOptions::default()).unwrap();
+        assert_eq!(glb.skeleton.len(), bvh.skeleton.len(), "{name}");
+        let (a, b) = (&glb.clips[0], &bvh.clips[0]);
+        assert_eq!(
+            a.frames.len(),
+            31,
+            "{name}: 1 s at 30 fps plus the first frame"
+        );
+        assert_eq!(a.frames.len(), b.frames.len(), "{name}");
+        let gap = read_json(&tmp.path().join("out.report.json"))["max_joint_separation_m"]
+            .as_f64()
+            .unwrap() as f32;
+        let depth = |mut j: usize| {
+            let mut d = 0;
+            while let Some(p) = glb.skeleton.parent(j) {
+                j = p;
+                d += 1;
+            }
+            d as f32
+        };
+        let n = glb.skeleton.len();
+        let mut wa = vec![ragdoll::math::Transform::IDENTITY; n];
+        let mut wb = wa.clone();
+        for (fa, fb) in a.frames.iter().zip(&b.frames) {
+            glb.skeleton.world_from_local(fa, &mut wa);
+            bvh.skeleton.world_from_local(fb, &mut wb);
+            for j in 0..n {
+                let d = (wa[j].translation - wb[j].translation).length();
+                let tolerance = 1e-3 + depth(j) * gap;
+                assert!(
+                    d < tolerance,
+                    "{name}: joint {j} differs by {d} m > {tolerance}"
+                );
+            }
+        }
+        // And the character really fell: the root ends lower than it started.
+        let first = &a.frames[0];
+        glb.skeleton.world_from_local(first, &mut wa);
+        let start_y = wa[0].translation.y;
+        glb.skeleton
+            .world_from_local(a.frames.last().unwrap(), &mut wa);
+        assert!(
+            wa[0].translation.y < start_y - 0.2,
+            "{name}: root did not fall"
+        );
+    }
+}
