@@ -1,6 +1,8 @@
 //! BVH import and export against the real files in `../shared/data/bvh` and synthetic
 //! files for the dialects those do not cover (Z up, CRLF with tabs, broken files).
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use glam::{Quat, Vec3};
@@ -13,16 +15,7 @@ use ragdoll::skeleton::{Character, Joint, Skeleton, Source, humanoid};
 use ragdoll::track::Track;
 
 fn data_dir() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/bvh");
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!(
-            "SKIPPING: ../shared/data missing (looked for {})",
-            dir.display()
-        );
-        None
-    }
+    common::shared_data().map(|d| d.join("bvh"))
 }
 
 fn parse(text: &str) -> ragdoll::Result<Character> {

@@ -4,6 +4,8 @@
 //! Set `RAGDOLL_GLTF_OUT=some/dir` to keep the exported files, e.g. to run
 //! `node .ci/gltf_validate.mjs some/dir/*.glb` on them.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use glam::{Quat, Vec3};
@@ -17,16 +19,7 @@ use ragdoll::track::Track;
 use serde_json::{Value, json};
 
 fn data_dir() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/gltf");
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!(
-            "SKIPPING: ../shared/data missing ({} not found)",
-            dir.display()
-        );
-        None
-    }
+    common::shared_data().map(|d| d.join("gltf"))
 }
 
 fn sample(name: &str) -> Option<PathBuf> {

@@ -2,6 +2,8 @@
 //! humanoids are recognised whatever way they face, the others become chains, and every
 //! spec is valid, keeps its mass, starts without interpenetration and round-trips TOML.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use glam::{Quat, Vec3};
@@ -42,16 +44,7 @@ const LIMB_ROLES: [Role; 14] = [
 ];
 
 fn data_dir() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!(
-            "SKIPPING: ../shared/data missing ({} not found)",
-            dir.display()
-        );
-        None
-    }
+    common::shared_data()
 }
 
 fn load_data(rel: &str) -> Option<Character> {
