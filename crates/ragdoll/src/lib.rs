@@ -31,7 +31,8 @@
 //!
 //! # Note
 //!
-//! Only the rigid (rapier3d) backend exists so far; events (blasts, projectiles) come later.
+//! Only the rigid (rapier3d) backend exists so far; events (blasts, projectiles), the
+//! particle backend and previews come later.
 #![deny(missing_docs)]
 
 mod backend;
