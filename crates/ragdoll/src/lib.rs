@@ -37,6 +37,7 @@
 
 mod backend;
 pub mod error;
+pub mod events;
 pub mod export;
 pub mod import;
 pub mod math;

@@ -1,0 +1,2 @@
+//! Air blast physics (DESIGN §7).
+// HELPER-D: replace this stub.
