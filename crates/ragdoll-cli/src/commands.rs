@@ -4,6 +4,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
+use ragdoll::events::Blast;
 use ragdoll::export::{self, write_atomic};
 use ragdoll::import::{self, ImportOptions, Units, UpAxis};
 use ragdoll::report::Report;
@@ -14,8 +15,8 @@ use ragdoll::world::{StartPose, World, WorldSettings};
 
 use crate::progress::Progress;
 use crate::{
-    BuildArgs, DemoArgs, ImportArgs, InspectArgs, RagdollArgs, SimArgs, SimulateArgs, UnitsArg,
-    UpArg,
+    BlastArgs, BuildArgs, DemoArgs, ImportArgs, InspectArgs, RagdollArgs, SimArgs, SimulateArgs,
+    UnitsArg, UpArg,
 };
 
 fn import_options(a: &ImportArgs) -> ImportOptions {
@@ -89,10 +90,14 @@ fn simulate_character(
     character: &Character,
     spec: &RagdollSpec,
     sim: &SimArgs,
+    blasts: &[Blast],
 ) -> Result<(Track, Report)> {
     let settings = world_settings(sim)?;
     let started = Instant::now();
     let (mut world, _) = World::with_ragdoll(character, spec, &settings)?;
+    for b in blasts {
+        world.add_blast(*b)?;
+    }
     let steps = (sim.seconds / settings.dt).round() as u64;
     let mut progress = Progress::new(steps, "simulating");
     world.run(0.0);
@@ -102,8 +107,9 @@ fn simulate_character(
     }
     progress.finish();
     let metrics = world.metrics();
+    let blast_reports = world.blast_reports();
     let track = world.into_track();
-    let report = Report::new(
+    let mut report = Report::new(
         input,
         character.skeleton.rest_height(),
         spec,
@@ -112,6 +118,7 @@ fn simulate_character(
         sim.seconds,
         started.elapsed().as_secs_f64(),
     );
+    report.blasts = blast_reports;
     Ok((track, report))
 }
 
@@ -148,7 +155,7 @@ fn encode(
 pub fn demo(a: &DemoArgs) -> Result<()> {
     let character = skeleton::humanoid();
     let spec = ragdoll_spec(&character, &a.ragdoll)?;
-    let (track, report) = simulate_character("built-in", &character, &spec, &a.sim)?;
+    let (track, report) = simulate_character("built-in", &character, &spec, &a.sim, &[])?;
     // Encode everything before writing anything, so a failure leaves no partial set.
     let glb = encode(&OutputKind::Glb, &character, &spec, &track)?;
     let bvh = encode(&OutputKind::Bvh, &character, &spec, &track)?;
@@ -169,13 +176,58 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
     let character = load(&a.file, &a.import)?;
     let spec = ragdoll_spec(&character, &a.ragdoll)?;
     let input = a.file.display().to_string();
-    let (track, report) = simulate_character(&input, &character, &spec, &a.sim)?;
-    let bytes = encode(&kind, &character, &spec, &track)?;
-    let report_path = report_path(&a.output);
-    write_atomic(&a.output, &bytes)?;
+    let (track, report) = simulate_character(&input, &character, &spec, &a.sim, &[])?;
+    write_result(&kind, &a.output, &character, &spec, &track, &report)
+}
+
+/// Encodes the track, then writes it and its report (each atomically).
+fn write_result(
+    kind: &OutputKind,
+    output: &Path,
+    character: &Character,
+    spec: &RagdollSpec,
+    track: &Track,
+    report: &Report,
+) -> Result<()> {
+    let bytes = encode(kind, character, spec, track)?;
+    let report_path = report_path(output);
+    write_atomic(output, &bytes)?;
     write_atomic(&report_path, report.to_json().as_bytes())?;
-    print_summary(&report, [a.output.as_path(), report_path.as_path()]);
+    print_summary(report, [output, report_path.as_path()]);
     Ok(())
+}
+
+pub fn blast(a: &BlastArgs) -> Result<()> {
+    let kind = output_kind(&a.output)?;
+    let blast = Blast {
+        tnt_kg: a.tnt,
+        position: glam::Vec3::from_array(a.at),
+        time_s: a.time,
+        scale: a.scale,
+    };
+    blast.validate().map_err(|e| match e {
+        ragdoll::Error::Setting { setting, message } => anyhow::anyhow!("--{setting}: {message}"),
+        e => e.into(),
+    })?;
+    let (character, input) = match &a.file {
+        Some(file) => (load(file, &a.import)?, file.display().to_string()),
+        None => (skeleton::humanoid(), "built-in".to_string()),
+    };
+    let spec = ragdoll_spec(&character, &a.ragdoll)?;
+    let (track, report) = simulate_character(&input, &character, &spec, &a.sim, &[blast])?;
+    for b in &report.blasts {
+        for c in &b.characters {
+            if let Some(v) = c.com_velocity_mps {
+                let v = glam::Vec3::from_array(v);
+                eprintln!(
+                    "{}: thrown at {:.2} m/s (centre of mass, after the blast passed)",
+                    c.name,
+                    v.length()
+                );
+            }
+        }
+    }
+    write_result(&kind, &a.output, &character, &spec, &track, &report)
 }
 
 /// `OUT.glb` → `OUT.report.json`, next to it.

@@ -31,6 +31,8 @@ enum Command {
     Build(BuildArgs),
     /// Simulate a character falling as a ragdoll and bake the result to .glb or .bvh.
     Simulate(SimulateArgs),
+    /// Throw a character with an explosion (kg of TNT at a point) and bake the result.
+    Blast(BlastArgs),
     /// Measure simulation speed on the pile workload (DESIGN §6). A benchmark, not a test.
     Bench(bench::BenchArgs),
 }
@@ -141,6 +143,48 @@ struct SimulateArgs {
     sim: SimArgs,
 }
 
+#[derive(Args, Debug)]
+struct BlastArgs {
+    /// A .bvh, .glb or .gltf file; the built-in humanoid when left out.
+    file: Option<PathBuf>,
+    /// Charge as TNT-equivalent mass, kg.
+    #[arg(long, value_name = "KG")]
+    tnt: f32,
+    /// Where the charge is, metres: X,Y,Z (Y up; the character stands around the origin).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
+    at: [f32; 3],
+    /// Detonation time, seconds after the start.
+    #[arg(long, default_value_t = 0.0)]
+    time: f32,
+    /// Artistic multiplier on the blast loads (1 = physical).
+    #[arg(long, default_value_t = 1.0)]
+    scale: f32,
+    /// Output file: .glb or .bvh. The report goes next to it as <stem>.report.json.
+    #[arg(short, long, value_name = "OUT.glb|OUT.bvh")]
+    output: PathBuf,
+    #[command(flatten)]
+    import: ImportArgs,
+    #[command(flatten)]
+    ragdoll: RagdollArgs,
+    #[command(flatten)]
+    sim: SimArgs,
+}
+
+/// Parses `X,Y,Z` (three finite numbers, metres).
+fn parse_vec3(text: &str) -> Result<[f32; 3], String> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    let [x, y, z] = parts.as_slice() else {
+        return Err(format!("expected X,Y,Z (three numbers), got \"{text}\""));
+    };
+    let num = |s: &str| {
+        s.parse::<f32>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| format!("\"{s}\" is not a finite number"))
+    };
+    Ok([num(x)?, num(y)?, num(z)?])
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
@@ -148,6 +192,7 @@ fn main() -> ExitCode {
         Command::Inspect(a) => commands::inspect(&a),
         Command::Build(a) => commands::build(&a),
         Command::Simulate(a) => commands::simulate(&a),
+        Command::Blast(a) => commands::blast(&a),
         Command::Bench(a) => bench::run(&a),
     };
     match result {

@@ -364,3 +364,58 @@ fn glb_and_bvh_outputs_of_one_simulation_agree_joint_by_joint() {
         );
     }
 }
+
+#[test]
+fn blast_throws_the_character_away_and_reports_every_part() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = ragdoll(
+        tmp.path(),
+        &[
+            "blast",
+            "--tnt",
+            "10",
+            "--at",
+            "4,1,0",
+            "--seconds",
+            "1",
+            "-o",
+            "b.glb",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report = read_json(&tmp.path().join("b.report.json"));
+    assert_metrics_in_bounds(&report, "blast");
+    let blast = &report["blasts"][0];
+    let parts = blast["parts"].as_array().unwrap();
+    assert_eq!(parts.len() as u64, report["bodies"].as_u64().unwrap());
+    let arrival = |name: &str| {
+        parts.iter().find(|p| p["body"] == name).unwrap()["arrival_s"]
+            .as_f64()
+            .unwrap()
+    };
+    // The charge is on the character's left (+X): the left hand hears it first.
+    assert!(arrival("hand_l") < arrival("hand_r"));
+    for p in parts {
+        assert!(p["impulse_ns"].as_f64().unwrap() > 0.0, "{p}");
+        assert!(p["peak_pressure_kpa"].as_f64().unwrap() > 0.0, "{p}");
+    }
+    let v = &blast["characters"][0]["com_velocity_mps"];
+    assert!(
+        v[0].as_f64().unwrap() < -1.0,
+        "not thrown away from +X: {v}"
+    );
+    // Bad values are refused with the flag named, and nothing is written.
+    let o = ragdoll(
+        tmp.path(),
+        &["blast", "--tnt", "-1", "--at", "4,1,0", "-o", "c.glb"],
+    );
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--tnt"), "{}", stderr(&o));
+    let o = ragdoll(
+        tmp.path(),
+        &["blast", "--tnt", "1", "--at", "4,1", "-o", "c.glb"],
+    );
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--at"), "{}", stderr(&o));
+    assert!(!tmp.path().join("c.glb").exists());
+}

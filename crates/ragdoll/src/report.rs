@@ -3,6 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::events::BlastReport;
 use crate::spec::RagdollSpec;
 use crate::track::{Metrics, Track};
 
@@ -36,6 +37,8 @@ pub struct Report {
     pub metrics: Metrics,
     /// Wall-clock seconds spent simulating (not importing or exporting).
     pub wall_seconds: f64,
+    /// What each blast did (empty without blasts).
+    pub blasts: Vec<BlastReport>,
 }
 
 impl Report {
@@ -63,6 +66,7 @@ impl Report {
             total_mass_kg: spec.total_mass_kg(),
             metrics,
             wall_seconds,
+            blasts: Vec::new(),
         }
     }
 

@@ -22,8 +22,10 @@ pub(crate) struct BodyState {
 
 /// What every backend does for the world.
 pub(crate) trait Backend {
-    /// Advances the simulation by `dt` seconds.
+    /// Advances the simulation by `dt` seconds, detecting collisions once.
     fn step(&mut self, dt: f32);
+    /// Adds `impulse` (N·s, world) at the world `point` of body `index` (global), waking it.
+    fn apply_impulse_at_point(&mut self, index: usize, impulse: Vec3, point: Vec3);
     /// Writes the state of every body of every ragdoll, in insertion order.
     fn body_states(&self, out: &mut Vec<BodyState>);
     /// Deepest contact penetration seen in the last step, metres (0 when none).

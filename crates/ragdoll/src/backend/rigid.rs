@@ -26,8 +26,6 @@ pub(crate) struct RigidSettings {
     pub gravity: Vec3,
     /// Height of the ground plane, or `None` for no ground.
     pub ground: Option<f32>,
-    /// rapier steps per world step, each with its own collision detection.
-    pub collision_substeps: usize,
     /// Solver substeps per rapier step (rapier's TGS-soft iterations).
     pub substeps: usize,
     /// Constraint iterations per solver substep.
@@ -57,7 +55,6 @@ impl PhysicsHooks for PairFilter {
 /// rapier3d world holding every ragdoll.
 pub(crate) struct RigidBackend {
     world: PhysicsWorld,
-    collision_substeps: usize,
     bodies: Vec<RigidBodyHandle>,
     filter: PairFilter,
 }
@@ -84,7 +81,6 @@ impl RigidBackend {
         }
         RigidBackend {
             world,
-            collision_substeps: settings.collision_substeps.max(1),
             bodies: Vec::new(),
             filter: PairFilter {
                 disabled: HashSet::new(),
@@ -181,9 +177,8 @@ fn make_joint(j: &JointDesc) -> GenericJoint {
 
 impl Backend for RigidBackend {
     fn step(&mut self, dt: f32) {
-        let split = self.collision_substeps;
-        for _ in 0..split {
-            self.world.integration_parameters.dt = dt / split as f32;
+        {
+            self.world.integration_parameters.dt = dt;
             let w = &mut self.world;
             w.physics_pipeline.step(
                 w.gravity,
@@ -237,6 +232,10 @@ impl Backend for RigidBackend {
             }
         }
         deepest
+    }
+
+    fn apply_impulse_at_point(&mut self, index: usize, impulse: Vec3, point: Vec3) {
+        self.world.bodies[self.bodies[index]].apply_impulse_at_point(impulse, point, true);
     }
 
     fn set_body_pose(&mut self, index: usize, p: &Transform) {

@@ -1,4 +1,108 @@
-//! Events that act on ragdolls. So far: explosion blast waves (`blast.rs`: the physics of
-//! the air blast, Kingery–Bulmash curves and Friedlander histories, DESIGN §7).
+//! Events that act on ragdolls. So far: explosion blast waves. `blast.rs` holds the physics
+//! of the air blast (Kingery–Bulmash curves, Friedlander histories, the load on one body
+//! part, DESIGN §7); the world applies it to every body part over the substeps.
 
 pub mod blast;
+
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// An explosive charge going off.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Blast {
+    /// Charge as TNT-equivalent mass, kg.
+    pub tnt_kg: f32,
+    /// Where the charge is, world space, metres: any height, anywhere (inside a crowd, at a
+    /// character's feet, in the air).
+    pub position: Vec3,
+    /// Detonation time, seconds from the start of the simulation.
+    pub time_s: f32,
+    /// Artistic multiplier on the loads (1 = physical).
+    pub scale: f32,
+}
+
+impl Blast {
+    /// A physical blast (`scale` 1) of `tnt_kg` at `position`, going off at `time_s`.
+    pub fn new(tnt_kg: f32, position: Vec3, time_s: f32) -> Self {
+        Blast {
+            tnt_kg,
+            position,
+            time_s,
+            scale: 1.0,
+        }
+    }
+
+    /// Checks the values a user can give.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |setting: &str, message: &str| {
+            Err(Error::Setting {
+                setting: setting.into(),
+                message: message.into(),
+            })
+        };
+        if !(self.tnt_kg.is_finite() && self.tnt_kg > 0.0 && self.tnt_kg <= 1.0e7) {
+            return bad(
+                "tnt",
+                "the charge must be between 0 and 10 000 000 kg of TNT",
+            );
+        }
+        if !self.position.is_finite() {
+            return bad("at", "the charge position must be finite");
+        }
+        if !(self.time_s.is_finite() && self.time_s >= 0.0) {
+            return bad(
+                "time",
+                "the detonation time must be zero or positive seconds",
+            );
+        }
+        if !(self.scale.is_finite() && self.scale >= 0.0) {
+            return bad("scale", "the scale must be zero or positive");
+        }
+        Ok(())
+    }
+}
+
+/// What one body part received from one blast.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BlastPartReport {
+    /// Index of the character (ragdoll) in the world.
+    pub character: usize,
+    /// Name of the body.
+    pub body: String,
+    /// When the blast front reached the part, seconds from the start (`null` when it had
+    /// not by the end of the run).
+    pub arrival_s: Option<f64>,
+    /// Peak pressure on the face toward the charge (reflected), kPa.
+    pub peak_pressure_kpa: f64,
+    /// Momentum the part received from the blast, N·s.
+    pub impulse_ns: f64,
+}
+
+/// A character's response to one blast.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BlastCharacterReport {
+    /// Index of the character (ragdoll) in the world.
+    pub character: usize,
+    /// The character's name.
+    pub name: String,
+    /// Centre-of-mass velocity right after the positive phase has passed every part, m/s
+    /// (`null` when the run ended before that).
+    pub com_velocity_mps: Option<[f32; 3]>,
+}
+
+/// One blast and what it did.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BlastReport {
+    /// Charge, kg of TNT.
+    pub tnt_kg: f32,
+    /// Charge position, metres.
+    pub position: [f32; 3],
+    /// Detonation time, seconds.
+    pub time_s: f32,
+    /// Every body part of every character.
+    pub parts: Vec<BlastPartReport>,
+    /// Every character.
+    pub characters: Vec<BlastCharacterReport>,
+}

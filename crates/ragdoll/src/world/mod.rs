@@ -4,9 +4,12 @@
 
 use glam::Vec3;
 
+mod blast;
+
 use crate::backend::rigid::{RigidBackend, RigidSettings};
 use crate::backend::{Backend, BodyDesc, BodyState, JointDesc};
 use crate::error::{Error, Result};
+use crate::events::{Blast, BlastReport};
 use crate::math::Transform;
 use crate::skeleton::Character;
 use crate::spec::{RagdollSpec, Resolved, ResolvedJoint, Shape, start_pose};
@@ -23,6 +26,10 @@ const PROJECTION_TOLERANCE_DEG: f32 = 1.0;
 
 /// How far below the ground the limit projection may move a body that was above it, metres.
 const PROJECTION_GROUND_SLACK_M: f32 = 0.005;
+
+/// With no ground, blasts are computed as if the ground were this far below the charge,
+/// metres: far enough that any charge counts as a free-air burst.
+const FREE_AIR_DEPTH_M: f32 = 1.0e4;
 
 /// Which pose a ragdoll starts in.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -125,6 +132,8 @@ struct Rider {
 }
 
 struct Instance {
+    name: String,
+    body_names: Vec<String>,
     first_body: usize,
     /// Joint indices ordered parents first.
     joint_order: Vec<usize>,
@@ -150,6 +159,7 @@ pub struct World {
     metrics: Metrics,
     start_energy: Option<f64>,
     last_frame_energy: Option<f64>,
+    blasts: Vec<blast::ActiveBlast>,
 }
 
 impl World {
@@ -160,7 +170,6 @@ impl World {
             RigidSettings {
                 gravity: settings.gravity,
                 ground: settings.ground,
-                collision_substeps: settings.collision_substeps,
                 substeps: settings.substeps,
                 iterations: settings.iterations,
             },
@@ -177,6 +186,7 @@ impl World {
             metrics: Metrics::default(),
             start_energy: None,
             last_frame_energy: None,
+            blasts: Vec::new(),
         })
     }
 
@@ -295,6 +305,8 @@ impl World {
         let joints = resolved.joints;
         let (joint_order, subtrees) = joint_tree(&joints, spec.bodies.len());
         self.instances.push(Instance {
+            name: character.name.clone(),
+            body_names: spec.bodies.iter().map(|b| b.name.clone()).collect(),
             first_body,
             joint_order,
             subtrees,
@@ -308,6 +320,119 @@ impl World {
             },
         });
         Ok(RagdollId(self.instances.len() - 1))
+    }
+
+    /// Adds a blast. It acts on every ragdoll in the world, each body part from the moment
+    /// the blast front reaches it.
+    pub fn add_blast(&mut self, blast: Blast) -> Result<()> {
+        blast.validate()?;
+        self.blasts.push(blast::ActiveBlast {
+            blast,
+            parts: Vec::new(),
+            com_velocity: Vec::new(),
+        });
+        Ok(())
+    }
+
+    /// What every blast did so far: per body part its arrival time, peak pressure and
+    /// momentum received; per character its centre-of-mass velocity once the blast passed.
+    pub fn blast_reports(&self) -> Vec<BlastReport> {
+        let body_names: Vec<Vec<String>> = self
+            .instances
+            .iter()
+            .map(|i| i.body_names.clone())
+            .collect();
+        let names: Vec<String> = self.instances.iter().map(|i| i.name.clone()).collect();
+        self.blasts
+            .iter()
+            .map(|b| b.report(&body_names, &names))
+            .collect()
+    }
+
+    /// Applies every blast's load over `[t0, t1]` (seconds) to every body part.
+    fn apply_blasts(&mut self, t0: f64, t1: f64) {
+        for active in &mut self.blasts {
+            let b = active.blast;
+            // Without a ground every burst is a free-air burst: put the ground far below.
+            let ground = self
+                .settings
+                .ground
+                .unwrap_or(b.position.y - FREE_AIR_DEPTH_M);
+            let det = b.time_s as f64;
+            if t1 <= det {
+                continue;
+            }
+            active
+                .parts
+                .resize_with(self.instances.len(), Default::default);
+            active.com_velocity.resize(self.instances.len(), None);
+            for (c, inst) in self.instances.iter().enumerate() {
+                let records = &mut active.parts[c];
+                records.resize_with(inst.shapes.len(), Default::default);
+                for (k, shape) in inst.shapes.iter().enumerate() {
+                    let state = &self.states[inst.first_body + k];
+                    let (at, point, dir) = blast::blast_on_part(&b, state, shape, ground);
+                    let record = &mut records[k];
+                    let arrival = det + at.arrival_s;
+                    record.passed_s = arrival + at.duration_s;
+                    if t1 < arrival || t0 > record.passed_s {
+                        continue;
+                    }
+                    if record.arrival_s.is_none() {
+                        record.arrival_s = Some(arrival);
+                        record.peak_pressure_pa = at.reflected_pa;
+                    }
+                    let area = blast::projected_area(state, shape, dir) as f64;
+                    let depth = blast::depth_along(state, shape, dir) as f64;
+                    let j = b.scale as f64
+                        * crate::events::blast::part_impulse(
+                            &at,
+                            t0 - det,
+                            t1 - det,
+                            area,
+                            depth,
+                            blast::DRAG_COEFFICIENT,
+                        );
+                    if j > 0.0 && j.is_finite() {
+                        let impulse = dir.as_dvec3() * j;
+                        record.impulse += impulse;
+                        self.backend.apply_impulse_at_point(
+                            inst.first_body + k,
+                            impulse.as_vec3(),
+                            point,
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// Records each character's centre-of-mass velocity once a blast's positive phase has
+    /// passed all of its parts.
+    fn blast_after_step(&mut self) {
+        for active in &mut self.blasts {
+            for (c, inst) in self.instances.iter().enumerate() {
+                let (Some(records), Some(slot)) =
+                    (active.parts.get(c), active.com_velocity.get_mut(c))
+                else {
+                    continue;
+                };
+                if slot.is_some()
+                    || records.is_empty()
+                    || records.iter().any(|r| r.arrival_s.is_none())
+                    || records.iter().any(|r| self.time < r.passed_s)
+                {
+                    continue;
+                }
+                let mut momentum = Vec3::ZERO;
+                let mut mass = 0.0;
+                for (k, &m) in inst.masses.iter().enumerate() {
+                    momentum += self.states[inst.first_body + k].linvel * m;
+                    mass += m;
+                }
+                *slot = Some(momentum / mass);
+            }
+        }
     }
 
     /// Simulated time so far, seconds.
@@ -337,10 +462,22 @@ impl World {
             self.prev_states.clone_from(&self.states);
             self.record_frames_until(0.0);
         }
-        std::mem::swap(&mut self.states, &mut self.prev_states);
-        self.backend.step(self.settings.dt);
+        self.prev_states.clone_from(&self.states);
+        let n = self.settings.collision_substeps;
+        let h = self.settings.dt / n as f32;
+        for i in 0..n {
+            if !self.blasts.is_empty() {
+                if i > 0 {
+                    self.backend.body_states(&mut self.states);
+                }
+                let t0 = self.time + (i as f64) * h as f64;
+                self.apply_blasts(t0, t0 + h as f64);
+            }
+            self.backend.step(h);
+        }
         self.time += self.settings.dt as f64;
         self.backend.body_states(&mut self.states);
+        self.blast_after_step();
         if self.settings.project_limits {
             self.project_limits();
         }
@@ -509,7 +646,25 @@ impl World {
         }
     }
 
+    /// Whether every blast has gone off and passed every body part (DESIGN §5 measures
+    /// the energy drift only after the last event).
+    fn events_done(&self) -> bool {
+        self.blasts.iter().all(|b| {
+            let reached_all = b.parts.len() == self.instances.len()
+                && b.parts
+                    .iter()
+                    .all(|parts| parts.iter().all(|r| r.arrival_s.is_some()));
+            reached_all && b.parts.iter().flatten().all(|r| r.passed_s <= self.time)
+        })
+    }
+
     fn measure_frame_energy(&mut self) {
+        if !self.events_done() {
+            // Events put energy in on purpose; measure from the first frame after them.
+            self.start_energy = None;
+            self.last_frame_energy = None;
+            return;
+        }
         let g = self.settings.gravity;
         let ground = self.settings.ground.unwrap_or(0.0);
         let mut potential = 0.0f64;
