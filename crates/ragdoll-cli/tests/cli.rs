@@ -419,3 +419,33 @@ fn blast_throws_the_character_away_and_reports_every_part() {
     assert!(stderr(&o).contains("--at"), "{}", stderr(&o));
     assert!(!tmp.path().join("c.glb").exists());
 }
+
+/// Same input, same output bits: two runs of one blast write identical files.
+#[test]
+fn the_same_run_twice_writes_identical_files() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut outputs = Vec::new();
+    for run in 0..2 {
+        for ext in ["glb", "bvh"] {
+            let out = format!("run{run}.{ext}");
+            let o = ragdoll(
+                tmp.path(),
+                &[
+                    "blast",
+                    "--tnt",
+                    "5",
+                    "--at",
+                    "2,0.5,1",
+                    "--seconds",
+                    "2",
+                    "-o",
+                    &out,
+                ],
+            );
+            assert!(o.status.success(), "{}", stderr(&o));
+            outputs.push(std::fs::read(tmp.path().join(out)).unwrap());
+        }
+    }
+    assert!(outputs[0] == outputs[2], "the .glb files differ");
+    assert!(outputs[1] == outputs[3], "the .bvh files differ");
+}
