@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use ragdoll::events::Blast;
+use ragdoll::events::{Blast, Projectile};
 use ragdoll::export::{self, write_atomic};
 use ragdoll::import::{self, ImportOptions, Units, UpAxis};
 use ragdoll::report::Report;
@@ -15,8 +15,8 @@ use ragdoll::world::{StartPose, World, WorldSettings};
 
 use crate::progress::Progress;
 use crate::{
-    BlastArgs, BuildArgs, DemoArgs, ImportArgs, InspectArgs, RagdollArgs, SimArgs, SimulateArgs,
-    UnitsArg, UpArg,
+    BlastArgs, BuildArgs, DemoArgs, ImportArgs, InspectArgs, RagdollArgs, ShootArgs, SimArgs,
+    SimulateArgs, UnitsArg, UpArg,
 };
 
 fn import_options(a: &ImportArgs) -> ImportOptions {
@@ -84,19 +84,77 @@ fn world_settings(a: &SimArgs) -> Result<WorldSettings> {
     Ok(settings)
 }
 
+/// What happens to the character during a run.
+#[derive(Default)]
+struct Events {
+    blasts: Vec<Blast>,
+    projectiles: Vec<Projectile>,
+}
+
+/// A user setting error with the flag named: `--tnt: ...`.
+fn flag_error(e: ragdoll::Error) -> anyhow::Error {
+    match e {
+        ragdoll::Error::Setting { setting, message } => anyhow::anyhow!("--{setting}: {message}"),
+        e => e.into(),
+    }
+}
+
+/// The character from `file`, or the built-in humanoid; and how to name it in the report.
+fn load_or_builtin(file: Option<&Path>, import: &ImportArgs) -> Result<(Character, String)> {
+    Ok(match file {
+        Some(file) => (load(file, import)?, file.display().to_string()),
+        None => (skeleton::humanoid(), "built-in".to_string()),
+    })
+}
+
+pub fn shoot(a: &ShootArgs) -> Result<()> {
+    let kind = output_kind(&a.output)?;
+    let from = glam::Vec3::from_array(a.from);
+    let shot = Projectile {
+        origin: from,
+        direction: glam::Vec3::from_array(a.toward) - from,
+        mass_kg: a.mass,
+        speed_mps: a.speed,
+        time_s: a.time,
+    };
+    shot.validate().map_err(|e| match e {
+        ragdoll::Error::Setting { setting, message } if setting == "direction" => {
+            anyhow::anyhow!("--toward: must differ from --from ({message})")
+        }
+        e => flag_error(e),
+    })?;
+    let (character, input) = load_or_builtin(a.file.as_deref(), &a.import)?;
+    let spec = ragdoll_spec(&character, &a.ragdoll)?;
+    let events = Events {
+        projectiles: vec![shot],
+        ..Default::default()
+    };
+    let (track, report) = simulate_character(&input, &character, &spec, &a.sim, &events)?;
+    for p in &report.projectiles {
+        match &p.body {
+            Some(body) => eprintln!("hit {body} with {:.1} N·s", p.impulse_ns),
+            None => eprintln!("missed"),
+        }
+    }
+    write_result(&kind, &a.output, &character, &spec, &track, &report)
+}
+
 /// Runs the simulation with a progress bar; returns the track and its report.
 fn simulate_character(
     input: &str,
     character: &Character,
     spec: &RagdollSpec,
     sim: &SimArgs,
-    blasts: &[Blast],
+    events: &Events,
 ) -> Result<(Track, Report)> {
     let settings = world_settings(sim)?;
     let started = Instant::now();
     let (mut world, _) = World::with_ragdoll(character, spec, &settings)?;
-    for b in blasts {
+    for b in &events.blasts {
         world.add_blast(*b)?;
+    }
+    for p in &events.projectiles {
+        world.add_projectile(*p)?;
     }
     let steps = (sim.seconds / settings.dt).round() as u64;
     let mut progress = Progress::new(steps, "simulating");
@@ -108,6 +166,7 @@ fn simulate_character(
     progress.finish();
     let metrics = world.metrics();
     let blast_reports = world.blast_reports();
+    let world_projectiles = world.projectile_reports();
     let track = world.into_track();
     let mut report = Report::new(
         input,
@@ -119,6 +178,7 @@ fn simulate_character(
         started.elapsed().as_secs_f64(),
     );
     report.blasts = blast_reports;
+    report.projectiles = world_projectiles;
     Ok((track, report))
 }
 
@@ -155,7 +215,8 @@ fn encode(
 pub fn demo(a: &DemoArgs) -> Result<()> {
     let character = skeleton::humanoid();
     let spec = ragdoll_spec(&character, &a.ragdoll)?;
-    let (track, report) = simulate_character("built-in", &character, &spec, &a.sim, &[])?;
+    let (track, report) =
+        simulate_character("built-in", &character, &spec, &a.sim, &Events::default())?;
     // Encode everything before writing anything, so a failure leaves no partial set.
     let glb = encode(&OutputKind::Glb, &character, &spec, &track)?;
     let bvh = encode(&OutputKind::Bvh, &character, &spec, &track)?;
@@ -176,7 +237,8 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
     let character = load(&a.file, &a.import)?;
     let spec = ragdoll_spec(&character, &a.ragdoll)?;
     let input = a.file.display().to_string();
-    let (track, report) = simulate_character(&input, &character, &spec, &a.sim, &[])?;
+    let (track, report) =
+        simulate_character(&input, &character, &spec, &a.sim, &Events::default())?;
     write_result(&kind, &a.output, &character, &spec, &track, &report)
 }
 
@@ -205,16 +267,19 @@ pub fn blast(a: &BlastArgs) -> Result<()> {
         time_s: a.time,
         scale: a.scale,
     };
-    blast.validate().map_err(|e| match e {
-        ragdoll::Error::Setting { setting, message } => anyhow::anyhow!("--{setting}: {message}"),
-        e => e.into(),
-    })?;
-    let (character, input) = match &a.file {
-        Some(file) => (load(file, &a.import)?, file.display().to_string()),
-        None => (skeleton::humanoid(), "built-in".to_string()),
-    };
+    blast.validate().map_err(flag_error)?;
+    let (character, input) = load_or_builtin(a.file.as_deref(), &a.import)?;
     let spec = ragdoll_spec(&character, &a.ragdoll)?;
-    let (track, report) = simulate_character(&input, &character, &spec, &a.sim, &[blast])?;
+    let (track, report) = simulate_character(
+        &input,
+        &character,
+        &spec,
+        &a.sim,
+        &Events {
+            blasts: vec![blast],
+            ..Default::default()
+        },
+    )?;
     for b in &report.blasts {
         for c in &b.characters {
             if let Some(v) = c.com_velocity_mps {

@@ -33,6 +33,8 @@ enum Command {
     Simulate(SimulateArgs),
     /// Throw a character with an explosion (kg of TNT at a point) and bake the result.
     Blast(BlastArgs),
+    /// Hit a character with a projectile (a straight shot) and bake the result.
+    Shoot(ShootArgs),
     /// Measure simulation speed on the pile workload (DESIGN §6). A benchmark, not a test.
     Bench(bench::BenchArgs),
 }
@@ -170,6 +172,36 @@ struct BlastArgs {
     sim: SimArgs,
 }
 
+#[derive(Args, Debug)]
+struct ShootArgs {
+    /// A .bvh, .glb or .gltf file; the built-in humanoid when left out.
+    file: Option<PathBuf>,
+    /// Where the projectile starts, metres: X,Y,Z.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
+    from: [f32; 3],
+    /// A point it flies toward, metres: X,Y,Z.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
+    toward: [f32; 3],
+    /// Its mass, kg (default: a 9 mm bullet).
+    #[arg(long, default_value_t = 0.008)]
+    mass: f32,
+    /// Its speed, m/s.
+    #[arg(long, default_value_t = 360.0)]
+    speed: f32,
+    /// When it hits, seconds after the start.
+    #[arg(long, default_value_t = 0.0)]
+    time: f32,
+    /// Output file: .glb or .bvh. The report goes next to it as <stem>.report.json.
+    #[arg(short, long, value_name = "OUT.glb|OUT.bvh")]
+    output: PathBuf,
+    #[command(flatten)]
+    import: ImportArgs,
+    #[command(flatten)]
+    ragdoll: RagdollArgs,
+    #[command(flatten)]
+    sim: SimArgs,
+}
+
 /// Parses `X,Y,Z` (three finite numbers, metres).
 fn parse_vec3(text: &str) -> Result<[f32; 3], String> {
     let parts: Vec<&str> = text.split(',').map(str::trim).collect();
@@ -193,6 +225,7 @@ fn main() -> ExitCode {
         Command::Build(a) => commands::build(&a),
         Command::Simulate(a) => commands::simulate(&a),
         Command::Blast(a) => commands::blast(&a),
+        Command::Shoot(a) => commands::shoot(&a),
         Command::Bench(a) => bench::run(&a),
     };
     match result {

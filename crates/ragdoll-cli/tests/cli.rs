@@ -449,3 +449,28 @@ fn the_same_run_twice_writes_identical_files() {
     assert!(outputs[0] == outputs[2], "the .glb files differ");
     assert!(outputs[1] == outputs[3], "the .bvh files differ");
 }
+
+#[test]
+fn shoot_names_the_part_it_hit() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = ragdoll(
+        tmp.path(),
+        &[
+            "shoot",
+            "--from",
+            "0,1.66,5",
+            "--toward",
+            "0,1.66,0",
+            "--seconds",
+            "0.5",
+            "-o",
+            "s.bvh",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report = read_json(&tmp.path().join("s.report.json"));
+    assert_eq!(report["projectiles"][0]["body"], "head", "{report}");
+    assert!(
+        (report["projectiles"][0]["impulse_ns"].as_f64().unwrap() - 0.008 * 360.0).abs() < 1e-3
+    );
+}

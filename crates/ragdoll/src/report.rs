@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::events::BlastReport;
+use crate::events::{BlastReport, ProjectileReport};
 use crate::spec::RagdollSpec;
 use crate::track::{Metrics, Track};
 
@@ -39,6 +39,8 @@ pub struct Report {
     pub wall_seconds: f64,
     /// What each blast did (empty without blasts).
     pub blasts: Vec<BlastReport>,
+    /// What each projectile hit (empty without projectiles).
+    pub projectiles: Vec<ProjectileReport>,
 }
 
 impl Report {
@@ -67,6 +69,7 @@ impl Report {
             metrics,
             wall_seconds,
             blasts: Vec::new(),
+            projectiles: Vec::new(),
         }
     }
 

@@ -32,6 +32,9 @@ pub(crate) trait Backend {
     fn max_penetration(&self) -> f32;
     /// Kinetic energy of everything, joules.
     fn kinetic_energy(&self) -> f64;
+    /// The first body a ray from `origin` along `dir` (unit) meets within `max_dist`
+    /// metres: its global index and the distance. The ground does not count.
+    fn cast_ray(&self, origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(usize, f32)>;
     /// Moves body `index` (global) to `pose` without changing its velocities.
     fn set_body_pose(&mut self, index: usize, pose: &Transform);
 }

@@ -238,6 +238,15 @@ impl Backend for RigidBackend {
         self.world.bodies[self.bodies[index]].apply_impulse_at_point(impulse, point, true);
     }
 
+    fn cast_ray(&self, origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(usize, f32)> {
+        let not_ground = |_: ColliderHandle, c: &Collider| c.user_data != GROUND_KEY;
+        let filter = QueryFilter::default().predicate(&not_ground);
+        let ray = Ray::new(origin, dir);
+        let (collider, toi) = self.world.cast_ray(&ray, max_dist, true, filter)?;
+        let key = self.world.colliders[collider].user_data;
+        Some((key as usize, toi))
+    }
+
     fn set_body_pose(&mut self, index: usize, p: &Transform) {
         self.world.bodies[self.bodies[index]].set_position(pose(p), false);
     }

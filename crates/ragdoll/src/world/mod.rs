@@ -9,7 +9,7 @@ mod blast;
 use crate::backend::rigid::{RigidBackend, RigidSettings};
 use crate::backend::{Backend, BodyDesc, BodyState, JointDesc};
 use crate::error::{Error, Result};
-use crate::events::{Blast, BlastReport};
+use crate::events::{Blast, BlastReport, Projectile, ProjectileReport};
 use crate::math::Transform;
 use crate::skeleton::Character;
 use crate::spec::{RagdollSpec, Resolved, ResolvedJoint, Shape, start_pose};
@@ -160,6 +160,7 @@ pub struct World {
     start_energy: Option<f64>,
     last_frame_energy: Option<f64>,
     blasts: Vec<blast::ActiveBlast>,
+    projectiles: Vec<(Projectile, Option<ProjectileReport>)>,
 }
 
 impl World {
@@ -187,6 +188,7 @@ impl World {
             start_energy: None,
             last_frame_energy: None,
             blasts: Vec::new(),
+            projectiles: Vec::new(),
         })
     }
 
@@ -349,6 +351,60 @@ impl World {
             .collect()
     }
 
+    /// Adds a projectile; it hits at its time (see [`Projectile`]).
+    pub fn add_projectile(&mut self, projectile: Projectile) -> Result<()> {
+        projectile.validate()?;
+        self.projectiles.push((projectile, None));
+        Ok(())
+    }
+
+    /// What every projectile fired so far hit.
+    pub fn projectile_reports(&self) -> Vec<ProjectileReport> {
+        self.projectiles
+            .iter()
+            .filter_map(|(_, r)| r.clone())
+            .collect()
+    }
+
+    /// Fires the projectiles whose time has come by `t1`.
+    fn fire_projectiles(&mut self, t1: f64) {
+        /// Projectiles fly at most this far, metres.
+        const RANGE_M: f32 = 1.0e4;
+        for k in 0..self.projectiles.len() {
+            let (p, done) = &self.projectiles[k];
+            let t = p.time_s as f64;
+            if done.is_some() || t >= t1 {
+                continue;
+            }
+            let p = *p;
+            let dir = p.direction.normalize();
+            let momentum = p.mass_kg * p.speed_mps;
+            let mut report = ProjectileReport {
+                time_s: p.time_s,
+                character: None,
+                body: None,
+                point: None,
+                impulse_ns: 0.0,
+            };
+            if let Some((body, dist)) = self.backend.cast_ray(p.origin, dir, RANGE_M) {
+                let point = p.origin + dir * dist;
+                self.backend
+                    .apply_impulse_at_point(body, dir * momentum, point);
+                if let Some((c, inst)) =
+                    self.instances.iter().enumerate().find(|(_, i)| {
+                        (i.first_body..i.first_body + i.shapes.len()).contains(&body)
+                    })
+                {
+                    report.character = Some(c);
+                    report.body = Some(inst.body_names[body - inst.first_body].clone());
+                }
+                report.point = Some(point.to_array());
+                report.impulse_ns = momentum;
+            }
+            self.projectiles[k].1 = Some(report);
+        }
+    }
+
     /// Applies every blast's load over `[t0, t1]` (seconds) to every body part.
     fn apply_blasts(&mut self, t0: f64, t1: f64) {
         for active in &mut self.blasts {
@@ -466,14 +522,17 @@ impl World {
         let n = self.settings.collision_substeps;
         let h = self.settings.dt / n as f32;
         for i in 0..n {
+            let t0 = self.time + (i as f64) * h as f64;
             if !self.blasts.is_empty() {
                 if i > 0 {
                     self.backend.body_states(&mut self.states);
                 }
-                let t0 = self.time + (i as f64) * h as f64;
                 self.apply_blasts(t0, t0 + h as f64);
             }
             self.backend.step(h);
+            // After the step: rapier's scene queries see the bodies only once a step has
+            // updated them; the shot lands at most one substep (1/240 s) late.
+            self.fire_projectiles(t0 + h as f64);
         }
         self.time += self.settings.dt as f64;
         self.backend.body_states(&mut self.states);
