@@ -149,7 +149,8 @@ fn simulate_character(
 ) -> Result<(Track, Report)> {
     let settings = world_settings(sim)?;
     let started = Instant::now();
-    let (mut world, _) = World::with_ragdoll(character, spec, &settings)?;
+    let (mut world, id) = World::with_ragdoll(character, spec, &settings)?;
+    world.set_activation(id, sim.activate).map_err(flag_error)?;
     for b in &events.blasts {
         world.add_blast(*b)?;
     }

@@ -91,6 +91,25 @@ struct SimArgs {
     /// Start from the rest pose instead of the first animation frame.
     #[arg(long)]
     rest_pose: bool,
+    /// When physics takes over: `start`, a time in seconds (the animation plays until
+    /// then), or `blast` (when the first blast front reaches the character).
+    #[arg(long, value_name = "start|SECONDS|blast", default_value = "start", value_parser = parse_activation)]
+    activate: ragdoll::world::Activation,
+}
+
+/// Parses `--activate`.
+fn parse_activation(text: &str) -> Result<ragdoll::world::Activation, String> {
+    use ragdoll::world::Activation;
+    match text {
+        "start" => Ok(Activation::Immediately),
+        "blast" => Ok(Activation::OnBlast),
+        _ => match text.parse::<f32>() {
+            Ok(t) if t.is_finite() && t >= 0.0 => Ok(Activation::AtTime(t)),
+            _ => Err(format!(
+                "expected start, blast or a time in seconds, got \"{text}\""
+            )),
+        },
+    }
 }
 
 #[derive(Args, Debug)]

@@ -474,3 +474,33 @@ fn shoot_names_the_part_it_hit() {
         (report["projectiles"][0]["impulse_ns"].as_f64().unwrap() - 0.008 * 360.0).abs() < 1e-3
     );
 }
+
+#[test]
+fn activate_plays_the_clip_first_and_needs_one() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = ragdoll(tmp.path(), &["demo", "--activate", "1", "-o", "d"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--activate"), "{}", stderr(&o));
+    let o = ragdoll(tmp.path(), &["demo", "--activate", "soon", "-o", "d"]);
+    assert!(!o.status.success());
+    let Some(data) = data_dir() else { return };
+    let file = data.join("bvh/mocapbank_bvh-python.bvh");
+    let o = ragdoll(
+        tmp.path(),
+        &[
+            "simulate",
+            file.to_str().unwrap(),
+            "--activate",
+            "1",
+            "--seconds",
+            "2",
+            "-o",
+            "a.glb",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_metrics_in_bounds(
+        &read_json(&tmp.path().join("a.report.json")),
+        "activate 1 s",
+    );
+}

@@ -35,6 +35,20 @@ pub(crate) trait Backend {
     /// The first body a ray from `origin` along `dir` (unit) meets within `max_dist`
     /// metres: its global index and the distance. The ground does not count.
     fn cast_ray(&self, origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(usize, f32)>;
+    /// Makes body `index` (global) kinematic (moved only by [`Backend::set_kinematic_target`])
+    /// or dynamic again.
+    fn set_kinematic(&mut self, index: usize, kinematic: bool);
+    /// Where a kinematic body must be at the end of the next step.
+    fn set_kinematic_target(&mut self, index: usize, pose: &Transform);
+    /// Sets the linear (m/s) and angular (rad/s) velocity of body `index` (global).
+    fn set_body_velocity(&mut self, index: usize, linvel: Vec3, angvel: Vec3);
+    /// Replaces the parent-side frame of joint `index` (global, in insertion order), in the
+    /// parent body's frame.
+    fn set_joint_parent_frame(&mut self, index: usize, frame: &Transform);
+    /// Replaces the limits of joint `index` (global) with those of `kind` (same kind).
+    fn set_joint_limits(&mut self, index: usize, kind: &crate::spec::JointKind);
+    /// Stops bodies `a` and `b` (global) from colliding with each other.
+    fn disable_pair(&mut self, a: usize, b: usize);
     /// Moves body `index` (global) to `pose` without changing its velocities.
     fn set_body_pose(&mut self, index: usize, pose: &Transform);
 }

@@ -55,6 +55,7 @@ impl PhysicsHooks for PairFilter {
 /// rapier3d world holding every ragdoll.
 pub(crate) struct RigidBackend {
     world: PhysicsWorld,
+    joints: Vec<ImpulseJointHandle>,
     bodies: Vec<RigidBodyHandle>,
     filter: PairFilter,
 }
@@ -81,6 +82,7 @@ impl RigidBackend {
         }
         RigidBackend {
             world,
+            joints: Vec::new(),
             bodies: Vec::new(),
             filter: PairFilter {
                 disabled: HashSet::new(),
@@ -126,7 +128,8 @@ impl RigidBackend {
         for j in joints {
             let joint = make_joint(j);
             let (h1, h2) = (self.bodies[first + j.parent], self.bodies[first + j.child]);
-            self.world.impulse_joints.insert(h1, h2, joint, true);
+            let handle = self.world.impulse_joints.insert(h1, h2, joint, true);
+            self.joints.push(handle);
             // rapier 0.36 does not read `contacts_enabled` for impulse joints, so jointed
             // pairs go through the contact filter like any other pair.
             let (a, b) = ((first + j.parent) as u32, (first + j.child) as u32);
@@ -245,6 +248,65 @@ impl Backend for RigidBackend {
         let (collider, toi) = self.world.cast_ray(&ray, max_dist, true, filter)?;
         let key = self.world.colliders[collider].user_data;
         Some((key as usize, toi))
+    }
+
+    fn set_joint_parent_frame(&mut self, index: usize, frame: &Transform) {
+        if let Some(joint) = self.world.impulse_joints.get_mut(self.joints[index], true) {
+            joint.data.set_local_frame1(pose(frame));
+        }
+    }
+
+    fn set_joint_limits(&mut self, index: usize, kind: &JointKind) {
+        let Some(joint) = self.world.impulse_joints.get_mut(self.joints[index], true) else {
+            return;
+        };
+        match *kind {
+            JointKind::Hinge { min_deg, max_deg } => {
+                joint.data.set_limits(
+                    JointAxis::AngX,
+                    [min_deg.to_radians(), max_deg.to_radians()],
+                );
+            }
+            JointKind::SwingTwist {
+                swing_deg,
+                twist_deg,
+                ..
+            } => {
+                joint.data.set_limits(
+                    JointAxis::AngY,
+                    [-swing_deg.to_radians(), swing_deg.to_radians()],
+                );
+                joint.data.set_limits(
+                    JointAxis::AngX,
+                    [twist_deg[0].to_radians(), twist_deg[1].to_radians()],
+                );
+            }
+            JointKind::Ball | JointKind::Fixed => {}
+        }
+    }
+
+    fn disable_pair(&mut self, a: usize, b: usize) {
+        let (a, b) = (a as u32, b as u32);
+        self.filter.disabled.insert((a.min(b), a.max(b)));
+    }
+
+    fn set_kinematic(&mut self, index: usize, kinematic: bool) {
+        let kind = if kinematic {
+            RigidBodyType::KinematicPositionBased
+        } else {
+            RigidBodyType::Dynamic
+        };
+        self.world.bodies[self.bodies[index]].set_body_type(kind, true);
+    }
+
+    fn set_kinematic_target(&mut self, index: usize, p: &Transform) {
+        self.world.bodies[self.bodies[index]].set_next_kinematic_position(pose(p));
+    }
+
+    fn set_body_velocity(&mut self, index: usize, linvel: Vec3, angvel: Vec3) {
+        let rb = &mut self.world.bodies[self.bodies[index]];
+        rb.set_linvel(linvel, true);
+        rb.set_angvel(angvel, true);
     }
 
     fn set_body_pose(&mut self, index: usize, p: &Transform) {

@@ -994,6 +994,22 @@ fn collision_filter(plans: &[Plan], parents: &[usize], names: &[String]) -> Coll
     }
 }
 
+/// Whether two shapes at these poses come within `margin` metres of each other (boxes are
+/// taken as their bounding capsules, which errs on the side of "overlapping").
+pub(crate) fn shapes_overlap(
+    a: &crate::math::Transform,
+    shape_a: &Shape,
+    b: &crate::math::Transform,
+    shape_b: &Shape,
+    margin: f32,
+) -> bool {
+    let (s, t) = (
+        solid(shape_a, a.translation, a.rotation),
+        solid(shape_b, b.translation, b.rotation),
+    );
+    segment_distance(s.a, s.b, t.a, t.b) < s.r + t.r + margin
+}
+
 /// Distance between segments `p1 → q1` and `p2 → q2` (Ericson, Real-Time Collision
 /// Detection, §5.1.9, with its degenerate-segment cases).
 pub(crate) fn segment_distance(p1: Vec3, q1: Vec3, p2: Vec3, q2: Vec3) -> f32 {

@@ -86,6 +86,72 @@ impl ResolvedJoint {
 }
 
 impl ResolvedJoint {
+    /// Widens the limits so the pose of these two bodies lies `margin_deg` inside them;
+    /// returns whether anything changed.
+    pub fn widen_to_include(
+        &mut self,
+        parent: &Transform,
+        child: &Transform,
+        margin_deg: f32,
+    ) -> bool {
+        let a = self.angles(parent, child);
+        let (swing, twist) = (a.swing.to_degrees(), a.twist.to_degrees());
+        let mut changed = false;
+        match &mut self.kind {
+            JointKind::Hinge { min_deg, max_deg } => {
+                if twist < *min_deg {
+                    *min_deg = twist - margin_deg;
+                    changed = true;
+                }
+                if twist > *max_deg {
+                    *max_deg = twist + margin_deg;
+                    changed = true;
+                }
+            }
+            JointKind::SwingTwist {
+                swing_deg,
+                twist_deg,
+                ..
+            } => {
+                if swing > *swing_deg {
+                    *swing_deg = (swing + margin_deg).min(180.0);
+                    changed = true;
+                }
+                if twist < twist_deg[0] {
+                    twist_deg[0] = twist - margin_deg;
+                    changed = true;
+                }
+                if twist > twist_deg[1] {
+                    twist_deg[1] = twist + margin_deg;
+                    changed = true;
+                }
+            }
+            JointKind::Ball | JointKind::Fixed => {}
+        }
+        changed
+    }
+
+    /// For a hinge whose child has turned off the hinge's axis in this pose (a performer's
+    /// forearm rolls as the elbow bends; a hinge has no such freedom), turns the
+    /// parent-side frame so its axis is the child's: the hinge then bends in the plane the
+    /// pose shows instead of the solver snapping the limb into the rest plane. Returns
+    /// whether the frame changed. Other kinds are left alone.
+    pub fn align_hinge_to(&mut self, parent: &Transform, child: &Transform) -> bool {
+        if !matches!(self.kind, JointKind::Hinge { .. }) {
+            return false;
+        }
+        let f1 = parent.mul(&self.frame_parent);
+        let f2 = child.mul(&self.frame_child);
+        let (x1, x2) = (f1.rotation * Vec3::X, f2.rotation * Vec3::X);
+        if x1.dot(x2) > (0.25f32).to_radians().cos() {
+            return false;
+        }
+        let turn = Quat::from_rotation_arc(x1, x2);
+        let aligned = (turn * f1.rotation).normalize();
+        self.frame_parent.rotation = (parent.rotation.conjugate() * aligned).normalize();
+        true
+    }
+
     /// The rotation of the child body that brings the joint back inside its limits, with the
     /// parent where it is: the relative rotation is split into swing and twist, and each is
     /// clamped to its range (a hinge also loses any swing off its axis). `None` when the
@@ -265,41 +331,9 @@ pub fn fit_limits_to_pose(
     let poses = resolved.body_poses(joint_world);
     let mut widened = Vec::new();
     for (spec_joint, j) in spec.joints.iter_mut().zip(&resolved.joints) {
-        let a = j.angles(&poses[j.parent], &poses[j.child]);
-        let (swing, twist) = (a.swing.to_degrees(), a.twist.to_degrees());
-        let mut changed = false;
-        match &mut spec_joint.kind {
-            JointKind::Hinge { min_deg, max_deg } => {
-                if twist < *min_deg {
-                    *min_deg = twist - margin_deg;
-                    changed = true;
-                }
-                if twist > *max_deg {
-                    *max_deg = twist + margin_deg;
-                    changed = true;
-                }
-            }
-            JointKind::SwingTwist {
-                swing_deg,
-                twist_deg,
-                ..
-            } => {
-                if swing > *swing_deg {
-                    *swing_deg = (swing + margin_deg).min(180.0);
-                    changed = true;
-                }
-                if twist < twist_deg[0] {
-                    twist_deg[0] = twist - margin_deg;
-                    changed = true;
-                }
-                if twist > twist_deg[1] {
-                    twist_deg[1] = twist + margin_deg;
-                    changed = true;
-                }
-            }
-            JointKind::Ball | JointKind::Fixed => {}
-        }
-        if changed {
+        let mut j = j.clone();
+        if j.widen_to_include(&poses[j.parent], &poses[j.child], margin_deg) {
+            spec_joint.kind = j.kind;
             widened.push(spec_joint.name.clone());
         }
     }

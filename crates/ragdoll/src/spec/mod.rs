@@ -376,5 +376,6 @@ pub use frames::{
     JointAngles, Resolved, ResolvedJoint, find_label, fit_limits_to_pose, start_pose,
 };
 
+pub(crate) use build::shapes_overlap;
 pub use build::{BuildOptions, build_spec};
 pub use roles::{Roles, recognise_roles};

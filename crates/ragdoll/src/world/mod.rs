@@ -5,6 +5,9 @@
 use glam::Vec3;
 
 mod blast;
+mod playback;
+
+pub use playback::Activation;
 
 use crate::backend::rigid::{RigidBackend, RigidSettings};
 use crate::backend::{Backend, BodyDesc, BodyState, JointDesc};
@@ -23,6 +26,9 @@ pub const STANDARD_GRAVITY: f32 = 9.80665;
 /// each step the solver let them sink a little and the projection turned them back about
 /// the anchor, a ratchet against the floor's friction.
 const PROJECTION_TOLERANCE_DEG: f32 = 1.0;
+
+/// How far inside widened limits the pose at a hand-over ends up, degrees.
+const HANDOVER_LIMIT_MARGIN_DEG: f32 = 5.0;
 
 /// How far below the ground the limit projection may move a body that was above it, metres.
 const PROJECTION_GROUND_SLACK_M: f32 = 0.005;
@@ -132,6 +138,8 @@ struct Rider {
 }
 
 struct Instance {
+    /// Global index of the ragdoll's first joint in the backend.
+    first_joint: usize,
     name: String,
     body_names: Vec<String>,
     first_body: usize,
@@ -145,6 +153,13 @@ struct Instance {
     joints: Vec<ResolvedJoint>,
     riders: Vec<Rider>,
     track: Track,
+    /// The clip and what is needed to play it (when the character has one).
+    playback: Option<playback::Playback>,
+    activation: Activation,
+    /// Whether physics drives the bodies (false while the clip plays).
+    active: bool,
+    /// When physics took over, seconds.
+    activated_at: Option<f64>,
 }
 
 /// A simulated world: ragdolls, ground, gravity, a backend, and the tracks being recorded.
@@ -231,6 +246,7 @@ impl World {
         let mut body_start = resolved.body_poses(&start);
         let bone_of_body = &resolved.bone_of_body;
         // 2. Lift onto the ground where any body would start below it.
+        let mut lift = Vec3::ZERO;
         if let Some(ground) = self.settings.ground {
             let lowest = body_start
                 .iter()
@@ -238,7 +254,7 @@ impl World {
                 .map(|(p, b)| lowest_point(p, &b.shape))
                 .fold(f32::INFINITY, f32::min);
             if lowest < ground {
-                let lift = Vec3::new(0.0, ground - lowest, 0.0);
+                lift = Vec3::new(0.0, ground - lowest, 0.0);
                 for p in &mut body_start {
                     p.translation += lift;
                 }
@@ -306,7 +322,25 @@ impl World {
         let first_body = self.backend.add_ragdoll(&bodies, &joint_descs, &disabled);
         let joints = resolved.joints;
         let (joint_order, subtrees) = joint_tree(&joints, spec.bodies.len());
+        let playback = character
+            .clips
+            .first()
+            .filter(|c| !c.frames.is_empty() && c.frames.iter().all(|f| f.len() == skeleton.len()))
+            .map(|clip| playback::Playback {
+                skeleton: skeleton.clone(),
+                clip: clip.clone(),
+                placement,
+                lift,
+                bone_of_body: resolved.bone_of_body.clone(),
+                body_local: resolved.body_local.clone(),
+            });
+        let first_joint = self.instances.iter().map(|i| i.joints.len()).sum();
         self.instances.push(Instance {
+            first_joint,
+            playback,
+            activation: Activation::Immediately,
+            active: true,
+            activated_at: Some(0.0),
             name: character.name.clone(),
             body_names: spec.bodies.iter().map(|b| b.name.clone()).collect(),
             first_body,
@@ -322,6 +356,178 @@ impl World {
             },
         });
         Ok(RagdollId(self.instances.len() - 1))
+    }
+
+    /// Makes ragdoll `id` play its first animation clip (kinematically, pushing but not
+    /// pushed) until `activation`, then hand over to physics with the clip's velocities.
+    /// Must be called before the first step; fails when the character has no clip.
+    pub fn set_activation(&mut self, id: RagdollId, activation: Activation) -> Result<()> {
+        if self.frames_recorded > 0 {
+            return Err(Error::Setting {
+                setting: "activate".into(),
+                message: "activation must be set before the world starts stepping".into(),
+            });
+        }
+        let inst = &mut self.instances[id.0];
+        if let Activation::AtTime(t) = activation
+            && !(t.is_finite() && t >= 0.0)
+        {
+            return Err(Error::Setting {
+                setting: "activate".into(),
+                message: "the activation time must be zero or positive seconds".into(),
+            });
+        }
+        if activation != Activation::Immediately && inst.playback.is_none() {
+            return Err(Error::Setting {
+                setting: "activate".into(),
+                message: format!(
+                    "{} has no animation to play before physics takes over",
+                    inst.name
+                ),
+            });
+        }
+        // While the clip plays the bodies are kinematic and go through the floor unnoticed;
+        // lift the ragdoll so that no body goes below it until the hand-over (the start
+        // pose alone may have a foot raised).
+        if let (Some(ground), Some(play)) = (self.settings.ground, &mut inst.playback) {
+            let until = match activation {
+                Activation::AtTime(t) => t as f64,
+                _ => play.clip.duration() as f64,
+            };
+            let frames = ((until / play.clip.frame_time.max(1e-6) as f64).ceil() as usize)
+                .min(play.clip.frames.len().saturating_sub(1));
+            let mut lowest = f32::INFINITY;
+            for f in 0..=frames {
+                let t = f as f64 * play.clip.frame_time as f64;
+                for (pose, shape) in play.body_poses(t).iter().zip(&inst.shapes) {
+                    lowest = lowest.min(lowest_point(pose, shape));
+                }
+            }
+            if lowest < ground {
+                let raise = Vec3::new(0.0, ground - lowest, 0.0);
+                play.lift += raise;
+            }
+        }
+        // A playing ragdoll starts on its clip's first frame.
+        if activation != Activation::Immediately
+            && let Some(play) = &inst.playback
+        {
+            for (b, pose) in play.body_poses(0.0).iter().enumerate() {
+                self.backend.set_body_pose(inst.first_body + b, pose);
+            }
+        }
+        inst.activation = activation;
+        inst.active = activation == Activation::Immediately;
+        inst.activated_at = inst.active.then_some(0.0);
+        for b in 0..inst.shapes.len() {
+            self.backend
+                .set_kinematic(inst.first_body + b, !inst.active);
+        }
+        Ok(())
+    }
+
+    /// When physics took over ragdoll `id`, seconds (`None` while its clip still plays).
+    pub fn activated_at(&self, id: RagdollId) -> Option<f64> {
+        self.instances[id.0].activated_at
+    }
+
+    /// Linear (m/s) and angular (rad/s) velocities of ragdoll `id`'s bodies now, spec order.
+    pub fn body_velocities(&self, id: RagdollId) -> Vec<(Vec3, Vec3)> {
+        let inst = &self.instances[id.0];
+        self.states[inst.first_body..inst.first_body + inst.masses.len()]
+            .iter()
+            .map(|s| (s.linvel, s.angvel))
+            .collect()
+    }
+
+    /// Drives the ragdolls still playing their clip over `[t0, t1]`: hands over those whose
+    /// moment has come (at `t0`, with the clip's velocities), moves the others along the
+    /// clip.
+    fn play_clips(&mut self, t0: f64, t1: f64, h: f64) {
+        for c in 0..self.instances.len() {
+            let inst = &self.instances[c];
+            if inst.active {
+                continue;
+            }
+            let Some(play) = &inst.playback else { continue };
+            let go = match inst.activation {
+                Activation::Immediately => true,
+                // The first substep that starts at or after the time (1 µs of slack for
+                // the sum of steps).
+                Activation::AtTime(t) => t0 + 1e-6 >= t as f64,
+                Activation::OnBlast => self.blasts.iter().any(|active| {
+                    let det = active.blast.time_s as f64;
+                    if t1 <= det {
+                        return false;
+                    }
+                    let ground = self
+                        .settings
+                        .ground
+                        .unwrap_or(active.blast.position.y - FREE_AIR_DEPTH_M);
+                    inst.shapes.iter().enumerate().any(|(k, shape)| {
+                        let state = &self.states[inst.first_body + k];
+                        let (at, _, _) = blast::blast_on_part(&active.blast, state, shape, ground);
+                        det + at.arrival_s <= t1
+                    })
+                }),
+            };
+            if go {
+                let poses = play.body_poses(t0);
+                let velocities = play.body_velocities(t0, h);
+                let mut joints = Vec::new();
+                play.joint_world(t0, &mut joints);
+                let first = inst.first_body;
+                for (k, (pose, (v, w))) in poses.iter().zip(&velocities).enumerate() {
+                    self.backend.set_kinematic(first + k, false);
+                    self.backend.set_body_pose(first + k, pose);
+                    self.backend.set_body_velocity(first + k, *v, *w);
+                    self.states[first + k].pose = *pose;
+                    self.states[first + k].linvel = *v;
+                    self.states[first + k].angvel = *w;
+                }
+                let inst = &mut self.instances[c];
+                for (j, r) in inst.riders.iter_mut().enumerate() {
+                    r.offset = poses[r.body].inverse().mul(&joints[j]);
+                }
+                // Parts that overlap in the pose at the switch (a hand against the chest)
+                // would be thrown apart by their contact: they stop colliding instead.
+                for a in 0..poses.len() {
+                    for b in a + 1..poses.len() {
+                        if crate::spec::shapes_overlap(
+                            &poses[a],
+                            &inst.shapes[a],
+                            &poses[b],
+                            &inst.shapes[b],
+                            0.0,
+                        ) {
+                            self.backend.disable_pair(first + a, first + b);
+                        }
+                    }
+                }
+                // Bones without bodies (a collar) may have turned since the start: each
+                // joint's parent-side anchor moves to where its child's joint is now.
+                // A hinge the pose has rolled off its axis takes the pose's axis, and limits
+                // give way to a pose the performer held, rather than the solver snapping
+                // the body at the switch.
+                for (k, j) in inst.joints.iter_mut().enumerate() {
+                    let (parent, child) = (&poses[j.parent], &poses[j.child]);
+                    let anchor = child.transform_point(j.frame_child.translation);
+                    j.frame_parent.translation = parent.inverse().transform_point(anchor);
+                    j.align_hinge_to(parent, child);
+                    self.backend
+                        .set_joint_parent_frame(inst.first_joint + k, &j.frame_parent);
+                    if j.widen_to_include(parent, child, HANDOVER_LIMIT_MARGIN_DEG) {
+                        self.backend.set_joint_limits(inst.first_joint + k, &j.kind);
+                    }
+                }
+                inst.active = true;
+                inst.activated_at = Some(t0);
+            } else {
+                for (k, pose) in play.body_poses(t1).iter().enumerate() {
+                    self.backend.set_kinematic_target(inst.first_body + k, pose);
+                }
+            }
+        }
     }
 
     /// Adds a blast. It acts on every ragdoll in the world, each body part from the moment
@@ -423,6 +629,11 @@ impl World {
                 .resize_with(self.instances.len(), Default::default);
             active.com_velocity.resize(self.instances.len(), None);
             for (c, inst) in self.instances.iter().enumerate() {
+                if !inst.active {
+                    // A clip still playing is not pushed; it may be handed over to physics
+                    // on this very blast (`Activation::OnBlast`), before the loads.
+                    continue;
+                }
                 let records = &mut active.parts[c];
                 records.resize_with(inst.shapes.len(), Default::default);
                 for (k, shape) in inst.shapes.iter().enumerate() {
@@ -523,6 +734,12 @@ impl World {
         let h = self.settings.dt / n as f32;
         for i in 0..n {
             let t0 = self.time + (i as f64) * h as f64;
+            if self.instances.iter().any(|inst| !inst.active) {
+                if i > 0 {
+                    self.backend.body_states(&mut self.states);
+                }
+                self.play_clips(t0, t0 + h as f64, h as f64);
+            }
             if !self.blasts.is_empty() {
                 if i > 0 {
                     self.backend.body_states(&mut self.states);
@@ -607,6 +824,14 @@ impl World {
                 (((ft - (t - dt)) / dt).clamp(0.0, 1.0)) as f32
             };
             for inst in &mut self.instances {
+                if !inst.active
+                    && let Some(play) = &inst.playback
+                {
+                    let mut frame = Vec::new();
+                    play.joint_world(ft, &mut frame);
+                    inst.track.frames.push(frame);
+                    continue;
+                }
                 let frame: Vec<Transform> = inst
                     .riders
                     .iter()
@@ -635,7 +860,7 @@ impl World {
     /// penetrations in our runs; the lift is a few millimetres, once in a while.
     fn project_limits(&mut self) {
         let ground = self.settings.ground;
-        for inst in &self.instances {
+        for inst in self.instances.iter().filter(|i| i.active) {
             let base = inst.first_body;
             for &k in &inst.joint_order {
                 let j = &inst.joints[k];
@@ -693,7 +918,7 @@ impl World {
                 m.nan = true;
             }
         }
-        for inst in &self.instances {
+        for inst in self.instances.iter().filter(|i| i.active) {
             let states = &self.states[inst.first_body..inst.first_body + inst.masses.len()];
             for j in &inst.joints {
                 let (p, c) = (&states[j.parent].pose, &states[j.child].pose);
@@ -708,13 +933,14 @@ impl World {
     /// Whether every blast has gone off and passed every body part (DESIGN §5 measures
     /// the energy drift only after the last event).
     fn events_done(&self) -> bool {
-        self.blasts.iter().all(|b| {
-            let reached_all = b.parts.len() == self.instances.len()
-                && b.parts
-                    .iter()
-                    .all(|parts| parts.iter().all(|r| r.arrival_s.is_some()));
-            reached_all && b.parts.iter().flatten().all(|r| r.passed_s <= self.time)
-        })
+        self.instances.iter().all(|i| i.active)
+            && self.blasts.iter().all(|b| {
+                let reached_all = b.parts.len() == self.instances.len()
+                    && b.parts
+                        .iter()
+                        .all(|parts| parts.iter().all(|r| r.arrival_s.is_some()));
+                reached_all && b.parts.iter().flatten().all(|r| r.passed_s <= self.time)
+            })
     }
 
     fn measure_frame_energy(&mut self) {
