@@ -47,6 +47,22 @@ pub(crate) trait Backend {
     fn set_joint_parent_frame(&mut self, index: usize, frame: &Transform);
     /// Replaces the limits of joint `index` (global) with those of `kind` (same kind).
     fn set_joint_limits(&mut self, index: usize, kind: &crate::spec::JointKind);
+    /// Sets the gravity acting on every body, m/s².
+    fn set_gravity(&mut self, gravity: Vec3);
+    /// Ties the point `local` (in body `index`'s frame) to the world point `target` with a
+    /// ball joint to an invisible kinematic anchor: hard, or a spring of `soft` =
+    /// (natural frequency Hz, damping ratio). Returns the pin's index.
+    fn add_pin(
+        &mut self,
+        index: usize,
+        local: Vec3,
+        target: Vec3,
+        soft: Option<(f32, f32)>,
+    ) -> usize;
+    /// Where pin `pin`'s anchor must be at the end of the next step.
+    fn move_pin(&mut self, pin: usize, target: Vec3);
+    /// Lets go of pin `pin`.
+    fn release_pin(&mut self, pin: usize);
     /// Stops bodies `a` and `b` (global) from colliding with each other.
     fn disable_pair(&mut self, a: usize, b: usize);
     /// Moves body `index` (global) to `pose` without changing its velocities.

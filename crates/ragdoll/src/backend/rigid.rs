@@ -56,6 +56,8 @@ impl PhysicsHooks for PairFilter {
 pub(crate) struct RigidBackend {
     world: PhysicsWorld,
     joints: Vec<ImpulseJointHandle>,
+    /// Each pin's kinematic anchor and joint (`None` once released).
+    pins: Vec<(RigidBodyHandle, Option<ImpulseJointHandle>)>,
     bodies: Vec<RigidBodyHandle>,
     filter: PairFilter,
 }
@@ -83,6 +85,7 @@ impl RigidBackend {
         RigidBackend {
             world,
             joints: Vec::new(),
+            pins: Vec::new(),
             bodies: Vec::new(),
             filter: PairFilter {
                 disabled: HashSet::new(),
@@ -282,6 +285,45 @@ impl Backend for RigidBackend {
                 );
             }
             JointKind::Ball | JointKind::Fixed => {}
+        }
+    }
+
+    fn set_gravity(&mut self, gravity: Vec3) {
+        self.world.gravity = gravity;
+    }
+
+    fn add_pin(
+        &mut self,
+        index: usize,
+        local: Vec3,
+        target: Vec3,
+        soft: Option<(f32, f32)>,
+    ) -> usize {
+        let anchor = self
+            .world
+            .bodies
+            .insert(RigidBodyBuilder::kinematic_position_based().translation(target));
+        let mut joint = GenericJointBuilder::new(JointAxesMask::LOCKED_SPHERICAL_AXES)
+            .local_anchor1(Vec3::ZERO)
+            .local_anchor2(local)
+            .build();
+        if let Some((hz, damping)) = soft {
+            let _ = joint.set_softness(SpringCoefficients::new(hz, damping));
+        }
+        let body = self.bodies[index];
+        let handle = self.world.impulse_joints.insert(anchor, body, joint, true);
+        self.pins.push((anchor, Some(handle)));
+        self.pins.len() - 1
+    }
+
+    fn move_pin(&mut self, pin: usize, target: Vec3) {
+        let anchor = self.pins[pin].0;
+        self.world.bodies[anchor].set_next_kinematic_translation(target);
+    }
+
+    fn release_pin(&mut self, pin: usize) {
+        if let Some(joint) = self.pins[pin].1.take() {
+            self.world.impulse_joints.remove(joint, true);
         }
     }
 

@@ -113,6 +113,94 @@ impl Projectile {
     }
 }
 
+/// A push on one body part, named by a skeleton joint (applied at the joint's position, on
+/// the body it rides on) or by a body of the spec (applied at its centre).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Push {
+    /// An instantaneous impulse.
+    Impulse {
+        /// Body or joint name.
+        target: String,
+        /// Impulse, N·s, world space.
+        impulse_ns: Vec3,
+        /// When, seconds.
+        time_s: f32,
+    },
+    /// A constant force over a time window.
+    Force {
+        /// Body or joint name.
+        target: String,
+        /// Force, N, world space.
+        force_n: Vec3,
+        /// From when, seconds.
+        start_s: f32,
+        /// Until when, seconds.
+        end_s: f32,
+    },
+}
+
+/// A force field acting on every body of every ragdoll over a time window.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Field {
+    /// Gravity that changes over time (replaces the world's gravity while active): keyed
+    /// accelerations, linear between keys, held before the first and after the last.
+    Gravity {
+        /// `(time_s, acceleration m/s²)` keys, in time order.
+        keys: Vec<(f32, Vec3)>,
+    },
+    /// A push (positive) or pull (negative) from a point, as an acceleration that falls
+    /// linearly to zero at `radius_m`.
+    Radial {
+        /// Centre, metres.
+        center: Vec3,
+        /// Acceleration at the centre, m/s² (positive pushes away).
+        strength_mps2: f32,
+        /// Beyond this distance the field is zero, metres.
+        radius_m: f32,
+        /// From when, seconds.
+        start_s: f32,
+        /// Until when, seconds.
+        end_s: f32,
+    },
+    /// Linear drag: each body loses `rate_per_s` of its velocity per second.
+    Drag {
+        /// Fraction of velocity lost per second, 1/s.
+        rate_per_s: f32,
+        /// From when, seconds.
+        start_s: f32,
+        /// Until when, seconds.
+        end_s: f32,
+    },
+    /// Wind: quadratic air drag toward the wind's velocity on each part's silhouette
+    /// (½·ρ·C_d·A·|u − v|·(u − v), ρ = 1.225 kg/m³).
+    Wind {
+        /// Wind velocity, m/s.
+        velocity_mps: Vec3,
+        /// From when, seconds.
+        start_s: f32,
+        /// Until when, seconds.
+        end_s: f32,
+    },
+}
+
+/// Holds a body part at a point, or drags it along keyed positions, until released.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Pin {
+    /// Body or joint name; the pin holds that joint's position (or the body's centre).
+    pub target: String,
+    /// `(time_s, position)` keys, linear between keys, held after the last. One key holds
+    /// the part in place.
+    pub keys: Vec<(f32, Vec3)>,
+    /// `None` for a hard pin; otherwise a spring of this natural frequency, Hz.
+    pub stiffness_hz: Option<f32>,
+    /// Damping ratio of a soft pin (1 = critical).
+    pub damping_ratio: f32,
+    /// When the pin lets go, seconds (`None`: never).
+    pub release_s: Option<f32>,
+}
+
 /// What a projectile hit.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ProjectileReport {
