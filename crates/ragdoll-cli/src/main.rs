@@ -6,11 +6,12 @@
 mod bench;
 mod commands;
 mod progress;
+mod scene_cmd;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use clap::{Args, Parser, Subcommand, ValueEnum};
+use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand, ValueEnum};
 
 /// Turn any character into a physically simulated ragdoll and bake the motion to glTF/BVH.
 #[derive(Parser, Debug)]
@@ -29,7 +30,8 @@ enum Command {
     Inspect(InspectArgs),
     /// Build a ragdoll spec from a character and write it as TOML for editing.
     Build(BuildArgs),
-    /// Simulate a character falling as a ragdoll and bake the result to .glb or .bvh.
+    /// Simulate a character falling as a ragdoll and bake the result to .glb or .bvh; or run
+    /// a scene file (.toml: characters and events) into a folder.
     Simulate(SimulateArgs),
     /// Throw a character with an explosion (kg of TNT at a point) and bake the result.
     Blast(BlastArgs),
@@ -151,10 +153,12 @@ struct BuildArgs {
 
 #[derive(Args, Debug)]
 struct SimulateArgs {
-    /// A .bvh, .glb or .gltf file.
+    /// A .bvh, .glb or .gltf file, or a scene file (.toml; see the README's "Scene files").
     file: PathBuf,
-    /// Output file: .glb or .bvh. The report goes next to it as <stem>.report.json.
-    #[arg(short, long, value_name = "OUT.glb|OUT.bvh")]
+    /// Output file: .glb or .bvh. The report goes next to it as <stem>.report.json. For a
+    /// scene file, the output folder (--seconds, --fps and --rest-pose then override the
+    /// scene's settings).
+    #[arg(short, long, value_name = "OUT.glb|OUT.bvh|DIR")]
     output: PathBuf,
     #[command(flatten)]
     import: ImportArgs,
@@ -237,8 +241,14 @@ fn parse_vec3(text: &str) -> Result<[f32; 3], String> {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    // Parsed in two steps so a scene run can tell flags typed from clap's defaults.
+    let matches = Cli::command().get_matches();
+    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     let result = match cli.command {
+        Command::Simulate(a) if scene_cmd::is_scene(&a.file) => scene_cmd::run(
+            &a,
+            matches.subcommand_matches("simulate").unwrap_or(&matches),
+        ),
         Command::Demo(a) => commands::demo(&a),
         Command::Inspect(a) => commands::inspect(&a),
         Command::Build(a) => commands::build(&a),

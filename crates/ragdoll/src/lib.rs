@@ -42,6 +42,7 @@ pub mod export;
 pub mod import;
 pub mod math;
 pub mod report;
+pub mod scene;
 pub mod skeleton;
 pub mod spec;
 pub mod track;

@@ -12,9 +12,14 @@
 //!   the ragdoll's bodies drawn as their capsules and boxes, rigidly skinned, so the motion
 //!   is visible in any viewer.
 //!
+//! - **Several characters** ([`scene_to_glb`], for scene files): each character's document
+//!   as above, merged into one file with every index renumbered, and their tracks as the
+//!   channels of one `ragdoll` animation.
+//!
 //! The output is meant to pass the Khronos glTF validator with no errors; the tests and
 //! `.ci/gltf_validate.mjs` check that.
 
+mod merge;
 mod shapes;
 
 use std::collections::{HashMap, HashSet};
@@ -49,6 +54,34 @@ const FLOAT: u32 = 5126;
 /// For a glTF character the input is kept and the track added as the animation `ragdoll`;
 /// `spec` is only used for characters without a mesh, whose bodies it draws.
 pub fn to_glb(character: &Character, spec: &RagdollSpec, track: &Track) -> Result<Vec<u8>> {
+    let (root, bin) = document(character, spec, track)?;
+    glb(&root, &bin)
+}
+
+/// Writes several characters, each with its own track, into one binary glTF (a scene).
+///
+/// Every character keeps what [`to_glb`] would give it alone (its own nodes, skin and
+/// meshes; a glTF character its materials, textures and old animations; a BVH or built-in
+/// one its body capsules), side by side in one glTF scene. Their tracks become the channels
+/// of a single animation named `ragdoll`, so a viewer plays all of them together rather
+/// than one character at a time.
+pub fn scene_to_glb(characters: &[(&Character, &RagdollSpec, &Track)]) -> Result<Vec<u8>> {
+    if characters.is_empty() {
+        return Err(track_err(
+            "a scene needs at least one character to export".into(),
+        ));
+    }
+    let docs = characters
+        .iter()
+        .map(|(character, spec, track)| document(character, spec, track))
+        .collect::<Result<Vec<_>>>()?;
+    let (root, bin) = merge::merge(docs)?;
+    glb(&root, &bin)
+}
+
+/// One character's glTF document and its binary chunk, before packing: what [`to_glb`]
+/// packs alone and [`scene_to_glb`] merges with others.
+fn document(character: &Character, spec: &RagdollSpec, track: &Track) -> Result<(Value, Vec<u8>)> {
     check_track(&character.skeleton, track)?;
     match &character.source {
         Source::Gltf(src) => from_source(character, src, track),
@@ -308,7 +341,7 @@ fn take_array(obj: &mut Map<String, Value>, key: &str) -> Vec<Value> {
 }
 
 /// The input glTF with the track as a new first animation.
-fn from_source(character: &Character, src: &GltfSource, track: &Track) -> Result<Vec<u8>> {
+fn from_source(character: &Character, src: &GltfSource, track: &Track) -> Result<(Value, Vec<u8>)> {
     let path = src.path.as_path();
     let skeleton = &character.skeleton;
     if src.joint_nodes.len() != skeleton.len() || src.parent_offsets.len() != skeleton.len() {
@@ -390,7 +423,7 @@ fn from_source(character: &Character, src: &GltfSource, track: &Track) -> Result
     if let Some(a) = asset.as_object_mut() {
         a.insert("generator".into(), json!(generator()));
     }
-    glb(&root, &bin.data)
+    Ok((root, bin.data))
 }
 
 /// The media type of encoded image bytes, from their magic numbers.
@@ -731,7 +764,7 @@ fn joint_nodes_as_trs(
 }
 
 /// A new glTF for a character without a source glTF: joints, skin, body meshes, animation.
-fn fresh(character: &Character, spec: &RagdollSpec, track: &Track) -> Result<Vec<u8>> {
+fn fresh(character: &Character, spec: &RagdollSpec, track: &Track) -> Result<(Value, Vec<u8>)> {
     spec.validate()?;
     let skeleton = &character.skeleton;
     let n = skeleton.len();
@@ -875,5 +908,5 @@ fn fresh(character: &Character, spec: &RagdollSpec, track: &Track) -> Result<Vec
         "bufferViews": bin.views,
         "buffers": [{"byteLength": bin.data.len()}],
     });
-    glb(&root, &bin.data)
+    Ok((root, bin.data))
 }

@@ -1,0 +1,350 @@
+//! Scene files: several characters and a timeline of events in one TOML file, run in one
+//! [`World`] and baked to one glTF holding every character, a BVH per character and a JSON
+//! report (DESIGN §4: "a scene is a timeline of events").
+//!
+//! The format (every key is optional unless marked; the README's "Scene files" section and
+//! `examples/` show it with comments):
+//!
+//! ```toml
+//! duration_s = 3.0                  # simulated seconds
+//! fps = 30                          # output frame rate
+//! gravity = [0.0, -9.80665, 0.0]    # m/s²
+//! ground = 0.0                      # ground height in metres, or "none"
+//! backend = "rigid"                 # the only backend so far
+//! start_pose = "first_frame"        # or "rest"
+//!
+//! [output]                          # file names inside the output folder; false skips one
+//! glb = "scene.glb"
+//! bvh = "{name}.bvh"                # one per character
+//! report = "report.json"
+//!
+//! [[character]]                     # at least one; no file = the built-in humanoid
+//! name = "alice"
+//! file = "alice.glb"                # relative to the scene file
+//! position = [1.0, 0.0, 0.0]
+//! facing_deg = 90.0
+//! activate = "start"                # or "blast", or seconds of its animation first
+//!
+//! [[blast]]
+//! tnt_kg = 1.0                      # required
+//! position = [0.0, 0.5, 0.0]        # required
+//! time_s = 0.5
+//! ```
+//!
+//! plus `[[projectile]]`, `[[push]]`, `[[field]]` and `[[pin]]` tables (see
+//! [`Scene::from_toml`]). Unknown keys and bad values are errors that name the file, the
+//! line and the key.
+//!
+//! Loading reads every character file and builds every ragdoll, so a scene that loads
+//! runs: mistakes surface before minutes of simulation, not after.
+
+mod parse;
+mod report;
+
+pub use report::{CharacterReport, SceneReport};
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use glam::{Quat, Vec3};
+
+use crate::error::{Error, Result};
+use crate::events::{Blast, Field, Pin, Projectile, Push};
+use crate::export::{self, write_atomic};
+use crate::math::Transform;
+use crate::skeleton::Character;
+use crate::spec::RagdollSpec;
+use crate::track::Track;
+use crate::world::{Activation, World, WorldSettings};
+
+/// End of a time window left open in the file (`end_s` omitted): later than any scene, and
+/// finite, so it survives the world's checks and a duration changed after loading (the
+/// CLI's `--seconds`).
+pub const OPEN_END_S: f32 = f32::MAX;
+
+/// A scene read from a file: the world's settings, the characters with their ragdolls, the
+/// events and the output names, all checked.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// The scene file (relative paths in it are relative to its folder).
+    pub path: PathBuf,
+    /// Simulated seconds.
+    pub duration_s: f32,
+    /// How the world steps: fps, gravity, ground, start pose.
+    pub settings: WorldSettings,
+    /// The characters, in file order (their index is the `character` index in reports).
+    pub characters: Vec<SceneCharacter>,
+    /// Explosions.
+    pub blasts: Vec<Event<Blast>>,
+    /// Projectiles; a burst is already expanded into its shots.
+    pub projectiles: Vec<Event<Projectile>>,
+    /// Impulses and forces on one character's part.
+    pub pushes: Vec<Event<Push>>,
+    /// Force fields on every character.
+    pub fields: Vec<Event<Field>>,
+    /// Pins and drags on one character's part.
+    pub pins: Vec<Event<Pin>>,
+    /// What to write, by file name inside the output folder.
+    pub outputs: Outputs,
+}
+
+/// One character of a scene, loaded and with its ragdoll built.
+#[derive(Clone, Debug)]
+pub struct SceneCharacter {
+    /// Unique within the scene; names its BVH file and its entries in the report.
+    pub name: String,
+    /// The file it came from as written in the scene, or `built-in`.
+    pub input: String,
+    /// The character (its `name` set to [`SceneCharacter::name`], so the world's blast
+    /// reports use it too).
+    pub character: Character,
+    /// Its ragdoll: built from the character, or read from the `spec` file.
+    pub spec: RagdollSpec,
+    /// Where it stands, metres (lifted onto the ground by the world where needed).
+    pub position: Vec3,
+    /// Turn about the vertical axis, degrees, counter-clockwise seen from above.
+    pub facing_deg: f32,
+    /// When physics takes over from its animation.
+    pub activation: Activation,
+    /// Line of its `[[character]]` table in the scene file, for error messages.
+    pub line: usize,
+}
+
+impl SceneCharacter {
+    /// The rigid transform that places the character: its facing, then its position.
+    pub fn placement(&self) -> Transform {
+        Transform::new(
+            self.position,
+            Quat::from_rotation_y(self.facing_deg.to_radians()),
+        )
+    }
+}
+
+/// An event with where it came from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Event<T> {
+    /// The event, ready for the world.
+    pub event: T,
+    /// Index of the character it acts on (pushes and pins), `None` for world-wide events.
+    pub character: Option<usize>,
+    /// Line of its table in the scene file, for error messages.
+    pub line: usize,
+}
+
+/// Output file names inside the output folder; `None` skips that output.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Outputs {
+    /// One glTF with every character (default `scene.glb`).
+    pub glb: Option<String>,
+    /// One BVH per character, `{name}` replaced by the character's name (default
+    /// `{name}.bvh`).
+    pub bvh: Option<String>,
+    /// The JSON report (default `report.json`).
+    pub report: Option<String>,
+}
+
+impl Default for Outputs {
+    fn default() -> Self {
+        Outputs {
+            glb: Some("scene.glb".into()),
+            bvh: Some("{name}.bvh".into()),
+            report: Some("report.json".into()),
+        }
+    }
+}
+
+impl Outputs {
+    /// The BVH file name of the character called `name`, if BVH output is on.
+    pub fn bvh_file(&self, name: &str) -> Option<String> {
+        self.bvh.as_ref().map(|p| p.replace("{name}", name))
+    }
+}
+
+/// What running a scene gives: a track per character and the report.
+#[derive(Clone, Debug)]
+pub struct SceneResult {
+    /// Per character, in scene order.
+    pub tracks: Vec<Track>,
+    /// Metrics and event reports.
+    pub report: SceneReport,
+}
+
+impl Scene {
+    /// Reads and checks a scene file, loading every character it names.
+    pub fn load(path: &Path) -> Result<Scene> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        Scene::from_toml(&text, path)
+    }
+
+    /// Reads a scene from TOML text; `path` names it in errors and anchors the relative
+    /// paths of character and spec files.
+    ///
+    /// Besides the settings in the module documentation, the event tables are:
+    ///
+    /// - `[[projectile]]`: `origin` (required) and either `direction` or a `target` point;
+    ///   `mass_kg` (0.008), `speed_mps` (360), `time_s` (0); a burst with `count` shots
+    ///   `interval_s` (0.1) apart.
+    /// - `[[push]]`: `character` (needed when there are several), `target` (a body or joint
+    ///   name), then either `impulse_ns` at `time_s` or `force_n` from `start_s` to `end_s`.
+    /// - `[[field]]`: `kind` = `"gravity"` with `keys = [{ time_s, gravity }, ...]`;
+    ///   `"radial"` with `center`, `strength_mps2`, `radius_m`; `"drag"` with `rate_per_s`;
+    ///   `"wind"` with `velocity_mps`; the last three over `start_s`..`end_s`.
+    /// - `[[pin]]`: `character`, `target`, either `position` (hold there) or
+    ///   `keys = [{ time_s, position }, ...]` (drag along), `stiffness_hz` (omit for a hard
+    ///   pin), `damping_ratio` (1), `release_s`.
+    pub fn from_toml(text: &str, path: &Path) -> Result<Scene> {
+        parse::parse(text, path)
+    }
+
+    /// Runs the scene from the start; see [`Scene::run_with_progress`].
+    pub fn run(&self) -> Result<SceneResult> {
+        self.run_with_progress(|_, _| {})
+    }
+
+    /// Builds the world (characters, then events), steps it for `duration_s` and collects
+    /// the tracks and the report. `progress(done, total)` is called after every step, for
+    /// a progress bar.
+    pub fn run_with_progress(&self, mut progress: impl FnMut(u64, u64)) -> Result<SceneResult> {
+        let started = Instant::now();
+        let mut world = World::new(&self.settings).map_err(|e| self.error(1, "settings", e))?;
+        let mut ids = Vec::with_capacity(self.characters.len());
+        for c in &self.characters {
+            let place = format!("[[character]] \"{}\"", c.name);
+            let id = world
+                .add_ragdoll(&c.character, &c.spec, c.placement())
+                .map_err(|e| self.error(c.line, &place, e))?;
+            world
+                .set_activation(id, c.activation)
+                .map_err(|e| self.error(c.line, &place, e))?;
+            ids.push(id);
+        }
+        let at = |line: usize, kind: &str| {
+            let place = format!("[[{kind}]]");
+            move |err| self.error(line, &place, err)
+        };
+        for b in &self.blasts {
+            world.add_blast(b.event).map_err(at(b.line, "blast"))?;
+        }
+        for p in &self.projectiles {
+            world
+                .add_projectile(p.event)
+                .map_err(at(p.line, "projectile"))?;
+        }
+        for p in &self.pushes {
+            let id = ids[p.character.unwrap_or(0)];
+            world
+                .add_push(id, p.event.clone())
+                .map_err(at(p.line, "push"))?;
+        }
+        for f in &self.fields {
+            world
+                .add_field(f.event.clone())
+                .map_err(at(f.line, "field"))?;
+        }
+        for p in &self.pins {
+            let id = ids[p.character.unwrap_or(0)];
+            world
+                .add_pin(id, p.event.clone())
+                .map_err(at(p.line, "pin"))?;
+        }
+        let steps = (self.duration_s as f64 / self.settings.dt as f64).round() as u64;
+        let mut worst = vec![(0.0f32, 0.0f32); ids.len()];
+        world.run(0.0);
+        for i in 0..steps {
+            world.step();
+            // The world keeps only scene-wide metrics; these two are what it can say per
+            // character, measured as it measures them (active ragdolls, after each step).
+            for (k, &id) in ids.iter().enumerate() {
+                if world.activated_at(id).is_none() {
+                    continue;
+                }
+                for (sep, viol) in world.joint_errors(id) {
+                    worst[k].0 = worst[k].0.max(viol);
+                    worst[k].1 = worst[k].1.max(sep);
+                    if !(sep.is_finite() && viol.is_finite()) {
+                        worst[k] = (f32::INFINITY, f32::INFINITY);
+                    }
+                }
+            }
+            progress(i + 1, steps);
+        }
+        let tracks: Vec<Track> = ids.iter().map(|&id| world.track(id).clone()).collect();
+        let characters = self
+            .characters
+            .iter()
+            .zip(&ids)
+            .zip(&tracks)
+            .zip(&worst)
+            .map(|(((c, &id), track), &(viol, sep))| {
+                CharacterReport::new(
+                    c,
+                    track,
+                    world.activated_at(id),
+                    viol,
+                    sep,
+                    self.outputs.bvh_file(&c.name),
+                )
+            })
+            .collect();
+        let report = SceneReport {
+            scene: self.path.display().to_string(),
+            backend: "rigid".into(),
+            frames: tracks.first().map_or(0, |t| t.frames.len()),
+            fps: self.settings.fps,
+            seconds: self.duration_s,
+            metrics: world.metrics(),
+            wall_seconds: started.elapsed().as_secs_f64(),
+            characters,
+            blasts: world.blast_reports(),
+            projectiles: world.projectile_reports(),
+        };
+        Ok(SceneResult { tracks, report })
+    }
+
+    /// Encodes every output, file name and bytes, in a fixed order (glTF, BVHs, report),
+    /// without writing anything.
+    pub fn encode(&self, result: &SceneResult) -> Result<Vec<(String, Vec<u8>)>> {
+        let mut files = Vec::new();
+        if let Some(name) = &self.outputs.glb {
+            let parts: Vec<(&Character, &RagdollSpec, &Track)> = self
+                .characters
+                .iter()
+                .zip(&result.tracks)
+                .map(|(c, t)| (&c.character, &c.spec, t))
+                .collect();
+            files.push((name.clone(), export::gltf::scene_to_glb(&parts)?));
+        }
+        for (c, track) in self.characters.iter().zip(&result.tracks) {
+            if let Some(name) = self.outputs.bvh_file(&c.name) {
+                let text = export::bvh::to_bvh(&c.character, track)?;
+                files.push((name, text.into_bytes()));
+            }
+        }
+        if let Some(name) = &self.outputs.report {
+            files.push((name.clone(), result.report.to_json().into_bytes()));
+        }
+        Ok(files)
+    }
+
+    /// Encodes every output, then writes each into `dir` (created if needed), atomically;
+    /// returns the paths written. Nothing is written when any encoding fails.
+    pub fn write(&self, result: &SceneResult, dir: &Path) -> Result<Vec<PathBuf>> {
+        let files = self.encode(result)?;
+        let mut written = Vec::with_capacity(files.len());
+        for (name, bytes) in files {
+            let path = dir.join(name);
+            write_atomic(&path, &bytes)?;
+            written.push(path);
+        }
+        Ok(written)
+    }
+
+    /// An error from the world about something at `line` of the scene file.
+    fn error(&self, line: usize, place: &str, e: Error) -> Error {
+        Error::Parse {
+            path: self.path.clone(),
+            line,
+            message: format!("{place}: {e}"),
+        }
+    }
+}

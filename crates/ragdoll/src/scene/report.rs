@@ -1,0 +1,114 @@
+//! The JSON report of a scene: the world's metrics for the whole scene, what can be told
+//! per character, and what every blast and projectile did.
+
+use serde::{Deserialize, Serialize};
+
+use super::SceneCharacter;
+use crate::events::{BlastReport, ProjectileReport};
+use crate::track::{Metrics, Track};
+
+/// One JSON object; numbers in SI units unless the key says otherwise.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SceneReport {
+    /// The scene file.
+    pub scene: String,
+    /// Backend that ran the simulation (`rigid`).
+    pub backend: String,
+    /// Number of output frames (every character has as many).
+    pub frames: usize,
+    /// Output frames per second.
+    pub fps: f32,
+    /// Simulated seconds.
+    pub seconds: f32,
+    /// Quality metrics over the whole scene (every character, every contact), flattened
+    /// into the report as in the single-character report, so the same checks read both.
+    #[serde(flatten)]
+    pub metrics: Metrics,
+    /// Wall-clock seconds spent building the world and simulating (not loading or
+    /// exporting).
+    pub wall_seconds: f64,
+    /// Per character, in scene order (the `character` indices of the event reports).
+    pub characters: Vec<CharacterReport>,
+    /// What each blast did, per body part and character.
+    pub blasts: Vec<BlastReport>,
+    /// What each projectile hit (a burst gives one entry per shot).
+    pub projectiles: Vec<ProjectileReport>,
+}
+
+impl SceneReport {
+    /// Pretty-printed JSON.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("a report always serialises")
+    }
+}
+
+/// What the report says about one character.
+///
+/// Penetration and energy drift are measured by the world for the whole scene only (bodies
+/// of different characters touch each other), so they are in [`SceneReport::metrics`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CharacterReport {
+    /// Its name in the scene.
+    pub name: String,
+    /// Its file as written in the scene, or `built-in`.
+    pub input: String,
+    /// Where it was placed, metres.
+    pub position: [f32; 3],
+    /// Its facing, degrees about the vertical.
+    pub facing_deg: f32,
+    /// When physics took over, seconds (`null` when its animation was still playing at the
+    /// end).
+    pub activated_at_s: Option<f64>,
+    /// Number of rigid bodies.
+    pub bodies: usize,
+    /// Number of joints between bodies.
+    pub joints: usize,
+    /// Number of skeleton joints in its track.
+    pub skeleton_joints: usize,
+    /// Sum of its body masses, kg.
+    pub total_mass_kg: f32,
+    /// Height of its rest pose, metres.
+    pub height_m: f32,
+    /// Worst excursion of its joints beyond their limits while physical, degrees.
+    pub max_limit_violation_deg: f32,
+    /// Worst gap at its joint anchors while physical, metres.
+    pub max_joint_separation_m: f32,
+    /// Whether a non-finite value appeared in its track or its joints.
+    pub nan: bool,
+    /// Its BVH file in the output folder (`null` when BVH output is off).
+    pub bvh: Option<String>,
+}
+
+impl CharacterReport {
+    /// Assembles a character's entry from its run.
+    pub(super) fn new(
+        c: &SceneCharacter,
+        track: &Track,
+        activated_at_s: Option<f64>,
+        max_limit_violation_deg: f32,
+        max_joint_separation_m: f32,
+        bvh: Option<String>,
+    ) -> Self {
+        let finite = max_limit_violation_deg.is_finite()
+            && max_joint_separation_m.is_finite()
+            && track.frames.iter().flatten().all(|t| t.is_finite());
+        CharacterReport {
+            name: c.name.clone(),
+            input: c.input.clone(),
+            position: c.position.to_array(),
+            facing_deg: c.facing_deg,
+            activated_at_s,
+            bodies: c.spec.bodies.len(),
+            joints: c.spec.joints.len(),
+            skeleton_joints: track.frames.first().map_or(0, |f| f.len()),
+            total_mass_kg: c.spec.total_mass_kg(),
+            height_m: c.character.skeleton.rest_height(),
+            // JSON has no infinity or NaN: serde_json writes those as `null`, and `nan` says
+            // why.
+            max_limit_violation_deg,
+            max_joint_separation_m,
+            nan: !finite,
+            bvh,
+        }
+    }
+}
