@@ -1203,7 +1203,20 @@ impl World {
     /// Whether every blast has gone off and passed every body part (DESIGN §5 measures
     /// the energy drift only after the last event).
     fn events_done(&self) -> bool {
-        self.instances.iter().all(|i| i.active)
+        use crate::events::Field;
+        let t = self.time;
+        // Pins hold until released; pushes and fields until their windows end; gravity
+        // fields change what potential energy means, so they never end.
+        let forces_done = self.pins.iter().all(|p| p.released)
+            && self.pushes.iter().all(|p| p.done)
+            && self.fields.iter().all(|f| match f {
+                Field::Gravity { .. } => false,
+                Field::Radial { end_s, .. }
+                | Field::Drag { end_s, .. }
+                | Field::Wind { end_s, .. } => (*end_s as f64) <= t,
+            });
+        forces_done
+            && self.instances.iter().all(|i| i.active)
             && self.blasts.iter().all(|b| {
                 let reached_all = b.parts.len() == self.instances.len()
                     && b.parts
