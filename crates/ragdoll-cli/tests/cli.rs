@@ -504,3 +504,64 @@ fn activate_plays_the_clip_first_and_needs_one() {
         "activate 1 s",
     );
 }
+
+/// Issue #3's "done when": on every humanoid in the shared data, `ragdoll blast` throws the
+/// character away from the charge, earlier and harder when closer.
+#[test]
+fn blast_throws_every_humanoid_away_earlier_and_harder_when_closer() {
+    let Some(data) = data_dir() else { return };
+    let tmp = tempfile::tempdir().unwrap();
+    for file in [
+        "bvh/biovision_example_bvhio.bvh",
+        "bvh/mocapbank_bvh-python.bvh",
+        "bvh/cmu_pirouette_threejs.bvh",
+        "gltf/CesiumMan.glb",
+    ] {
+        let path = data.join(file);
+        let mut runs = Vec::new();
+        for d in ["3", "6"] {
+            let out = format!("b{d}.glb");
+            let at = format!("{d},1,0");
+            let o = ragdoll(
+                tmp.path(),
+                &[
+                    "blast",
+                    path.to_str().unwrap(),
+                    "--tnt",
+                    "10",
+                    "--at",
+                    &at,
+                    "--seconds",
+                    "1",
+                    "-o",
+                    &out,
+                ],
+            );
+            assert!(o.status.success(), "{file}: {}", stderr(&o));
+            let report = read_json(&tmp.path().join(format!("b{d}.report.json")));
+            assert_metrics_in_bounds(&report, file);
+            let blast = &report["blasts"][0];
+            let v = &blast["characters"][0]["com_velocity_mps"];
+            let v: Vec<f64> = (0..3).map(|i| v[i].as_f64().unwrap()).collect();
+            let first = blast["parts"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .filter_map(|p| p["arrival_s"].as_f64())
+                .fold(f64::INFINITY, f64::min);
+            assert!(
+                v[0] < 0.0,
+                "{file}: not thrown away from +X at {d} m: {v:?}"
+            );
+            runs.push(((v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt(), first));
+        }
+        assert!(
+            runs[0].0 > runs[1].0,
+            "{file}: not harder when closer: {runs:?}"
+        );
+        assert!(
+            runs[0].1 < runs[1].1,
+            "{file}: not earlier when closer: {runs:?}"
+        );
+    }
+}
