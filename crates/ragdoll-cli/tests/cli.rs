@@ -2,42 +2,17 @@
 //! test runs the real executable and checks the files and the exit status it leaves.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 use serde_json::Value;
+
+mod common;
+
+use common::*;
 
 /// Bounds every simulation must keep (issue #2).
 const MAX_LIMIT_VIOLATION_DEG: f64 = 2.0;
 const MAX_PENETRATION_M: f64 = 0.03;
 const MAX_JOINT_SEPARATION_M: f64 = 0.005;
-
-fn ragdoll(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_ragdoll"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("the ragdoll binary runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// The shared test data, or `None` (with a loud message) when it is missing. Under CI
-/// (`RAGDOLL_REQUIRE_DATA` set) a missing folder is a failure.
-fn data_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("RAGDOLL_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
-    if dir.is_dir() {
-        return Some(dir);
-    }
-    if std::env::var_os("RAGDOLL_REQUIRE_DATA").is_some() {
-        panic!("shared data folder {} is missing", dir.display());
-    }
-    eprintln!("SKIPPING: shared data folder {} is missing", dir.display());
-    None
-}
 
 fn data_files(dir: &Path) -> Vec<PathBuf> {
     let mut files = Vec::new();
@@ -54,10 +29,6 @@ fn data_files(dir: &Path) -> Vec<PathBuf> {
     }
     files.sort();
     files
-}
-
-fn read_json(path: &Path) -> Value {
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
 /// The bounds are for human-sized characters; lengths scale with the character for bigger

@@ -5,41 +5,13 @@
 //! glTF and BVH characters is validated too, where that folder is there.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
 use serde_json::Value;
 
-fn ragdoll(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_ragdoll"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("the ragdoll binary runs")
-}
+mod common;
 
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// The shared test data, or `None` (with a loud message) when it is missing. Under CI
-/// (`RAGDOLL_REQUIRE_DATA` set) a missing folder is a failure.
-fn data_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("RAGDOLL_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| repo().join("../shared/data"));
-    if dir.is_dir() {
-        return Some(dir);
-    }
-    if std::env::var_os("RAGDOLL_REQUIRE_DATA").is_some() {
-        panic!("shared data folder {} is missing", dir.display());
-    }
-    eprintln!("SKIPPING: shared data folder {} is missing", dir.display());
-    None
-}
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+use common::*;
 
 fn examples() -> Vec<PathBuf> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(repo().join("examples"))

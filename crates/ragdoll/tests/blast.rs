@@ -1,11 +1,12 @@
 //! Blasts acting on bodies in a world: physical facts (DESIGN §7, §8), not "it moved".
 
+mod common;
+
 use glam::Vec3;
 use ragdoll::events::Blast;
 use ragdoll::events::blast::{blast_at, part_impulse};
-use ragdoll::math::Transform;
-use ragdoll::skeleton::{Character, Joint, Skeleton, Source, humanoid};
-use ragdoll::spec::{BodySpec, BuildOptions, RagdollSpec, SPEC_FORMAT_VERSION, Shape, build_spec};
+use ragdoll::skeleton::humanoid;
+use ragdoll::spec::{BuildOptions, build_spec};
 use ragdoll::world::{World, WorldSettings};
 
 /// No gravity, no ground: only the blast acts.
@@ -40,38 +41,8 @@ fn a_free_body_receives_the_integrated_load() {
     // One capsule 5 m from 1 kg of TNT, broadside: its momentum afterwards must equal the
     // time integral of the load on it (computed here from the curves, independently of the
     // world's substeps) within 2 %.
-    let character = Character {
-        name: "bar".into(),
-        skeleton: Skeleton::new(vec![Joint {
-            name: "bar".into(),
-            parent: None,
-            rest: Transform::from_translation(Vec3::new(0.0, 1.0, 0.0)),
-            tip: None,
-        }])
-        .unwrap(),
-        meshes: vec![],
-        clips: vec![],
-        source: Source::BuiltIn,
-    };
     let (radius, length, mass) = (0.1f32, 0.6f32, 10.0f32);
-    let spec = RagdollSpec {
-        format_version: SPEC_FORMAT_VERSION,
-        name: "bar".into(),
-        bodies: vec![BodySpec {
-            name: "bar".into(),
-            bone: "bar".into(),
-            role: None,
-            shape: Shape::Capsule {
-                radius_m: radius,
-                length_m: length,
-            },
-            center_m: [0.0; 3],
-            rotation: [0.0, 0.0, 0.0, 1.0],
-            mass_kg: mass,
-        }],
-        joints: vec![],
-        collision: Default::default(),
-    };
+    let (character, spec) = common::one_capsule(radius, length, mass);
     let (mut world, id) = World::with_ragdoll(&character, &spec, &free_space()).unwrap();
     let charge = Vec3::new(5.0 + radius, 1.0, 0.0);
     world.add_blast(Blast::new(1.0, charge, 0.0)).unwrap();

@@ -1,10 +1,11 @@
 //! Pushes, fields and pins: the momentum they deliver and the paths they impose.
 
+mod common;
+
 use glam::Vec3;
 use ragdoll::events::{Field, Pin, Push};
-use ragdoll::math::Transform;
-use ragdoll::skeleton::{Character, Joint, Skeleton, Source, humanoid};
-use ragdoll::spec::{BodySpec, BuildOptions, RagdollSpec, SPEC_FORMAT_VERSION, Shape, build_spec};
+use ragdoll::skeleton::humanoid;
+use ragdoll::spec::{BuildOptions, build_spec};
 use ragdoll::world::{RagdollId, World, WorldSettings};
 
 const MASS: f32 = 10.0;
@@ -12,37 +13,7 @@ const MASS: f32 = 10.0;
 /// A single 10 kg capsule at rest 1 m up, in free space (no gravity, no ground) unless
 /// told otherwise.
 fn bar(settings: WorldSettings) -> (World, RagdollId) {
-    let character = Character {
-        name: "bar".into(),
-        skeleton: Skeleton::new(vec![Joint {
-            name: "bar".into(),
-            parent: None,
-            rest: Transform::from_translation(Vec3::new(0.0, 1.0, 0.0)),
-            tip: None,
-        }])
-        .unwrap(),
-        meshes: vec![],
-        clips: vec![],
-        source: Source::BuiltIn,
-    };
-    let spec = RagdollSpec {
-        format_version: SPEC_FORMAT_VERSION,
-        name: "bar".into(),
-        bodies: vec![BodySpec {
-            name: "bar".into(),
-            bone: "bar".into(),
-            role: None,
-            shape: Shape::Capsule {
-                radius_m: 0.1,
-                length_m: 0.6,
-            },
-            center_m: [0.0; 3],
-            rotation: [0.0, 0.0, 0.0, 1.0],
-            mass_kg: MASS,
-        }],
-        joints: vec![],
-        collision: Default::default(),
-    };
+    let (character, spec) = common::one_capsule(0.1, 0.6, MASS);
     World::with_ragdoll(&character, &spec, &settings).unwrap()
 }
 
