@@ -26,6 +26,9 @@ pub(crate) trait Backend {
     fn step(&mut self, dt: f32);
     /// Adds `impulse` (N·s, world) at the world `point` of body `index` (global), waking it.
     fn apply_impulse_at_point(&mut self, index: usize, impulse: Vec3, point: Vec3);
+    /// Adds the angular impulse `impulse` (N·m·s, world) to body `index` (global), waking
+    /// it: what a joint motor gives over one substep.
+    fn apply_torque_impulse(&mut self, index: usize, impulse: Vec3);
     /// Writes the state of every body of every ragdoll, in insertion order.
     fn body_states(&self, out: &mut Vec<BodyState>);
     /// Deepest contact penetration seen in the last step, metres (0 when none).

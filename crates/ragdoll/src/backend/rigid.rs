@@ -244,6 +244,10 @@ impl Backend for RigidBackend {
         self.world.bodies[self.bodies[index]].apply_impulse_at_point(impulse, point, true);
     }
 
+    fn apply_torque_impulse(&mut self, index: usize, impulse: Vec3) {
+        self.world.bodies[self.bodies[index]].apply_torque_impulse(impulse, true);
+    }
+
     fn cast_ray(&self, origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(usize, f32)> {
         let not_ground = |_: ColliderHandle, c: &Collider| c.user_data != GROUND_KEY;
         let filter = QueryFilter::default().predicate(&not_ground);

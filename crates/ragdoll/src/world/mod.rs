@@ -6,8 +6,10 @@ use glam::Vec3;
 
 mod blast;
 mod forces;
+mod motors;
 mod playback;
 
+pub use motors::Motors;
 pub use playback::Activation;
 
 use crate::backend::rigid::{RigidBackend, RigidSettings};
@@ -163,6 +165,8 @@ struct Instance {
     active: bool,
     /// When physics took over, seconds.
     activated_at: Option<f64>,
+    /// Joint motors tracking the clip (powered mode), if any.
+    motors: Option<motors::MotorState>,
 }
 
 /// A simulated world: ragdolls, ground, gravity, a backend, and the tracks being recorded.
@@ -353,6 +357,7 @@ impl World {
             activation: Activation::Immediately,
             active: true,
             activated_at: Some(0.0),
+            motors: None,
             name: character.name.clone(),
             body_names: spec.bodies.iter().map(|b| b.name.clone()).collect(),
             first_body,
@@ -1015,6 +1020,16 @@ impl World {
                     self.backend.body_states(&mut self.states);
                 }
                 self.apply_forces(t0, t0 + h as f64);
+            }
+            if self
+                .instances
+                .iter()
+                .any(|inst| inst.active && inst.motors.is_some())
+            {
+                if i > 0 {
+                    self.backend.body_states(&mut self.states);
+                }
+                self.apply_motors(t0, h);
             }
             self.backend.step(h);
             // After the step: rapier's scene queries see the bodies only once a step has

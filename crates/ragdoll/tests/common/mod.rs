@@ -27,7 +27,6 @@ pub fn shared_data() -> Option<PathBuf> {
 
 /// A one-joint character "bar" 1 m up with a single capsule body "bar" (long axis vertical):
 /// the simplest rigid body to check a load or a field against a closed form.
-
 pub fn one_capsule(
     radius_m: f32,
     length_m: f32,

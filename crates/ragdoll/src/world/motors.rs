@@ -1,0 +1,311 @@
+//! Powered mode (DESIGN §4, Activation): joint motors make a physical ragdoll track its
+//! animation clip, with a strength keyed over time; a strength fading to 0 leaves it limp.
+//!
+//! Each collision substep, every joint gets a damped spring torque that turns the child
+//! body toward the relative rotation the clip has at that moment, applied equal and
+//! opposite to the child and the parent (internal, so it never moves the centre of mass).
+//! The motors are torques on top of rapier's joints rather than rapier's own joint motors:
+//! rapier drives each angular axis by its own angle, which for coupled swing axes is not
+//! the rotation the clip asks for.
+
+use glam::{Quat, Vec3};
+
+use super::{HANDOVER_LIMIT_MARGIN_DEG, World, setting_error};
+use crate::backend::Backend;
+use crate::error::Result;
+use crate::math::Transform;
+use crate::spec::{JointKind, Shape};
+
+/// Natural frequency of the motors' spring at strength 1, Hz.
+///
+/// High enough that gravity alone bends a joint by well under a degree (the static sag is
+/// g / (r·ω²): 0.3° for a 0.4 m limb at 15 Hz) and that a mocap joint turning at a few
+/// hundred degrees per second lags by a few degrees at most; low enough that the spring
+/// stays far below the 240 Hz substep rate (ω·h ≈ 0.4), and the implicit form below keeps
+/// it stable even where the inertia estimate is off.
+const MOTOR_FREQUENCY_HZ: f32 = 15.0;
+
+/// Damping ratio of the motors: critical, so a joint settles on its target without
+/// overshooting it.
+const MOTOR_DAMPING_RATIO: f32 = 1.0;
+
+/// Joint motors that make a physical ragdoll track its animation clip ("powered mode").
+///
+/// The clip is the character's first one, on the world's clock (held at its last frame
+/// after it ends), as for [`super::Activation`]. Motors act only while the ragdoll is
+/// physical: with an activation time the clip plays kinematically first, then the motors
+/// take over from the hand-over on.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Motors {
+    /// `(time s, strength 0..1)` keys, in time order, interpolated linearly and held
+    /// before the first and after the last. Strength scales the motors' torque: 1 tracks
+    /// the clip closely, 0 is a limp ragdoll.
+    pub strength_keys: Vec<(f32, f32)>,
+    /// Whether the root body (the one no joint hangs from, the pelvis) follows the clip
+    /// kinematically, so the motors only have to hold the rest of the body on it (a
+    /// character standing on its animation); otherwise the whole ragdoll is free and the
+    /// motors alone keep it in pose, which cannot keep it balanced for long.
+    pub root_on_clip: bool,
+}
+
+impl Motors {
+    /// Motors at a constant strength.
+    pub fn constant(strength: f32) -> Self {
+        Motors {
+            strength_keys: vec![(0.0, strength)],
+            root_on_clip: false,
+        }
+    }
+
+    /// Motors at `strength` until `start_s`, fading linearly to 0 at `end_s` (a ragdoll
+    /// that goes limp).
+    pub fn fade_out(strength: f32, start_s: f32, end_s: f32) -> Self {
+        Motors {
+            strength_keys: vec![(start_s, strength), (end_s, 0.0)],
+            root_on_clip: false,
+        }
+    }
+
+    /// Checks the keys: at least one, finite times in order, strengths within 0..1.
+    pub fn validate(&self) -> Result<()> {
+        if self.strength_keys.is_empty() {
+            return Err(setting_error("powered", "needs at least one strength key"));
+        }
+        if self
+            .strength_keys
+            .iter()
+            .any(|&(t, s)| !(t.is_finite() && s.is_finite() && (0.0..=1.0).contains(&s)))
+        {
+            return Err(setting_error(
+                "powered",
+                "strengths must be between 0 and 1 and times finite",
+            ));
+        }
+        if self.strength_keys.windows(2).any(|w| w[0].0 > w[1].0) {
+            return Err(setting_error(
+                "powered",
+                "strength keys must be in time order",
+            ));
+        }
+        Ok(())
+    }
+
+    /// The strength at `t` seconds.
+    pub fn strength_at(&self, t: f32) -> f32 {
+        let keys: Vec<(f32, Vec3)> = self
+            .strength_keys
+            .iter()
+            .map(|&(k, s)| (k, Vec3::splat(s)))
+            .collect();
+        super::forces::sample_keys(&keys, t).x
+    }
+}
+
+/// Motors on one ragdoll, and whether they have taken hold yet.
+#[derive(Clone, Debug)]
+pub(crate) struct MotorState {
+    pub motors: Motors,
+    /// Set the first substep the ragdoll is physical (limits widened, root made kinematic).
+    pub engaged: bool,
+    /// The root body (no joint has it as child), within the ragdoll.
+    pub root: usize,
+}
+
+/// A body's principal moments of inertia about its centre, in its own frame (long axis
+/// Y), kg·m². A capsule counts as a cylinder of its whole length: close enough for sizing
+/// a motor, and it keeps the small moment about the long axis, which is what a twist
+/// turns (sizing a twist for the tumbling moment overshot it tenfold).
+fn principal_inertia(shape: &Shape, mass: f32) -> Vec3 {
+    match *shape {
+        Shape::Capsule { radius_m, length_m } => {
+            let l = length_m + 2.0 * radius_m;
+            let across = mass * (3.0 * radius_m * radius_m + l * l) / 12.0;
+            Vec3::new(across, 0.5 * mass * radius_m * radius_m, across)
+        }
+        Shape::Box { size_m } => {
+            let [x, y, z] = size_m.map(|s| s * s);
+            Vec3::new(y + z, x + z, x + y) * (mass / 12.0)
+        }
+    }
+}
+
+/// Moment of inertia of a body about the axis `n` (unit, world) through `anchor`, kg·m².
+fn inertia_about(pose: &Transform, principal: Vec3, mass: f32, anchor: Vec3, n: Vec3) -> f32 {
+    let local = pose.rotation.conjugate() * n;
+    let own = (local * local).dot(principal);
+    let r = pose.translation - anchor;
+    own + mass * (r.length_squared() - r.dot(n).powi(2)).max(0.0)
+}
+
+/// Turns rotation `q` into a rotation vector (axis · angle, radians), the short way round.
+fn rotation_vector(mut q: Quat) -> Vec3 {
+    if q.w < 0.0 {
+        q = -q;
+    }
+    let (axis, angle) = q.normalize().to_axis_angle();
+    let v = axis * angle;
+    if v.is_finite() { v } else { Vec3::ZERO }
+}
+
+impl World {
+    /// Powers ragdoll `id`'s joints so that it tracks its first animation clip (see
+    /// [`Motors`]). Must be called before the first step; fails when the character has no
+    /// clip or the keys are invalid.
+    pub fn set_motors(&mut self, id: super::RagdollId, motors: Motors) -> Result<()> {
+        motors.validate()?;
+        if self.frames_recorded > 0 {
+            return Err(setting_error(
+                "powered",
+                "motors must be set before the world starts stepping",
+            ));
+        }
+        let inst = &mut self.instances[id.0];
+        if inst.playback.is_none() {
+            return Err(setting_error(
+                "powered",
+                &format!("{} has no animation for the motors to track", inst.name),
+            ));
+        }
+        let root = (0..inst.shapes.len())
+            .find(|&b| inst.joints.iter().all(|j| j.child != b))
+            .unwrap_or(0);
+        inst.motors = Some(MotorState {
+            motors,
+            engaged: false,
+            root,
+        });
+        Ok(())
+    }
+
+    /// The first substep a powered ragdoll is physical: its limits widen to take in every
+    /// clip pose from now on, and its root goes kinematic when it stays on the clip.
+    ///
+    /// The limits were fitted to the starting pose only; a motor pulling toward a pose
+    /// outside them would fight both rapier's limits and the position projection
+    /// ([`super::WorldSettings::project_limits`]) every step. The performer held those
+    /// poses, so the limits give way to them, as they do at a hand-over.
+    fn engage_motors(&mut self, c: usize, t0: f64) {
+        let inst = &mut self.instances[c];
+        let (Some(state), Some(play)) = (&mut inst.motors, &inst.playback) else {
+            return;
+        };
+        state.engaged = true;
+        let frame_time = play.clip.frame_time.max(1e-6) as f64;
+        let first = (t0 / frame_time).floor() as usize;
+        for f in first..play.clip.frames.len() {
+            let poses = play.body_poses(f as f64 * frame_time);
+            for (k, j) in inst.joints.iter_mut().enumerate() {
+                if j.widen_to_include(&poses[j.parent], &poses[j.child], HANDOVER_LIMIT_MARGIN_DEG)
+                {
+                    self.backend.set_joint_limits(inst.first_joint + k, &j.kind);
+                }
+            }
+        }
+        if state.motors.root_on_clip {
+            self.backend
+                .set_kinematic(inst.first_body + state.root, true);
+        }
+    }
+
+    /// Applies every powered ragdoll's motor torques over the substep `[t0, t0 + h]`, and
+    /// moves roots kept on the clip.
+    pub(super) fn apply_motors(&mut self, t0: f64, h: f32) {
+        for c in 0..self.instances.len() {
+            let inst = &self.instances[c];
+            if !inst.active || inst.playback.is_none() {
+                continue;
+            }
+            match &inst.motors {
+                None => continue,
+                Some(state) if !state.engaged => self.engage_motors(c, t0),
+                Some(_) => {}
+            }
+            let inst = &self.instances[c];
+            let (Some(state), Some(play)) = (&inst.motors, &inst.playback) else {
+                continue;
+            };
+            let t1 = t0 + h as f64;
+            let targets = play.body_poses(t1);
+            let base = inst.first_body;
+            if state.motors.root_on_clip {
+                self.backend
+                    .set_kinematic_target(base + state.root, &targets[state.root]);
+            }
+            let s = state.motors.strength_at((t0 + 0.5 * h as f64) as f32);
+            if s <= 0.0 {
+                continue;
+            }
+            // The clip's angular velocities: the motors damp toward the clip's motion
+            // rather than toward rest, so a fast joint does not lag behind its target.
+            let clip_velocities = play.body_velocities(t1, h as f64);
+            let states = &self.states[base..base + inst.shapes.len()];
+            let own: Vec<Vec3> = inst
+                .shapes
+                .iter()
+                .zip(&inst.masses)
+                .map(|(shape, &m)| principal_inertia(shape, m))
+                .collect();
+            let omega = std::f32::consts::TAU * MOTOR_FREQUENCY_HZ;
+            let kp = s * omega * omega;
+            let kd = s * 2.0 * MOTOR_DAMPING_RATIO * omega;
+            for j in &inst.joints {
+                if matches!(j.kind, JointKind::Fixed) {
+                    continue;
+                }
+                let (parent, child) = (&states[j.parent], &states[j.child]);
+                let (pt, ct) = (&targets[j.parent], &targets[j.child]);
+                // Where the child should be turned, the parent where it is.
+                let relative = pt.rotation.conjugate() * ct.rotation;
+                let wanted = parent.pose.rotation * relative;
+                let theta = rotation_vector(wanted * child.pose.rotation.conjugate());
+                // The clip's relative angular velocity, turned from the clip's parent
+                // frame into the current one.
+                let to_now = parent.pose.rotation * pt.rotation.conjugate();
+                let target_rel =
+                    to_now * (clip_velocities[j.child].1 - clip_velocities[j.parent].1);
+                let error_velocity = child.angvel - parent.angvel - target_rel;
+                let anchor = child.pose.transform_point(j.frame_child.translation);
+                // Implicit ("stable") PD: the damping and the spring act on the velocity
+                // at the end of the substep, so the spring cannot overshoot within one
+                // substep whatever the gains; an error in the inertia estimate only
+                // changes how fast a joint gets there.
+                let accel =
+                    (theta * kp - error_velocity * (kd + h * kp)) / (1.0 + h * kd + h * h * kp);
+                let Some(n) = accel.try_normalize() else {
+                    continue;
+                };
+                let about_anchor =
+                    |b: usize| inertia_about(&states[b].pose, own[b], inst.masses[b], anchor, n);
+                let held = state.motors.root_on_clip && j.parent == state.root;
+                let inertia = effective_inertia(
+                    about_anchor(j.child),
+                    (!held).then(|| about_anchor(j.parent)),
+                );
+                let impulse = accel * inertia * h;
+                if impulse.is_finite() {
+                    self.backend.apply_torque_impulse(base + j.child, impulse);
+                    self.backend.apply_torque_impulse(base + j.parent, -impulse);
+                }
+            }
+        }
+    }
+}
+
+/// Inertia a motor turns, kg·m²: the child body's about the joint anchor along the
+/// torque's axis (its own plus m·r²) and the parent's about the same point, combined as a reduced inertia (the motor
+/// turns both against each other); the child's alone when the parent is a root held on the
+/// clip.
+///
+/// Only the two bodies count, not the child's whole subtree, although the subtree is what
+/// the motor ends up turning: a torque impulse reaches the child body alone within a
+/// substep (the joints below pass it on only through their own motors, one substep
+/// later), so sizing it for the subtree made the child overshoot several times over and
+/// the chain blew up. Sized for the two bodies, each motor is stable on its own; the load
+/// of the bodies below (their weight, their swing) is then held with a lower stiffness
+/// than designed, which the high frequency keeps to a degree or two.
+fn effective_inertia(child: f32, parent: Option<f32>) -> f32 {
+    match parent {
+        Some(p) if p > 0.0 => child * p / (child + p),
+        _ => child,
+    }
+}
