@@ -151,6 +151,17 @@ fn simulate_character(
     let started = Instant::now();
     let (mut world, id) = World::with_ragdoll(character, spec, &settings)?;
     world.set_activation(id, sim.activate).map_err(flag_error)?;
+    if let Some(strength) = sim.powered {
+        let mut motors = match sim.fade_out {
+            Some([start, end]) => ragdoll::world::Motors::fade_out(strength, start, end),
+            None => ragdoll::world::Motors::constant(strength),
+        };
+        motors.root_on_clip = sim.root_on_clip;
+        world.set_motors(id, motors).map_err(|e| match e {
+            ragdoll::Error::Setting { message, .. } => anyhow::anyhow!("--powered: {message}"),
+            e => e.into(),
+        })?;
+    }
     for b in &events.blasts {
         world.add_blast(*b)?;
     }

@@ -97,6 +97,34 @@ struct SimArgs {
     /// then), or `blast` (when the first blast front reaches the character).
     #[arg(long, value_name = "start|SECONDS|blast", default_value = "start", value_parser = parse_activation)]
     activate: ragdoll::world::Activation,
+    /// Powered mode: joint motors pull the ragdoll toward its animation with this strength
+    /// (0-1) once physics has taken over.
+    #[arg(long, value_name = "STRENGTH")]
+    powered: Option<f32>,
+    /// With --powered: the strength falls linearly to 0 between these times, seconds, and
+    /// the ragdoll goes limp.
+    #[arg(long, value_name = "START,END", value_parser = parse_pair, requires = "powered", allow_hyphen_values = true)]
+    fade_out: Option<[f32; 2]>,
+    /// With --powered: the root (pelvis) follows the animation exactly; the motors carry the
+    /// rest.
+    #[arg(long, requires = "powered")]
+    root_on_clip: bool,
+}
+
+/// Parses `START,END` (two finite numbers).
+fn parse_pair(text: &str) -> Result<[f32; 2], String> {
+    let parts: Vec<f32> = text
+        .split(',')
+        .map(|s| {
+            s.trim()
+                .parse::<f32>()
+                .map_err(|_| format!("\"{s}\" is not a number"))
+        })
+        .collect::<Result<_, _>>()?;
+    match parts.as_slice() {
+        [a, b] if a.is_finite() && b.is_finite() => Ok([*a, *b]),
+        _ => Err(format!("expected START,END (two numbers), got \"{text}\"")),
+    }
 }
 
 /// Parses `--activate`.

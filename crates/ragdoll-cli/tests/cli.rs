@@ -536,3 +536,46 @@ fn blast_throws_every_humanoid_away_earlier_and_harder_when_closer() {
         );
     }
 }
+
+#[test]
+fn powered_runs_with_its_options_and_needs_an_animation() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = ragdoll(tmp.path(), &["demo", "--powered", "1", "-o", "d"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--powered"), "{}", stderr(&o));
+    let o = ragdoll(tmp.path(), &["demo", "--fade-out", "1,2", "-o", "d"]);
+    assert!(!o.status.success(), "--fade-out needs --powered");
+    let Some(data) = data_dir() else { return };
+    let file = data.join("bvh/mocapbank_bvh-python.bvh");
+    let o = ragdoll(
+        tmp.path(),
+        &[
+            "simulate",
+            file.to_str().unwrap(),
+            "--powered",
+            "1",
+            "--fade-out",
+            "0.5,1",
+            "--seconds",
+            "2",
+            "-o",
+            "p.glb",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report = read_json(&tmp.path().join("p.report.json"));
+    assert_eq!(report["nan"], Value::Bool(false));
+    let o = ragdoll(
+        tmp.path(),
+        &[
+            "simulate",
+            file.to_str().unwrap(),
+            "--powered",
+            "1.5",
+            "-o",
+            "q.glb",
+        ],
+    );
+    assert!(!o.status.success(), "a strength above 1 is refused");
+    assert!(!tmp.path().join("q.glb").exists());
+}

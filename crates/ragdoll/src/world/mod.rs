@@ -1230,7 +1230,16 @@ impl World {
                 | Field::Drag { end_s, .. }
                 | Field::Wind { end_s, .. } => (*end_s as f64) <= t,
             });
+        // Motors put energy in on purpose until they have faded out for good.
+        let motors_done = self.instances.iter().all(|i| {
+            i.motors.as_ref().is_none_or(|m| {
+                let keys = &m.motors.strength_keys;
+                keys.last()
+                    .is_some_and(|&(time, strength)| strength == 0.0 && (time as f64) <= t)
+            })
+        });
         forces_done
+            && motors_done
             && self.instances.iter().all(|i| i.active)
             && self.blasts.iter().all(|b| {
                 let reached_all = b.parts.len() == self.instances.len()
