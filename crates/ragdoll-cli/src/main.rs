@@ -94,8 +94,9 @@ struct SimArgs {
     #[arg(long)]
     rest_pose: bool,
     /// When physics takes over: `start`, a time in seconds (the animation plays until
-    /// then), or `blast` (when the first blast front reaches the character).
-    #[arg(long, value_name = "start|SECONDS|blast", default_value = "start", value_parser = parse_activation)]
+    /// then), `blast` (when the first blast front reaches the character) or `contact` (when
+    /// something other than the ground touches it, or a shot hits it).
+    #[arg(long, value_name = "start|SECONDS|blast|contact", default_value = "start", value_parser = parse_activation)]
     activate: ragdoll::world::Activation,
     /// Powered mode: joint motors pull the ragdoll toward its animation with this strength
     /// (0-1) once physics has taken over.
@@ -133,10 +134,11 @@ fn parse_activation(text: &str) -> Result<ragdoll::world::Activation, String> {
     match text {
         "start" => Ok(Activation::Immediately),
         "blast" => Ok(Activation::OnBlast),
+        "contact" => Ok(Activation::OnContact),
         _ => match text.parse::<f32>() {
             Ok(t) if t.is_finite() && t >= 0.0 => Ok(Activation::AtTime(t)),
             _ => Err(format!(
-                "expected start, blast or a time in seconds, got \"{text}\""
+                "expected start, blast, contact or a time in seconds, got \"{text}\""
             )),
         },
     }

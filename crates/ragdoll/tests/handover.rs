@@ -187,3 +187,80 @@ fn on_blast_plays_until_the_front_arrives() {
     let v = report.characters[0].com_velocity_mps.expect("thrown");
     assert!(v[0] < -0.5, "thrown away from the charge: {v:?}");
 }
+
+/// `OnContact`: the clip plays until something other than the ground touches the
+/// character; a shot counts too, and its hit lands on the now physical body.
+#[test]
+fn on_contact_plays_until_a_body_or_a_shot_touches() {
+    let Some(data) = common::shared_data() else {
+        return;
+    };
+    let character = load(
+        &data.join("bvh/mocapbank_bvh-python.bvh"),
+        &ImportOptions::default(),
+    )
+    .unwrap();
+    let spec = build_spec(&character, &BuildOptions::default()).unwrap();
+
+    // Where the head starts (a first world, only to read it).
+    let (mut probe, pid) =
+        World::with_ragdoll(&character, &spec, &WorldSettings::default()).unwrap();
+    probe.run(0.0);
+    let head = probe.track(pid).frames[0][character.skeleton.find("Head").unwrap()].translation;
+
+    // A 10 kg bar dropped from 1 m above the head: the character plays its clip until the
+    // bar lands on it (about 0.4 s of fall), not before.
+    let (bar, bar_spec) = common::one_capsule(0.1, 0.6, 10.0);
+    let mut world = World::new(&WorldSettings::default()).unwrap();
+    let id = world
+        .add_ragdoll(&character, &spec, ragdoll::math::Transform::IDENTITY)
+        .unwrap();
+    // The bar's joint is 1 m up in its own file.
+    let above = head + Vec3::new(0.0, 1.0 + 0.3 + 0.1, 0.0) - Vec3::Y;
+    world
+        .add_ragdoll(
+            &bar,
+            &bar_spec,
+            ragdoll::math::Transform::from_translation(above),
+        )
+        .unwrap();
+    world.set_activation(id, Activation::OnContact).unwrap();
+    world.run(0.2);
+    assert_eq!(
+        world.activated_at(id),
+        None,
+        "touched before the bar arrived"
+    );
+    world.run(1.0);
+    let t = world
+        .activated_at(id)
+        .expect("the bar's landing handed over");
+    assert!(t > 0.2 && t < 0.8, "handed over at {t} s");
+
+    // A shot at 0.5 s: the character is handed over on the hit and thrown.
+    let (mut world, id) =
+        World::with_ragdoll(&character, &spec, &WorldSettings::default()).unwrap();
+    world.set_activation(id, Activation::OnContact).unwrap();
+    world.run(0.0);
+    let chest = world.track(id).frames[0][character.skeleton.find("Chest2").unwrap()].translation;
+    world
+        .add_projectile(ragdoll::events::Projectile {
+            origin: chest + Vec3::new(3.0, 0.0, 0.0),
+            direction: -Vec3::X,
+            mass_kg: 0.5,
+            speed_mps: 100.0,
+            time_s: 0.5,
+        })
+        .unwrap();
+    world.run(0.45);
+    assert_eq!(
+        world.activated_at(id),
+        None,
+        "still playing before the shot"
+    );
+    world.run(0.3);
+    let t = world.activated_at(id).expect("the shot handed over");
+    assert!((t - 0.5).abs() < 0.02, "handed over at {t} s");
+    let hit = &world.projectile_reports()[0];
+    assert!(hit.body.is_some(), "the shot hit the character");
+}

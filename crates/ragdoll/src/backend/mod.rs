@@ -66,6 +66,9 @@ pub(crate) trait Backend {
     fn move_pin(&mut self, pin: usize, target: Vec3);
     /// Lets go of pin `pin`.
     fn release_pin(&mut self, pin: usize);
+    /// Whether any of the `count` bodies from global index `first` touches a body outside
+    /// that range (the ground does not count).
+    fn touches_another_ragdoll(&self, first: usize, count: usize) -> bool;
     /// Stops bodies `a` and `b` (global) from colliding with each other.
     fn disable_pair(&mut self, a: usize, b: usize);
     /// Moves body `index` (global) to `pose` without changing its velocities.

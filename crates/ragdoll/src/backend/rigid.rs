@@ -331,6 +331,28 @@ impl Backend for RigidBackend {
         }
     }
 
+    fn touches_another_ragdoll(&self, first: usize, count: usize) -> bool {
+        /// Closer than this counts as touching, metres (rapier keeps speculative contacts a
+        /// little apart).
+        const TOUCH_M: f32 = 0.005;
+        let mine = |k: u128| k != GROUND_KEY && (first..first + count).contains(&(k as usize));
+        self.world.narrow_phase.contact_pairs().any(|pair| {
+            let k1 = self.world.colliders[pair.collider1].user_data;
+            let k2 = self.world.colliders[pair.collider2].user_data;
+            let other = |k: u128| k != GROUND_KEY && !mine(k);
+            if !((mine(k1) && other(k2)) || (mine(k2) && other(k1))) {
+                return false;
+            }
+            let PairContacts::Rigid(contacts) = &pair.contacts else {
+                return false;
+            };
+            contacts
+                .manifolds
+                .iter()
+                .any(|m| m.points.iter().any(|p| p.dist < TOUCH_M))
+        })
+    }
+
     fn disable_pair(&mut self, a: usize, b: usize) {
         let (a, b) = (a as u32, b as u32);
         self.filter.disabled.insert((a.min(b), a.max(b)));

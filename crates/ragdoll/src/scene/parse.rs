@@ -216,7 +216,7 @@ impl<'de> Deserialize<'de> for ActivateValue {
         impl Visitor<'_> for V {
             type Value = ActivateValue;
             fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("\"start\", \"blast\" or a time in seconds (zero or more)")
+                f.write_str("\"start\", \"blast\", \"contact\" or a time in seconds (zero or more)")
             }
             fn visit_i64<E: de::Error>(self, v: i64) -> std::result::Result<Self::Value, E> {
                 self.time(v as f64)
@@ -231,6 +231,7 @@ impl<'de> Deserialize<'de> for ActivateValue {
                 match v {
                     "start" => Ok(ActivateValue(Activation::Immediately)),
                     "blast" => Ok(ActivateValue(Activation::OnBlast)),
+                    "contact" => Ok(ActivateValue(Activation::OnContact)),
                     _ => Err(E::invalid_value(de::Unexpected::Str(v), &self)),
                 }
             }

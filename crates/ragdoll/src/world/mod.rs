@@ -472,6 +472,9 @@ impl World {
                 // The first substep that starts at or after the time (1 µs of slack for
                 // the sum of steps).
                 Activation::AtTime(t) => t0 + 1e-6 >= t as f64,
+                Activation::OnContact => self
+                    .backend
+                    .touches_another_ragdoll(inst.first_body, inst.shapes.len()),
                 Activation::OnBlast => self.blasts.iter().any(|active| {
                     let det = active.blast.time_s as f64;
                     if t1 <= det {
@@ -489,62 +492,72 @@ impl World {
                 }),
             };
             if go {
-                let poses = play.body_poses(t0);
-                let velocities = play.body_velocities(t0, h);
-                let mut joints = Vec::new();
-                play.joint_world(t0, &mut joints);
-                let first = inst.first_body;
-                for (k, (pose, (v, w))) in poses.iter().zip(&velocities).enumerate() {
-                    self.backend.set_kinematic(first + k, false);
-                    self.backend.set_body_pose(first + k, pose);
-                    self.backend.set_body_velocity(first + k, *v, *w);
-                    self.states[first + k].pose = *pose;
-                    self.states[first + k].linvel = *v;
-                    self.states[first + k].angvel = *w;
-                }
-                let inst = &mut self.instances[c];
-                for (j, r) in inst.riders.iter_mut().enumerate() {
-                    r.offset = poses[r.body].inverse().mul(&joints[j]);
-                }
-                // Parts that overlap in the pose at the switch (a hand against the chest)
-                // would be thrown apart by their contact: they stop colliding instead.
-                for a in 0..poses.len() {
-                    for b in a + 1..poses.len() {
-                        if crate::spec::shapes_overlap(
-                            &poses[a],
-                            &inst.shapes[a],
-                            &poses[b],
-                            &inst.shapes[b],
-                            0.0,
-                        ) {
-                            self.backend.disable_pair(first + a, first + b);
-                        }
-                    }
-                }
-                // Bones without bodies (a collar) may have turned since the start: each
-                // joint's parent-side anchor moves to where its child's joint is now.
-                // A hinge the pose has rolled off its axis takes the pose's axis, and limits
-                // give way to a pose the performer held, rather than the solver snapping
-                // the body at the switch.
-                for (k, j) in inst.joints.iter_mut().enumerate() {
-                    let (parent, child) = (&poses[j.parent], &poses[j.child]);
-                    let anchor = child.transform_point(j.frame_child.translation);
-                    j.frame_parent.translation = parent.inverse().transform_point(anchor);
-                    j.align_hinge_to(parent, child);
-                    self.backend
-                        .set_joint_parent_frame(inst.first_joint + k, &j.frame_parent);
-                    if j.widen_to_include(parent, child, HANDOVER_LIMIT_MARGIN_DEG) {
-                        self.backend.set_joint_limits(inst.first_joint + k, &j.kind);
-                    }
-                }
-                inst.active = true;
-                inst.activated_at = Some(t0);
+                self.hand_over(c, t0, h);
             } else {
                 for (k, pose) in play.body_poses(t1).iter().enumerate() {
                     self.backend.set_kinematic_target(inst.first_body + k, pose);
                 }
             }
         }
+    }
+
+    /// Ragdoll `c` stops playing its clip at `t` (seconds): its bodies become dynamic with
+    /// the clip's velocities (central differences over `h`).
+    fn hand_over(&mut self, c: usize, t0: f64, h: f64) {
+        let Some(play) = &self.instances[c].playback else {
+            return;
+        };
+        let inst = &self.instances[c];
+        let poses = play.body_poses(t0);
+        let velocities = play.body_velocities(t0, h);
+        let mut joints = Vec::new();
+        play.joint_world(t0, &mut joints);
+        let first = inst.first_body;
+        for (k, (pose, (v, w))) in poses.iter().zip(&velocities).enumerate() {
+            self.backend.set_kinematic(first + k, false);
+            self.backend.set_body_pose(first + k, pose);
+            self.backend.set_body_velocity(first + k, *v, *w);
+            self.states[first + k].pose = *pose;
+            self.states[first + k].linvel = *v;
+            self.states[first + k].angvel = *w;
+        }
+        let inst = &mut self.instances[c];
+        for (j, r) in inst.riders.iter_mut().enumerate() {
+            r.offset = poses[r.body].inverse().mul(&joints[j]);
+        }
+        // Parts that overlap in the pose at the switch (a hand against the chest)
+        // would be thrown apart by their contact: they stop colliding instead.
+        for a in 0..poses.len() {
+            for b in a + 1..poses.len() {
+                if crate::spec::shapes_overlap(
+                    &poses[a],
+                    &inst.shapes[a],
+                    &poses[b],
+                    &inst.shapes[b],
+                    0.0,
+                ) {
+                    self.backend.disable_pair(first + a, first + b);
+                }
+            }
+        }
+        // Bones without bodies (a collar) may have turned since the start: each
+        // joint's parent-side anchor moves to where its child's joint is now.
+        // A hinge the pose has rolled off its axis takes the pose's axis, and limits
+        // give way to a pose the performer held, rather than the solver snapping
+        // the body at the switch.
+        for (k, j) in inst.joints.iter_mut().enumerate() {
+            let (parent, child) = (&poses[j.parent], &poses[j.child]);
+            let anchor = child.transform_point(j.frame_child.translation);
+            j.frame_parent.translation = parent.inverse().transform_point(anchor);
+            j.align_hinge_to(parent, child);
+            self.backend
+                .set_joint_parent_frame(inst.first_joint + k, &j.frame_parent);
+            if j.widen_to_include(parent, child, HANDOVER_LIMIT_MARGIN_DEG) {
+                self.backend.set_joint_limits(inst.first_joint + k, &j.kind);
+            }
+        }
+        inst.active = true;
+        inst.activated_at = Some(t0);
     }
 
     /// Adds a blast. It acts on every ragdoll in the world, each body part from the moment
@@ -863,6 +876,19 @@ impl World {
             };
             if let Some((body, dist)) = self.backend.cast_ray(p.origin, dir, RANGE_M) {
                 let point = p.origin + dir * dist;
+                // A character waiting for contact is handed over before the hit lands (a
+                // clip-driven body would not feel it).
+                let owner = self
+                    .instances
+                    .iter()
+                    .position(|i| (i.first_body..i.first_body + i.shapes.len()).contains(&body));
+                if let Some(c) = owner
+                    && !self.instances[c].active
+                    && self.instances[c].activation == Activation::OnContact
+                {
+                    let h = self.settings.dt as f64 / self.settings.collision_substeps as f64;
+                    self.hand_over(c, t1, h);
+                }
                 self.backend
                     .apply_impulse_at_point(body, dir * momentum, point);
                 if let Some((c, inst)) =

@@ -17,6 +17,9 @@ pub enum Activation {
     AtTime(f32),
     /// Plays its first clip until the first blast front reaches its nearest body part.
     OnBlast,
+    /// Plays its first clip until one of its parts touches something other than the ground
+    /// and itself (another character, a falling body) or a projectile hits it.
+    OnContact,
 }
 
 /// What a ragdoll needs to play its clip and hand over.
