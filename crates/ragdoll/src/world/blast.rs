@@ -10,6 +10,9 @@ use crate::events::blast::{self, BlastAt};
 use crate::events::{Blast, BlastCharacterReport, BlastPartReport, BlastReport};
 use crate::spec::Shape;
 
+use crate::backend::Backend;
+use crate::error::Result;
+
 /// Drag coefficient of a body part: DESIGN §7 gives C_d ≈ 1…1.3 for bluff bodies; a
 /// standing person's limbs and trunk are close to cylinders across the flow (1.2).
 pub(crate) const DRAG_COEFFICIENT: f64 = 1.2;
@@ -150,6 +153,126 @@ impl ActiveBlast {
             time_s: self.blast.time_s,
             parts,
             characters,
+        }
+    }
+}
+
+impl super::World {
+    /// Adds a blast. It acts on every ragdoll in the world, each body part from the moment
+    /// the blast front reaches it.
+    pub fn add_blast(&mut self, blast: Blast) -> Result<()> {
+        blast.validate()?;
+        self.blasts.push(ActiveBlast {
+            blast,
+            parts: Vec::new(),
+            com_velocity: Vec::new(),
+        });
+        Ok(())
+    }
+
+    /// What every blast did so far: per body part its arrival time, peak pressure and
+    /// momentum received; per character its centre-of-mass velocity once the blast passed.
+    pub fn blast_reports(&self) -> Vec<BlastReport> {
+        let body_names: Vec<Vec<String>> = self
+            .instances
+            .iter()
+            .map(|i| i.body_names.clone())
+            .collect();
+        let names: Vec<String> = self.instances.iter().map(|i| i.name.clone()).collect();
+        self.blasts
+            .iter()
+            .map(|b| b.report(&body_names, &names))
+            .collect()
+    }
+
+    /// Applies every blast's load over `[t0, t1]` (seconds) to every body part.
+    pub(super) fn apply_blasts(&mut self, t0: f64, t1: f64) {
+        for active in &mut self.blasts {
+            let b = active.blast;
+            // Without a ground every burst is a free-air burst: put the ground far below.
+            let ground = self
+                .settings
+                .ground
+                .unwrap_or(b.position.y - super::FREE_AIR_DEPTH_M);
+            let det = b.time_s as f64;
+            if t1 <= det {
+                continue;
+            }
+            active
+                .parts
+                .resize_with(self.instances.len(), Default::default);
+            active.com_velocity.resize(self.instances.len(), None);
+            for (c, inst) in self.instances.iter().enumerate() {
+                if !inst.active {
+                    // A clip still playing is not pushed; it may be handed over to physics
+                    // on this very blast (`Activation::OnBlast`), before the loads.
+                    continue;
+                }
+                let records = &mut active.parts[c];
+                records.resize_with(inst.shapes.len(), Default::default);
+                for (k, shape) in inst.shapes.iter().enumerate() {
+                    let state = &self.states[inst.first_body + k];
+                    let (at, point, dir) = blast_on_part(&b, state, shape, ground);
+                    let record = &mut records[k];
+                    let arrival = det + at.arrival_s;
+                    record.passed_s = arrival + at.duration_s;
+                    if t1 < arrival || t0 > record.passed_s {
+                        continue;
+                    }
+                    if record.arrival_s.is_none() {
+                        record.arrival_s = Some(arrival);
+                        record.peak_pressure_pa = at.reflected_pa;
+                    }
+                    let area = projected_area(state, shape, dir) as f64;
+                    let depth = depth_along(state, shape, dir) as f64;
+                    let j = b.scale as f64
+                        * crate::events::blast::part_impulse(
+                            &at,
+                            t0 - det,
+                            t1 - det,
+                            area,
+                            depth,
+                            DRAG_COEFFICIENT,
+                        );
+                    if j > 0.0 && j.is_finite() {
+                        let impulse = dir.as_dvec3() * j;
+                        record.impulse += impulse;
+                        self.backend.apply_impulse_at_point(
+                            inst.first_body + k,
+                            impulse.as_vec3(),
+                            point,
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// Records each character's centre-of-mass velocity once a blast's positive phase has
+    /// passed all of its parts.
+    pub(super) fn blast_after_step(&mut self) {
+        for active in &mut self.blasts {
+            for (c, inst) in self.instances.iter().enumerate() {
+                let (Some(records), Some(slot)) =
+                    (active.parts.get(c), active.com_velocity.get_mut(c))
+                else {
+                    continue;
+                };
+                if slot.is_some()
+                    || records.is_empty()
+                    || records.iter().any(|r| r.arrival_s.is_none())
+                    || records.iter().any(|r| self.time < r.passed_s)
+                {
+                    continue;
+                }
+                let mut momentum = Vec3::ZERO;
+                let mut mass = 0.0;
+                for (k, &m) in inst.masses.iter().enumerate() {
+                    momentum += self.states[inst.first_body + k].linvel * m;
+                    mass += m;
+                }
+                *slot = Some(momentum / mass);
+            }
         }
     }
 }

@@ -4,6 +4,10 @@ use glam::Vec3;
 
 use crate::events::{Field, Pin, Push};
 
+use super::{RagdollId, setting_error};
+use crate::backend::Backend;
+use crate::error::{Error, Result};
+
 /// Air density at sea level, kg/m³ (ISA).
 pub(crate) const AIR_DENSITY: f32 = 1.225;
 
@@ -109,5 +113,259 @@ pub(crate) fn field_impulse(
             // Never more than brings the body to the wind's speed within the substep.
             rel * (drag * dt).min(mass)
         }
+    }
+}
+
+impl super::World {
+    /// Adds a push (impulse or force) on a body part of ragdoll `id`.
+    pub fn add_push(&mut self, id: RagdollId, push: crate::events::Push) -> Result<()> {
+        use crate::events::Push;
+        let (target, vector, times) = match &push {
+            Push::Impulse {
+                target,
+                impulse_ns,
+                time_s,
+            } => (target, *impulse_ns, [*time_s, *time_s]),
+            Push::Force {
+                target,
+                force_n,
+                start_s,
+                end_s,
+            } => (target, *force_n, [*start_s, *end_s]),
+        };
+        if !vector.is_finite() || times.iter().any(|t| !(t.is_finite() && *t >= 0.0)) {
+            return Err(setting_error(
+                "push",
+                "values must be finite, times zero or positive",
+            ));
+        }
+        if times[1] < times[0] {
+            return Err(setting_error("push", "the force must end after it starts"));
+        }
+        let (body, local) = self.resolve_target(id, target)?;
+        self.pushes.push(ActivePush {
+            push,
+            body,
+            local,
+            done: false,
+        });
+        Ok(())
+    }
+
+    /// Adds a force field acting on every ragdoll.
+    pub fn add_field(&mut self, field: crate::events::Field) -> Result<()> {
+        use crate::events::Field;
+        let ok = match &field {
+            Field::Gravity { keys } => {
+                !keys.is_empty()
+                    && keys.iter().all(|(t, g)| t.is_finite() && g.is_finite())
+                    && keys.windows(2).all(|w| w[0].0 <= w[1].0)
+            }
+            Field::Radial {
+                center,
+                strength_mps2,
+                radius_m,
+                start_s,
+                end_s,
+            } => {
+                center.is_finite()
+                    && strength_mps2.is_finite()
+                    && radius_m.is_finite()
+                    && *radius_m > 0.0
+                    && start_s <= end_s
+            }
+            Field::Drag {
+                rate_per_s,
+                start_s,
+                end_s,
+            } => rate_per_s.is_finite() && *rate_per_s >= 0.0 && start_s <= end_s,
+            Field::Wind {
+                velocity_mps,
+                start_s,
+                end_s,
+            } => velocity_mps.is_finite() && start_s <= end_s,
+        };
+        if !ok {
+            return Err(setting_error(
+                "field",
+                "values must be finite, radii and rates positive, keys and windows in time order",
+            ));
+        }
+        self.fields.push(field);
+        Ok(())
+    }
+
+    /// Pins a body part of ragdoll `id` (see [`crate::events::Pin`]). Pins act from the
+    /// start until released.
+    pub fn add_pin(&mut self, id: RagdollId, pin: crate::events::Pin) -> Result<()> {
+        if pin.keys.is_empty()
+            || pin
+                .keys
+                .iter()
+                .any(|(t, p)| !(t.is_finite() && p.is_finite()))
+            || pin.keys.windows(2).any(|w| w[0].0 > w[1].0)
+        {
+            return Err(setting_error(
+                "pin",
+                "keys must be finite [time, x, y, z] in time order",
+            ));
+        }
+        if pin
+            .stiffness_hz
+            .is_some_and(|k| !(k.is_finite() && k > 0.0))
+            || !(pin.damping_ratio.is_finite() && pin.damping_ratio >= 0.0)
+            || pin.release_s.is_some_and(|t| !t.is_finite())
+        {
+            return Err(setting_error(
+                "pin",
+                "stiffness must be positive Hz, damping zero or positive, release a time",
+            ));
+        }
+        let (body, local) = self.resolve_target(id, &pin.target)?;
+        self.pins.push(ActivePin {
+            pin,
+            body,
+            local,
+            handle: None,
+            released: false,
+        });
+        Ok(())
+    }
+
+    /// The body a name refers to (a skeleton joint, on the body it rides on; or a body of
+    /// the spec, at its centre) and the point it names in that body's frame.
+    pub(super) fn resolve_target(&self, id: RagdollId, target: &str) -> Result<(usize, Vec3)> {
+        let inst = &self.instances[id.0];
+        // A joint first (its position is what "pin the wrist" means), then a body (its
+        // centre): the built-in humanoid's bodies and joints share their names.
+        if let Some(j) = inst.joint_labels.iter().position(|n| n == target) {
+            let r = &inst.riders[j];
+            return Ok((inst.first_body + r.body, r.offset.translation));
+        }
+        if let Some(b) = inst.body_names.iter().position(|n| n == target) {
+            return Ok((inst.first_body + b, Vec3::ZERO));
+        }
+        Err(Error::Setting {
+            setting: "target".into(),
+            message: format!("{} has no body or joint named \"{target}\"", inst.name),
+        })
+    }
+
+    /// Applies pushes, fields and pins over `[t0, t1]`.
+    pub(super) fn apply_forces(&mut self, t0: f64, t1: f64) {
+        use crate::events::{Field, Push};
+        // Gravity fields replace the world's gravity while there are any.
+        if let Some(g) = self.fields.iter().rev().find_map(|f| match f {
+            Field::Gravity { keys } => Some(sample_keys(keys, (0.5 * (t0 + t1)) as f32)),
+            _ => None,
+        }) {
+            self.backend.set_gravity(g);
+        }
+        for p in &mut self.pushes {
+            if p.done {
+                continue;
+            }
+            let state = &self.states[p.body];
+            let point = state.pose.transform_point(p.local);
+            let impulse = match &p.push {
+                Push::Impulse {
+                    impulse_ns, time_s, ..
+                } => {
+                    if (*time_s as f64) >= t1 {
+                        continue;
+                    }
+                    p.done = true;
+                    *impulse_ns
+                }
+                Push::Force {
+                    force_n,
+                    start_s,
+                    end_s,
+                    ..
+                } => {
+                    if (*end_s as f64) < t0 {
+                        p.done = true;
+                        continue;
+                    }
+                    *force_n * overlap(t0, t1, *start_s as f64, *end_s as f64) as f32
+                }
+            };
+            if impulse != Vec3::ZERO {
+                self.backend.apply_impulse_at_point(p.body, impulse, point);
+            }
+        }
+        if self
+            .fields
+            .iter()
+            .any(|f| !matches!(f, Field::Gravity { .. }))
+        {
+            for inst in self.instances.iter().filter(|i| i.active) {
+                for (k, shape) in inst.shapes.iter().enumerate() {
+                    let state = self.states[inst.first_body + k];
+                    let mut impulse = Vec3::ZERO;
+                    for f in &self.fields {
+                        impulse += field_impulse(
+                            f,
+                            t0,
+                            t1,
+                            inst.masses[k],
+                            state.pose.translation,
+                            state.linvel,
+                            |dir| super::blast::projected_area(&state, shape, dir),
+                        );
+                    }
+                    if impulse != Vec3::ZERO {
+                        self.backend.apply_impulse_at_point(
+                            inst.first_body + k,
+                            impulse,
+                            state.pose.translation,
+                        );
+                    }
+                }
+            }
+        }
+        let masses: Vec<f32> = self.pins.iter().map(|p| self.body_mass(p.body)).collect();
+        for (p, mass) in self.pins.iter_mut().zip(masses) {
+            if p.released {
+                continue;
+            }
+            if p.pin.release_s.is_some_and(|r| (r as f64) <= t0) {
+                if let Some(handle) = p.handle {
+                    self.backend.release_pin(handle);
+                }
+                p.released = true;
+                continue;
+            }
+            let target = sample_keys(&p.pin.keys, t1 as f32);
+            match p.pin.stiffness_hz {
+                // Hard: a ball joint to a kinematic anchor moved along the path.
+                None => match p.handle {
+                    None => p.handle = Some(self.backend.add_pin(p.body, p.local, target, None)),
+                    Some(handle) => self.backend.move_pin(handle, target),
+                },
+                // Soft: a damped spring on the pinned point, as an impulse per substep
+                // (rapier's soft joints are regularised constraints, not springs of a
+                // given frequency).
+                Some(hz) => {
+                    let state = &self.states[p.body];
+                    let point = state.pose.transform_point(p.local);
+                    let point_velocity =
+                        state.linvel + state.angvel.cross(point - state.pose.translation);
+                    let omega = std::f32::consts::TAU * hz;
+                    let accel = (target - point) * omega * omega
+                        - point_velocity * (2.0 * p.pin.damping_ratio * omega);
+                    let impulse = accel * mass * (t1 - t0) as f32;
+                    self.backend.apply_impulse_at_point(p.body, impulse, point);
+                }
+            }
+        }
+    }
+
+    /// Mass of body `index` (global), kg.
+    pub(super) fn body_mass(&self, index: usize) -> f32 {
+        self.instances
+            .iter()
+            .find(|i| (i.first_body..i.first_body + i.masses.len()).contains(&index))
+            .map_or(1.0, |i| i.masses[index - i.first_body])
     }
 }

@@ -7,6 +7,10 @@ use glam::Vec3;
 use crate::math::Transform;
 use crate::skeleton::{Clip, Skeleton};
 
+use super::RagdollId;
+use crate::backend::Backend;
+use crate::error::{Error, Result};
+
 /// When a ragdoll stops playing its animation and becomes physical.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub enum Activation {
@@ -104,5 +108,184 @@ impl Playback {
                 (v, w)
             })
             .collect()
+    }
+}
+
+impl super::World {
+    /// Makes ragdoll `id` play its first animation clip (kinematically, pushing but not
+    /// pushed) until `activation`, then hand over to physics with the clip's velocities.
+    /// Must be called before the first step; fails when the character has no clip.
+    pub fn set_activation(&mut self, id: RagdollId, activation: Activation) -> Result<()> {
+        if self.frames_recorded > 0 {
+            return Err(Error::Setting {
+                setting: "activate".into(),
+                message: "activation must be set before the world starts stepping".into(),
+            });
+        }
+        let inst = &mut self.instances[id.0];
+        if let Activation::AtTime(t) = activation
+            && !(t.is_finite() && t >= 0.0)
+        {
+            return Err(Error::Setting {
+                setting: "activate".into(),
+                message: "the activation time must be zero or positive seconds".into(),
+            });
+        }
+        if activation != Activation::Immediately && inst.playback.is_none() {
+            return Err(Error::Setting {
+                setting: "activate".into(),
+                message: format!(
+                    "{} has no animation to play before physics takes over",
+                    inst.name
+                ),
+            });
+        }
+        // While the clip plays the bodies are kinematic and go through the floor unnoticed;
+        // lift the ragdoll so that no body goes below it until the hand-over (the start
+        // pose alone may have a foot raised).
+        if let (Some(ground), Some(play)) = (self.settings.ground, &mut inst.playback) {
+            let until = match activation {
+                Activation::AtTime(t) => t as f64,
+                _ => play.clip.duration() as f64,
+            };
+            let frames = ((until / play.clip.frame_time.max(1e-6) as f64).ceil() as usize)
+                .min(play.clip.frames.len().saturating_sub(1));
+            let mut lowest = f32::INFINITY;
+            for f in 0..=frames {
+                let t = f as f64 * play.clip.frame_time as f64;
+                for (pose, shape) in play.body_poses(t).iter().zip(&inst.shapes) {
+                    lowest = lowest.min(super::lowest_point(pose, shape));
+                }
+            }
+            if lowest < ground {
+                let raise = Vec3::new(0.0, ground - lowest, 0.0);
+                play.lift += raise;
+            }
+        }
+        // A playing ragdoll starts on its clip's first frame.
+        if activation != Activation::Immediately
+            && let Some(play) = &inst.playback
+        {
+            for (b, pose) in play.body_poses(0.0).iter().enumerate() {
+                self.backend.set_body_pose(inst.first_body + b, pose);
+            }
+        }
+        inst.activation = activation;
+        inst.active = activation == Activation::Immediately;
+        inst.activated_at = inst.active.then_some(0.0);
+        for b in 0..inst.shapes.len() {
+            self.backend
+                .set_kinematic(inst.first_body + b, !inst.active);
+        }
+        Ok(())
+    }
+
+    /// When physics took over ragdoll `id`, seconds (`None` while its clip still plays).
+    pub fn activated_at(&self, id: RagdollId) -> Option<f64> {
+        self.instances[id.0].activated_at
+    }
+
+    /// Drives the ragdolls still playing their clip over `[t0, t1]`: hands over those whose
+    /// moment has come (at `t0`, with the clip's velocities), moves the others along the
+    /// clip.
+    pub(super) fn play_clips(&mut self, t0: f64, t1: f64, h: f64) {
+        for c in 0..self.instances.len() {
+            let inst = &self.instances[c];
+            if inst.active {
+                continue;
+            }
+            let Some(play) = &inst.playback else { continue };
+            let go = match inst.activation {
+                Activation::Immediately => true,
+                // The first substep that starts at or after the time (1 µs of slack for
+                // the sum of steps).
+                Activation::AtTime(t) => t0 + 1e-6 >= t as f64,
+                Activation::OnContact => self
+                    .backend
+                    .touches_another_ragdoll(inst.first_body, inst.shapes.len()),
+                Activation::OnBlast => self.blasts.iter().any(|active| {
+                    let det = active.blast.time_s as f64;
+                    if t1 <= det {
+                        return false;
+                    }
+                    let ground = self
+                        .settings
+                        .ground
+                        .unwrap_or(active.blast.position.y - super::FREE_AIR_DEPTH_M);
+                    inst.shapes.iter().enumerate().any(|(k, shape)| {
+                        let state = &self.states[inst.first_body + k];
+                        let (at, _, _) =
+                            super::blast::blast_on_part(&active.blast, state, shape, ground);
+                        det + at.arrival_s <= t1
+                    })
+                }),
+            };
+            if go {
+                self.hand_over(c, t0, h);
+            } else {
+                for (k, pose) in play.body_poses(t1).iter().enumerate() {
+                    self.backend.set_kinematic_target(inst.first_body + k, pose);
+                }
+            }
+        }
+    }
+
+    /// Ragdoll `c` stops playing its clip at `t` (seconds): its bodies become dynamic with
+    /// the clip's velocities (central differences over `h`).
+    pub(super) fn hand_over(&mut self, c: usize, t0: f64, h: f64) {
+        let Some(play) = &self.instances[c].playback else {
+            return;
+        };
+        let inst = &self.instances[c];
+        let poses = play.body_poses(t0);
+        let velocities = play.body_velocities(t0, h);
+        let mut joints = Vec::new();
+        play.joint_world(t0, &mut joints);
+        let first = inst.first_body;
+        for (k, (pose, (v, w))) in poses.iter().zip(&velocities).enumerate() {
+            self.backend.set_kinematic(first + k, false);
+            self.backend.set_body_pose(first + k, pose);
+            self.backend.set_body_velocity(first + k, *v, *w);
+            self.states[first + k].pose = *pose;
+            self.states[first + k].linvel = *v;
+            self.states[first + k].angvel = *w;
+        }
+        let inst = &mut self.instances[c];
+        for (j, r) in inst.riders.iter_mut().enumerate() {
+            r.offset = poses[r.body].inverse().mul(&joints[j]);
+        }
+        // Parts that overlap in the pose at the switch (a hand against the chest)
+        // would be thrown apart by their contact: they stop colliding instead.
+        for a in 0..poses.len() {
+            for b in a + 1..poses.len() {
+                if crate::spec::shapes_overlap(
+                    &poses[a],
+                    &inst.shapes[a],
+                    &poses[b],
+                    &inst.shapes[b],
+                    0.0,
+                ) {
+                    self.backend.disable_pair(first + a, first + b);
+                }
+            }
+        }
+        // Bones without bodies (a collar) may have turned since the start: each
+        // joint's parent-side anchor moves to where its child's joint is now.
+        // A hinge the pose has rolled off its axis takes the pose's axis, and limits
+        // give way to a pose the performer held, rather than the solver snapping
+        // the body at the switch.
+        for (k, j) in inst.joints.iter_mut().enumerate() {
+            let (parent, child) = (&poses[j.parent], &poses[j.child]);
+            let anchor = child.transform_point(j.frame_child.translation);
+            j.frame_parent.translation = parent.inverse().transform_point(anchor);
+            j.align_hinge_to(parent, child);
+            self.backend
+                .set_joint_parent_frame(inst.first_joint + k, &j.frame_parent);
+            if j.widen_to_include(parent, child, super::HANDOVER_LIMIT_MARGIN_DEG) {
+                self.backend.set_joint_limits(inst.first_joint + k, &j.kind);
+            }
+        }
+        inst.active = true;
+        inst.activated_at = Some(t0);
     }
 }
