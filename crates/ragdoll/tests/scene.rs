@@ -852,3 +852,37 @@ fn the_readme_example_scene_parses() {
         (1, 2, 1)
     );
 }
+
+/// `powered` on a character: motors track its clip; mistakes name the line and key, and a
+/// character without an animation is refused.
+#[test]
+fn powered_characters_are_read_and_checked() {
+    let (line, message) = failure("[[character]]\npowered = { strength = 1.0 }\n");
+    assert_eq!(line, 2, "{message}");
+    assert!(message.contains("powered"), "{message}");
+    let (line, message) = failure("[[character]]\n\npowered = { strength = 2.0 }\n");
+    assert_eq!(line, 3, "{message}");
+    assert!(message.contains("powered"), "{message}");
+    let (_, message) = failure("[[character]]\npowered = { strength = 1.0, stiff = 3 }\n");
+    assert!(message.contains("stiff"), "{message}");
+    let Some(data) = common::shared_data() else {
+        return;
+    };
+    let dir = tempfile_dir("powered");
+    let file = data.join("bvh/mocapbank_bvh-python.bvh");
+    std::fs::write(
+        dir.join("scene.toml"),
+        format!(
+            "duration_s = 1.0\n[[character]]\nfile = {:?}\npowered = {{ strength = 1.0, fade_out = [0.5, 1.0], root_on_clip = true }}\n",
+            file.to_str().unwrap()
+        ),
+    )
+    .unwrap();
+    let scene = Scene::load(&dir.join("scene.toml")).unwrap();
+    let motors = scene.characters[0].motors.clone().expect("motors read");
+    assert!(motors.root_on_clip);
+    assert_eq!(motors.strength_keys, vec![(0.5, 1.0), (1.0, 0.0)]);
+    let result = scene.run().unwrap();
+    assert_eq!(result.tracks.len(), 1);
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -23,7 +23,8 @@
 //! file = "alice.glb"                # relative to the scene file
 //! position = [1.0, 0.0, 0.0]
 //! facing_deg = 90.0
-//! activate = "start"                # or "blast", or seconds of its animation first
+//! activate = "start"                # or "blast", "contact", or seconds of its animation first
+//! powered = { strength = 1.0, fade_out = [1.0, 2.0], root_on_clip = false }  # motors track the clip
 //!
 //! [[blast]]
 //! tnt_kg = 1.0                      # required
@@ -106,6 +107,8 @@ pub struct SceneCharacter {
     pub facing_deg: f32,
     /// When physics takes over from its animation.
     pub activation: Activation,
+    /// Joint motors tracking its animation (powered mode), if any.
+    pub motors: Option<crate::world::Motors>,
     /// Line of its `[[character]]` table in the scene file, for error messages.
     pub line: usize,
 }
@@ -216,6 +219,11 @@ impl Scene {
             world
                 .set_activation(id, c.activation)
                 .map_err(|e| self.error(c.line, &place, e))?;
+            if let Some(motors) = &c.motors {
+                world
+                    .set_motors(id, motors.clone())
+                    .map_err(|e| self.error(c.line, &place, e))?;
+            }
             ids.push(id);
         }
         let at = |line: usize, kind: &str| {

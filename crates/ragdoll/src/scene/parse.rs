@@ -18,7 +18,7 @@ use crate::events::{Blast, Field, Pin, Projectile, Push};
 use crate::import::{self, ImportOptions, Units, UpAxis};
 use crate::skeleton::{self, Character};
 use crate::spec::{self, BuildOptions, RagdollSpec};
-use crate::world::{Activation, StartPose, WorldSettings};
+use crate::world::{Activation, Motors, StartPose, WorldSettings};
 
 type S<T> = Spanned<T>;
 
@@ -85,8 +85,18 @@ struct RawCharacter {
     female: Option<S<bool>>,
     spec: Option<S<String>>,
     activate: Option<S<ActivateValue>>,
+    powered: Option<S<RawPowered>>,
     units: Option<S<Units>>,
     up: Option<S<UpAxis>>,
+}
+
+/// `powered = { strength = 1.0, fade_out = [1.0, 2.0], root_on_clip = true }`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPowered {
+    strength: f32,
+    fade_out: Option<[f32; 2]>,
+    root_on_clip: Option<bool>,
 }
 
 #[derive(Deserialize)]
@@ -1188,6 +1198,28 @@ fn characters(src: &Src, raw: &[S<RawCharacter>]) -> Result<Vec<SceneCharacter>>
                 ),
             ));
         }
+        let motors = match &r.powered {
+            None => None,
+            Some(p) => {
+                let raw = p.get_ref();
+                let mut motors = match raw.fade_out {
+                    Some([start, end]) => Motors::fade_out(raw.strength, start, end),
+                    None => Motors::constant(raw.strength),
+                };
+                motors.root_on_clip = raw.root_on_clip.unwrap_or(false);
+                if let Err(Error::Setting { message, .. }) = motors.validate() {
+                    return Err(c.err(&p.span(), "powered", message));
+                }
+                if !character.clips.iter().any(|clip| !clip.frames.is_empty()) {
+                    return Err(c.err(
+                        &p.span(),
+                        "powered",
+                        "the character has no animation for the motors to track",
+                    ));
+                }
+                Some(motors)
+            }
+        };
         out.push(SceneCharacter {
             name,
             input,
@@ -1196,6 +1228,7 @@ fn characters(src: &Src, raw: &[S<RawCharacter>]) -> Result<Vec<SceneCharacter>>
             position,
             facing_deg,
             activation,
+            motors,
             line,
         });
     }
