@@ -31,8 +31,12 @@
 //!
 //! # Note
 //!
-//! Only the rigid (rapier3d) backend exists so far; events (blasts, projectiles), the
-//! particle backend and previews come later.
+//! Only the rigid (rapier3d) backend exists so far; the particle backend, previews and the
+//! viewer come later. Powered mode (`world::Motors`) tracks legs within a few degrees but
+//! lags on arms, spine and head during fast motion.
+//!
+//! Events ([`events`]): blasts, projectiles, pushes, fields, pins, and animation hand-over
+//! ([`world::Activation`]); scene files ([`scene`]) put characters and events together.
 #![deny(missing_docs)]
 
 mod backend;
