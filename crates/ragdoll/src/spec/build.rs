@@ -113,8 +113,39 @@ pub fn build_spec(character: &Character, opts: &BuildOptions) -> Result<RagdollS
     // lies outside them (see `fit_limits_to_pose`).
     let start = super::start_pose(character, true);
     super::fit_limits_to_pose(&mut spec, character, &start, START_POSE_MARGIN_DEG)?;
+    filter_start_overlaps(&mut spec, character, &start)?;
     spec.validate()?;
     Ok(spec)
+}
+
+/// Also filters the pairs that overlap in the starting pose (the first animation frame): a
+/// mocap pose can cross an arm over the chest, and bodies that start inside each other
+/// would be thrown apart on the first step.
+fn filter_start_overlaps(
+    spec: &mut RagdollSpec,
+    character: &Character,
+    start: &[crate::math::Transform],
+) -> Result<()> {
+    let poses = super::Resolved::new(spec, character)?.body_poses(start);
+    let n = spec.bodies.len();
+    for a in 0..n {
+        for b in a + 1..n {
+            let (na, nb) = (&spec.bodies[a].name, &spec.bodies[b].name);
+            if !spec.collision.is_disabled(na, nb)
+                && shapes_overlap(
+                    &poses[a],
+                    &spec.bodies[a].shape,
+                    &poses[b],
+                    &spec.bodies[b].shape,
+                    COLLISION_MARGIN_M,
+                )
+            {
+                let pair = [na.clone(), nb.clone()];
+                spec.collision.disabled_pairs.push(pair);
+            }
+        }
+    }
+    Ok(())
 }
 
 /// How far inside a widened limit the starting pose ends up, degrees: enough that the
@@ -1087,6 +1118,37 @@ mod tests {
     }
 
     #[test]
+    fn spec_build_filters_pairs_overlapping_in_the_first_frame() {
+        // A first frame that swings the left arm across the chest (160° about the
+        // forward axis, elbow straight): the forearm then lies on the chest and right arm,
+        // which the rest pose never shows.
+        let mut c = humanoid();
+        let s = &c.skeleton;
+        let mut frame: Vec<crate::math::Transform> = s.joints().iter().map(|j| j.rest).collect();
+        let arm = s.find("upper_arm_l").unwrap();
+        frame[arm].rotation = Quat::from_rotation_z(-160f32.to_radians());
+        let rest_spec = build(&c);
+        c.clips.push(crate::skeleton::Clip {
+            name: "cross".into(),
+            frame_time: 1.0 / 30.0,
+            frames: vec![frame],
+        });
+        let spec = build(&c);
+        let newly: Vec<&[String; 2]> = spec
+            .collision
+            .disabled_pairs
+            .iter()
+            .filter(|[a, b]| !rest_spec.collision.is_disabled(a, b))
+            .collect();
+        assert!(
+            newly
+                .iter()
+                .any(|p| p.iter().any(|n| n == "forearm_l" || n == "hand_l")),
+            "no pair of the crossed arm was filtered: {newly:?}"
+        );
+    }
+
+    #[test]
     fn spec_build_humanoid_bodies_and_round_trip() {
         let c = humanoid();
         let spec = build(&c);
@@ -1345,12 +1407,7 @@ mod tests {
                 Shape::Box { size_m } => assert!(size_m.iter().all(|s| *s > 0.0)),
             }
         }
-        let filtered = |a: &str, b: &str| {
-            spec.collision
-                .disabled_pairs
-                .iter()
-                .any(|p| (p[0] == a && p[1] == b) || (p[0] == b && p[1] == a))
-        };
+        let filtered = |a: &str, b: &str| spec.collision.is_disabled(a, b);
         for j in &spec.joints {
             assert!(
                 filtered(&j.parent, &j.child),

@@ -196,9 +196,18 @@ pub struct JointSpec {
 #[serde(deny_unknown_fields)]
 pub struct CollisionSpec {
     /// Pairs of body names that never collide with each other: every jointed pair, and pairs
-    /// that overlap in the rest pose.
+    /// that overlap in the rest pose or in the pose the ragdoll starts in.
     #[serde(default)]
     pub disabled_pairs: Vec<[String; 2]>,
+}
+
+impl CollisionSpec {
+    /// Whether bodies `a` and `b` never collide (in either order).
+    pub fn is_disabled(&self, a: &str, b: &str) -> bool {
+        self.disabled_pairs
+            .iter()
+            .any(|p| (p[0] == a && p[1] == b) || (p[0] == b && p[1] == a))
+    }
 }
 
 /// A ragdoll described as plain data: what [`build_spec`] makes from a skeleton, what
