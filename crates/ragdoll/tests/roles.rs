@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use glam::{Quat, Vec3};
 use ragdoll::import::{ImportOptions, load};
-use ragdoll::skeleton::{Character, Skeleton, humanoid};
+use ragdoll::skeleton::{Character, humanoid};
 use ragdoll::spec::{
     BuildOptions, JointKind, RagdollSpec, Role, Roles, Shape, build_spec, recognise_roles,
 };
@@ -52,25 +52,9 @@ fn load_data(rel: &str) -> Option<Character> {
     Some(load(&dir.join(rel), &ImportOptions::default()).unwrap_or_else(|e| panic!("{rel}: {e}")))
 }
 
-/// `c` turned by `yaw` about the vertical through the origin (skeleton and skin).
+/// `c` turned by `yaw` about the vertical through the origin.
 fn yawed(c: &Character, yaw: f32) -> Character {
-    let q = Quat::from_rotation_y(yaw);
-    let mut out = c.clone();
-    let mut joints = out.skeleton.joints().to_vec();
-    for j in joints.iter_mut().filter(|j| j.parent.is_none()) {
-        j.rest.translation = q * j.rest.translation;
-        j.rest.rotation = (q * j.rest.rotation).normalize();
-    }
-    out.skeleton = Skeleton::new(joints).unwrap();
-    for m in &mut out.meshes {
-        for p in &mut m.positions {
-            *p = q * *p;
-        }
-        for n in &mut m.normals {
-            *n = q * *n;
-        }
-    }
-    out
+    c.turned(yaw)
 }
 
 fn role_joint(roles: &Roles, role: Role) -> usize {
@@ -367,12 +351,7 @@ fn solid(c: &Character, spec: &RagdollSpec, i: usize) -> (Vec3, Vec3, f32) {
 }
 
 fn check_rest_pose(rel: &str, c: &Character, spec: &RagdollSpec) {
-    let filtered = |a: &str, b: &str| {
-        spec.collision
-            .disabled_pairs
-            .iter()
-            .any(|p| (p[0] == a && p[1] == b) || (p[0] == b && p[1] == a))
-    };
+    let filtered = |a: &str, b: &str| spec.collision.is_disabled(a, b);
     for j in &spec.joints {
         assert!(
             filtered(&j.parent, &j.child),

@@ -232,6 +232,41 @@ pub struct Character {
     pub source: Source,
 }
 
+impl Character {
+    /// The character turned by `yaw` radians about the vertical axis through the origin,
+    /// skeleton and skin together: to make it face another way before building its ragdoll
+    /// (roles and limits do not depend on the facing).
+    pub fn turned(&self, yaw: f32) -> Character {
+        let q = glam::Quat::from_rotation_y(yaw);
+        let mut out = self.clone();
+        let mut joints = out.skeleton.joints.clone();
+        for j in joints.iter_mut().filter(|j| j.parent.is_none()) {
+            j.rest.translation = q * j.rest.translation;
+            j.rest.rotation = (q * j.rest.rotation).normalize();
+        }
+        out.skeleton = Skeleton { joints };
+        for m in &mut out.meshes {
+            for p in &mut m.positions {
+                *p = q * *p;
+            }
+            for n in &mut m.normals {
+                *n = q * *n;
+            }
+        }
+        for clip in &mut out.clips {
+            for frame in &mut clip.frames {
+                for (t, j) in frame.iter_mut().zip(&out.skeleton.joints) {
+                    if j.parent.is_none() {
+                        t.translation = q * t.translation;
+                        t.rotation = (q * t.rotation).normalize();
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
 /// Where a [`Character`] came from, with what its exporters need to keep its layout.
 #[derive(Clone, Debug)]
 pub enum Source {

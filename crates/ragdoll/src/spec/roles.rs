@@ -755,25 +755,9 @@ pub(crate) mod tests {
     use super::*;
     use crate::skeleton::humanoid;
 
-    /// `c` turned by `yaw` about the vertical through the origin (skeleton and skin).
+    /// `c` turned by `yaw` about the vertical through the origin.
     pub(crate) fn yawed(c: &Character, yaw: f32) -> Character {
-        let q = Quat::from_rotation_y(yaw);
-        let mut out = c.clone();
-        let mut joints = out.skeleton.joints().to_vec();
-        for j in joints.iter_mut().filter(|j| j.parent.is_none()) {
-            j.rest.translation = q * j.rest.translation;
-            j.rest.rotation = (q * j.rest.rotation).normalize();
-        }
-        out.skeleton = Skeleton::new(joints).unwrap();
-        for m in &mut out.meshes {
-            for p in &mut m.positions {
-                *p = q * *p;
-            }
-            for n in &mut m.normals {
-                *n = q * *n;
-            }
-        }
-        out
+        c.turned(yaw)
     }
 
     #[test]
