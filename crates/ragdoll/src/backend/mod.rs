@@ -48,6 +48,12 @@ pub(crate) trait Backend {
     /// Replaces the parent-side frame of joint `index` (global, in insertion order), in the
     /// parent body's frame.
     fn set_joint_parent_frame(&mut self, index: usize, frame: &Transform);
+    /// Replaces the child-side frame of joint `index` (global), in the child body's frame.
+    fn set_joint_child_frame(&mut self, index: usize, frame: &Transform);
+    /// Sets how many solver substeps each step takes where the backend has them: powered
+    /// ragdolls need stiffer drives than a limp one, and a drive must stay well below the
+    /// substep rate to be stable. Backends without solver substeps ignore it.
+    fn set_solver_substeps(&mut self, _substeps: usize) {}
     /// Replaces the limits of joint `index` (global) with those of `kind` (same kind).
     fn set_joint_limits(&mut self, index: usize, kind: &crate::spec::JointKind);
     /// Sets the gravity acting on every body, m/s².
@@ -73,6 +79,26 @@ pub(crate) trait Backend {
     fn disable_pair(&mut self, a: usize, b: usize);
     /// Moves body `index` (global) to `pose` without changing its velocities.
     fn set_body_pose(&mut self, index: usize, pose: &Transform);
+    /// Drives joint `index` (global) inside the solver toward the relative rotation
+    /// `target` (the child body's rotation in the parent body's frame) turning at
+    /// `target_angvel` (rad/s, child relative to parent, in the parent body's frame), as a
+    /// damped spring of `stiffness` (1/s²) and `damping` (1/s) per unit of inertia.
+    /// `stiffness` 0 removes the drive. Returns false when the backend cannot drive joints
+    /// in its solver; the world then applies motor torques itself.
+    ///
+    /// A solver drive sees the whole chain at once: a torque applied from outside reaches
+    /// only the child body within a substep, so it cannot be sized for what the joint
+    /// carries, and the arms and head lagged the clip by tens of degrees that way.
+    fn drive_joint(
+        &mut self,
+        _index: usize,
+        _target: glam::Quat,
+        _target_angvel: Vec3,
+        _stiffness: f32,
+        _damping: f32,
+    ) -> bool {
+        false
+    }
 }
 
 /// A body to create, in world space.

@@ -60,6 +60,9 @@ pub(crate) struct RigidBackend {
     pins: Vec<(RigidBodyHandle, Option<ImpulseJointHandle>)>,
     bodies: Vec<RigidBodyHandle>,
     filter: PairFilter,
+    /// Each joint's drive (powered mode), a second joint between the same two bodies with
+    /// no locked axis and three angular motors, created on first use.
+    drives: Vec<Option<ImpulseJointHandle>>,
 }
 
 fn pose(t: &Transform) -> Pose {
@@ -90,6 +93,7 @@ impl RigidBackend {
             filter: PairFilter {
                 disabled: HashSet::new(),
             },
+            drives: Vec::new(),
         }
     }
 
@@ -263,6 +267,16 @@ impl Backend for RigidBackend {
         }
     }
 
+    fn set_joint_child_frame(&mut self, index: usize, frame: &Transform) {
+        if let Some(joint) = self.world.impulse_joints.get_mut(self.joints[index], true) {
+            joint.data.set_local_frame2(pose(frame));
+        }
+    }
+
+    fn set_solver_substeps(&mut self, substeps: usize) {
+        self.world.integration_parameters.num_solver_iterations = substeps.max(1);
+    }
+
     fn set_joint_limits(&mut self, index: usize, kind: &JointKind) {
         let Some(joint) = self.world.impulse_joints.get_mut(self.joints[index], true) else {
             return;
@@ -379,6 +393,67 @@ impl Backend for RigidBackend {
 
     fn set_body_pose(&mut self, index: usize, p: &Transform) {
         self.world.bodies[self.bodies[index]].set_position(pose(p), false);
+    }
+
+    fn drive_joint(
+        &mut self,
+        index: usize,
+        target: glam::Quat,
+        target_angvel: Vec3,
+        stiffness: f32,
+        damping: f32,
+    ) -> bool {
+        if index >= self.joints.len() {
+            return false;
+        }
+        if self.drives.len() < self.joints.len() {
+            self.drives.resize(self.joints.len(), None);
+        }
+        if stiffness <= 0.0 && damping <= 0.0 {
+            // A motor with no gains would be a hard velocity constraint in rapier, not a
+            // slack one: remove the drive instead.
+            if let Some(h) = self.drives[index].take() {
+                self.world.impulse_joints.remove(h, true);
+            }
+            return true;
+        }
+        let handle = match self.drives[index] {
+            Some(h) => h,
+            None => {
+                let Some(joint) = self.world.impulse_joints.get(self.joints[index]) else {
+                    return false;
+                };
+                let (b1, b2) = (joint.body1(), joint.body2());
+                let drive = GenericJointBuilder::new(JointAxesMask::empty())
+                    .contacts_enabled(false)
+                    .build();
+                let h = self.world.impulse_joints.insert(b1, b2, drive, true);
+                self.drives[index] = Some(h);
+                h
+            }
+        };
+        let Some(joint) = self.world.impulse_joints.get_mut(handle, true) else {
+            return false;
+        };
+        // rapier's angular motors measure each axis of frame 1 (here the parent body's
+        // own axes) from the relative rotation of the two frames: with frame 2 turned by
+        // the target's inverse, the frames coincide exactly when the child has the target
+        // rotation, so a target angle of 0 on every axis is the clip's pose.
+        joint.data.set_local_frame1(Pose::IDENTITY);
+        joint
+            .data
+            .set_local_frame2(Pose::from_parts(Vec3::ZERO, target.conjugate()));
+        for (axis, vel) in [
+            (JointAxis::AngX, target_angvel.x),
+            (JointAxis::AngY, target_angvel.y),
+            (JointAxis::AngZ, target_angvel.z),
+        ] {
+            joint
+                .data
+                .set_motor_model(axis, MotorModel::AccelerationBased)
+                .set_motor(axis, 0.0, vel, stiffness, damping);
+        }
+        true
     }
 
     fn kinetic_energy(&self) -> f64 {

@@ -152,6 +152,51 @@ impl ResolvedJoint {
         true
     }
 
+    /// For a hinge, turns both frames so that their common X axis is the one axis, fixed in
+    /// both bodies, that best explains the relative rotations of the poses given (pairs of
+    /// parent and child body poses): a performer's elbow bends about an axis a few degrees
+    /// off the one guessed from the rest pose, and a hinge on the wrong axis keeps the
+    /// forearm out of the clip's plane by that much however strong the motors are. Each
+    /// frame is turned the short way, so the hinge angle keeps its meaning. Returns the
+    /// worst angle, degrees, between the clip's axis and the fitted one over the poses (how
+    /// far the clip itself is from being a hinge); `None` for other kinds or no poses.
+    pub fn fit_hinge_to(&mut self, poses: &[(Transform, Transform)]) -> Option<f32> {
+        if !matches!(self.kind, JointKind::Hinge { .. }) || poses.is_empty() {
+            return None;
+        }
+        let relative: Vec<Quat> = poses
+            .iter()
+            .map(|(p, c)| (p.rotation.conjugate() * c.rotation).normalize())
+            .collect();
+        // The axis a_p in the parent and a_c in the child with Q·a_c = a_p for every
+        // relative rotation Q: the top singular vectors of ΣQ, by power iteration from
+        // the current axes. It converges by the ratio of the two largest singular values
+        // squared per round, slowly when the clip bends the joint little, hence the many
+        // rounds (each is a pass over the clip, microseconds).
+        let mut a_p = self.frame_parent.rotation * Vec3::X;
+        let mut a_c = self.frame_child.rotation * Vec3::X;
+        for _ in 0..2000 {
+            let sum_p: Vec3 = relative.iter().map(|q| *q * a_c).sum();
+            a_p = sum_p.try_normalize()?;
+            let sum_c: Vec3 = relative.iter().map(|q| q.conjugate() * a_p).sum();
+            let next = sum_c.try_normalize()?;
+            let settled = next.dot(a_c) > 1.0 - 1e-12;
+            a_c = next;
+            if settled {
+                break;
+            }
+        }
+        let turn_p = Quat::from_rotation_arc(self.frame_parent.rotation * Vec3::X, a_p);
+        let turn_c = Quat::from_rotation_arc(self.frame_child.rotation * Vec3::X, a_c);
+        self.frame_parent.rotation = (turn_p * self.frame_parent.rotation).normalize();
+        self.frame_child.rotation = (turn_c * self.frame_child.rotation).normalize();
+        let worst = relative
+            .iter()
+            .map(|q| (*q * a_c).angle_between(a_p))
+            .fold(0.0f32, f32::max);
+        Some(worst.to_degrees())
+    }
+
     /// The rotation of the child body that brings the joint back inside its limits, with the
     /// parent where it is: the relative rotation is split into swing and twist, and each is
     /// clamped to its range (a hinge also loses any swing off its axis). `None` when the

@@ -1,12 +1,15 @@
 //! Powered mode (DESIGN §4, Activation): joint motors make a physical ragdoll track its
 //! animation clip, with a strength keyed over time; a strength fading to 0 leaves it limp.
 //!
-//! Each collision substep, every joint gets a damped spring torque that turns the child
-//! body toward the relative rotation the clip has at that moment, applied equal and
-//! opposite to the child and the parent (internal, so it never moves the centre of mass).
-//! The motors are torques on top of rapier's joints rather than rapier's own joint motors:
-//! rapier drives each angular axis by its own angle, which for coupled swing axes is not
-//! the rotation the clip asks for.
+//! Where the backend can ([`Backend::drive_joint`], rapier), each joint gets a drive inside
+//! the solver: a damped spring toward the relative rotation and angular velocity the clip
+//! has at that moment, solved together with the joints and contacts, so a shoulder drive
+//! knows it carries the whole arm. Elsewhere every joint gets the same spring as a torque
+//! applied equal and opposite to the child and the parent, sized for those two bodies only.
+//!
+//! When the motors take hold, the ragdoll is fitted to the clip it must follow: limits
+//! widen to take in every clip pose, each hinge turns to the axis the clip's own elbow or
+//! knee bends about, and parts the clip passes through each other stop colliding.
 
 use glam::{Quat, Vec3};
 
@@ -18,12 +21,17 @@ use crate::spec::{JointKind, Shape};
 
 /// Natural frequency of the motors' spring at strength 1, Hz.
 ///
-/// High enough that gravity alone bends a joint by well under a degree (the static sag is
-/// g / (r·ω²): 0.3° for a 0.4 m limb at 15 Hz) and that a mocap joint turning at a few
-/// hundred degrees per second lags by a few degrees at most; low enough that the spring
-/// stays far below the 240 Hz substep rate (ω·h ≈ 0.4), and the implicit form below keeps
-/// it stable even where the inertia estimate is off.
-const MOTOR_FREQUENCY_HZ: f32 = 15.0;
+/// Measured on the mocap files with the root on the clip (crates/ragdoll/tests/motors.rs):
+/// with the drives in the solver, 60 Hz left a pirouette's arms 10-20° behind at times,
+/// 90 Hz 5.1°, 120 Hz 4.5°; with the solver substeps below ω·h ≈ 0.2, far from unstable.
+const MOTOR_FREQUENCY_HZ: f32 = 120.0;
+
+/// Solver substeps once a ragdoll is powered (a limp one needs 4).
+///
+/// Measured on the mocap files with the root on the clip: 4 substeps with 15 Hz drives
+/// left the arms 30-70° behind a pirouette, and a stiffer drive came apart; 16 substeps let
+/// the drives run at the frequency below and track within a few degrees.
+const POWERED_SOLVER_SUBSTEPS: usize = 16;
 
 /// Damping ratio of the motors: critical, so a joint settles on its target without
 /// overshooting it.
@@ -190,20 +198,41 @@ impl World {
             return;
         };
         state.engaged = true;
+        let held_root = state
+            .motors
+            .root_on_clip
+            .then_some(inst.first_body + state.root);
         let frame_time = play.clip.frame_time.max(1e-6) as f64;
         let first = (t0 / frame_time).floor() as usize;
-        for f in first..play.clip.frames.len() {
-            let poses = play.body_poses(f as f64 * frame_time);
-            for (k, j) in inst.joints.iter_mut().enumerate() {
-                if j.widen_to_include(&poses[j.parent], &poses[j.child], HANDOVER_LIMIT_MARGIN_DEG)
-                {
-                    self.backend.set_joint_limits(inst.first_joint + k, &j.kind);
-                }
+        let clip_poses: Vec<Vec<Transform>> = (first..play.clip.frames.len())
+            .map(|f| play.body_poses(f as f64 * frame_time))
+            .collect();
+        for (k, j) in inst.joints.iter_mut().enumerate() {
+            let pairs: Vec<(Transform, Transform)> = clip_poses
+                .iter()
+                .map(|p| (p[j.parent], p[j.child]))
+                .collect();
+            if j.fit_hinge_to(&pairs).is_some() {
+                self.backend
+                    .set_joint_parent_frame(inst.first_joint + k, &j.frame_parent);
+                self.backend
+                    .set_joint_child_frame(inst.first_joint + k, &j.frame_child);
+            }
+            let mut widened = false;
+            for (parent, child) in &pairs {
+                widened |= j.widen_to_include(parent, child, HANDOVER_LIMIT_MARGIN_DEG);
+            }
+            if widened {
+                self.backend.set_joint_limits(inst.first_joint + k, &j.kind);
             }
         }
-        if state.motors.root_on_clip {
-            self.backend
-                .set_kinematic(inst.first_body + state.root, true);
+        self.backend
+            .set_solver_substeps(POWERED_SOLVER_SUBSTEPS.max(self.settings.substeps));
+        if let Some(root) = held_root {
+            self.backend.set_kinematic(root, true);
+        }
+        for poses in &clip_poses {
+            self.stop_overlapping_pairs(c, poses);
         }
     }
 
@@ -232,12 +261,44 @@ impl World {
                     .set_kinematic_target(base + state.root, &targets[state.root]);
             }
             let s = state.motors.strength_at((t0 + 0.5 * h as f64) as f32);
-            if s <= 0.0 {
-                continue;
-            }
+            let omega = std::f32::consts::TAU * MOTOR_FREQUENCY_HZ;
+            let kp = s * omega * omega;
+            let kd = s * 2.0 * MOTOR_DAMPING_RATIO * omega;
             // The clip's angular velocities: the motors damp toward the clip's motion
             // rather than toward rest, so a fast joint does not lag behind its target.
-            let clip_velocities = play.body_velocities(t1, h as f64);
+            let clip_velocities = if s > 0.0 {
+                play.body_velocities(t1, h as f64)
+            } else {
+                Vec::new()
+            };
+            // Drives inside the backend's solver where it has them.
+            let first_joint = inst.first_joint;
+            let mut driven = true;
+            for (k, j) in inst.joints.iter().enumerate() {
+                if matches!(j.kind, JointKind::Fixed) {
+                    continue;
+                }
+                let (pt, ct) = (&targets[j.parent], &targets[j.child]);
+                let (target, target_vel) = if s > 0.0 {
+                    (
+                        pt.rotation.conjugate() * ct.rotation,
+                        pt.rotation.conjugate()
+                            * (clip_velocities[j.child].1 - clip_velocities[j.parent].1),
+                    )
+                } else {
+                    (Quat::IDENTITY, Vec3::ZERO)
+                };
+                if !self
+                    .backend
+                    .drive_joint(first_joint + k, target, target_vel, kp, kd)
+                {
+                    driven = false;
+                    break;
+                }
+            }
+            if driven || s <= 0.0 {
+                continue;
+            }
             let states = &self.states[base..base + inst.shapes.len()];
             let own: Vec<Vec3> = inst
                 .shapes
@@ -245,9 +306,6 @@ impl World {
                 .zip(&inst.masses)
                 .map(|(shape, &m)| principal_inertia(shape, m))
                 .collect();
-            let omega = std::f32::consts::TAU * MOTOR_FREQUENCY_HZ;
-            let kp = s * omega * omega;
-            let kd = s * 2.0 * MOTOR_DAMPING_RATIO * omega;
             for j in &inst.joints {
                 if matches!(j.kind, JointKind::Fixed) {
                     continue;

@@ -256,19 +256,8 @@ impl super::World {
         }
         // Parts that overlap in the pose at the switch (a hand against the chest)
         // would be thrown apart by their contact: they stop colliding instead.
-        for a in 0..poses.len() {
-            for b in a + 1..poses.len() {
-                if crate::spec::shapes_overlap(
-                    &poses[a],
-                    &inst.shapes[a],
-                    &poses[b],
-                    &inst.shapes[b],
-                    0.0,
-                ) {
-                    self.backend.disable_pair(first + a, first + b);
-                }
-            }
-        }
+        self.stop_overlapping_pairs(c, &poses);
+        let inst = &mut self.instances[c];
         // Bones without bodies (a collar) may have turned since the start: each
         // joint's parent-side anchor moves to where its child's joint is now.
         // A hinge the pose has rolled off its axis takes the pose's axis, and limits
@@ -287,5 +276,28 @@ impl super::World {
         }
         inst.active = true;
         inst.activated_at = Some(t0);
+    }
+}
+
+impl super::World {
+    /// Stops every pair of ragdoll `c`'s bodies that overlap in `poses` (its body poses)
+    /// from colliding: the performer's body went there, so our capsules, cruder than a
+    /// body, are what is wrong, and a contact would throw the parts apart.
+    pub(super) fn stop_overlapping_pairs(&mut self, c: usize, poses: &[Transform]) {
+        let inst = &self.instances[c];
+        for a in 0..poses.len() {
+            for b in a + 1..poses.len() {
+                if crate::spec::shapes_overlap(
+                    &poses[a],
+                    &inst.shapes[a],
+                    &poses[b],
+                    &inst.shapes[b],
+                    0.0,
+                ) {
+                    self.backend
+                        .disable_pair(inst.first_body + a, inst.first_body + b);
+                }
+            }
+        }
     }
 }
