@@ -475,3 +475,35 @@ fn summary_of_every_file() {
         }
     }
 }
+
+/// A misspelt extra key inside a joint table (`max_dgs` beside `max_deg`) is an error
+/// naming the key and its line, not a value silently dropped (serde's `flatten` cannot
+/// deny unknown fields by itself).
+#[test]
+fn a_misspelt_joint_key_is_an_error_with_its_line() {
+    let c = ragdoll::skeleton::humanoid();
+    let spec = build_spec(&c, &BuildOptions::default()).unwrap();
+    let text = spec.to_toml();
+    let line = text
+        .lines()
+        .position(|l| l.trim_start().starts_with("max_deg"))
+        .expect("the humanoid has a hinge");
+    let bad: String = text
+        .lines()
+        .enumerate()
+        .map(|(n, l)| {
+            if n == line {
+                format!("{l}\nmax_dgs = 150.0\n")
+            } else {
+                format!("{l}\n")
+            }
+        })
+        .collect();
+    let err = RagdollSpec::from_toml(&bad, Path::new("edited.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("max_dgs"), "{err}");
+    assert!(err.contains(&format!("line {}", line + 2)), "{err}");
+    // The file as written reads back.
+    assert!(RagdollSpec::from_toml(&text, Path::new("ok.toml")).is_ok());
+}

@@ -170,6 +170,7 @@ pub enum JointKind {
 /// A joint between two bodies.
 // No `deny_unknown_fields` here: serde does not support it together with `flatten` (every
 // key of the flattened `kind` would be reported as unknown and no joint could be read back).
+// `RagdollSpec::from_toml` checks the keys of each joint table itself instead.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct JointSpec {
     /// Unique name (the child body's name).
@@ -253,6 +254,7 @@ impl RagdollSpec {
                 message: e.message().to_string(),
             }
         })?;
+        check_joint_keys(&spec, text, path)?;
         spec.validate()?;
         Ok(spec)
     }
@@ -388,3 +390,75 @@ pub use frames::{
 pub(crate) use build::shapes_overlap;
 pub use build::{BuildOptions, build_spec};
 pub use roles::{Roles, recognise_roles};
+
+/// Rejects keys a `[[joints]]` table does not have (a misspelt `max_deg` would otherwise be
+/// dropped silently, see [`JointSpec`]): the keys allowed are the joint's own and those its
+/// kind writes when serialised.
+fn check_joint_keys(spec: &RagdollSpec, text: &str, path: &std::path::Path) -> Result<()> {
+    let Ok(raw) = toml::from_str::<toml::Table>(text) else {
+        return Ok(());
+    };
+    let Some(toml::Value::Array(tables)) = raw.get("joints") else {
+        return Ok(());
+    };
+    for (i, (table, joint)) in tables.iter().zip(&spec.joints).enumerate() {
+        let Some(table) = table.as_table() else {
+            continue;
+        };
+        let kind_keys = toml::Table::try_from(joint.kind).unwrap_or_default();
+        let known = |key: &str| {
+            ["name", "parent", "child", "anchor_m", "frame"].contains(&key)
+                || kind_keys.contains_key(key)
+        };
+        if let Some(key) = table.keys().find(|k| !known(k)) {
+            return Err(Error::Parse {
+                path: path.to_path_buf(),
+                line: joint_key_line(text, i, key),
+                message: format!(
+                    "unknown key `{key}` in joint \"{}\" (a {} joint has: {})",
+                    joint.name,
+                    kind_keys
+                        .get("kind")
+                        .and_then(|k| k.as_str())
+                        .unwrap_or("?"),
+                    kind_keys
+                        .keys()
+                        .filter(|k| *k != "kind")
+                        .map(String::as_str)
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The line of `key` inside the `index`-th `[[joints]]` table of `text` (1-based), or that
+/// table's header line when the key is not found on a line of its own.
+fn joint_key_line(text: &str, index: usize, key: &str) -> usize {
+    let mut seen = 0;
+    let mut header = 1;
+    let mut inside = false;
+    for (n, line) in text.lines().enumerate() {
+        let trimmed = line.trim_start();
+        if trimmed.starts_with('[') {
+            inside = trimmed.starts_with("[[joints]]") && {
+                seen += 1;
+                seen == index + 1
+            };
+            if inside {
+                header = n + 1;
+            }
+            continue;
+        }
+        if inside
+            && trimmed
+                .strip_prefix(key)
+                .is_some_and(|rest| rest.trim_start().starts_with('='))
+        {
+            return n + 1;
+        }
+    }
+    header
+}
