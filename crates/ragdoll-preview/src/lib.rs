@@ -72,6 +72,10 @@ pub struct PreviewOptions {
     /// The track frame a PNG shows; the middle of the range when `None` (the action, not
     /// the still start or the settled end).
     pub png_frame: Option<usize>,
+    /// Where the camera looks from, as a direction from the scene toward the eye (any
+    /// length); by default front-right and a little above, (0.55, 0.38, 1). The distance
+    /// is always chosen to frame the action.
+    pub view_from: Vec3,
 }
 
 impl Default for PreviewOptions {
@@ -83,6 +87,7 @@ impl Default for PreviewOptions {
             gif_fps: 15.0,
             frames: None,
             png_frame: None,
+            view_from: VIEW_FROM,
         }
     }
 }
@@ -110,6 +115,14 @@ impl PreviewOptions {
             return bad(format!(
                 "the GIF frame rate must be 1 to 50 per second, not {}",
                 self.gif_fps
+            ));
+        }
+        if !(self.view_from.is_finite() && self.view_from.length() > 1e-6)
+            || self.view_from.normalize().y.abs() > 0.999
+        {
+            return bad(format!(
+                "the view direction {} must be finite, non-zero and not straight up or down",
+                self.view_from
             ));
         }
         if let Some((a, b)) = self.frames
@@ -314,6 +327,8 @@ pub struct Preview<'a> {
     light: Vec3,
     shadow: ShadowMask,
     ground: Ground,
+    /// Grid spacing, metres: 1 m for people, a power of ten that suits other sizes.
+    grid: f32,
     target: Target,
     image: Image,
     matrices: Vec<Mat4>,
@@ -451,9 +466,16 @@ impl<'a> Preview<'a> {
         }
         let (width, height) = (options.width as usize, options.height as usize);
         let ss = options.supersample as usize;
-        let camera =
-            Camera::framing(&points, VIEW_FROM, width as f32, height as f32).scaled(ss as f32);
+        let camera = Camera::framing(&points, options.view_from, width as f32, height as f32)
+            .scaled(ss as f32);
         let light = SUN.normalize();
+        let size = actors
+            .iter()
+            .map(|a| a.0.skeleton.rest_height())
+            .fold(0.0f32, f32::max);
+        // 1 m for anything from about half to five times a person's height.
+        let ratio = size.max(0.01) / ragdoll::skeleton::DEFAULT_HEIGHT_M;
+        let grid = 10f32.powf((ratio.log10() + 0.3).floor());
         let mut preview = Preview {
             actors: views,
             markers: markers.to_vec(),
@@ -467,6 +489,7 @@ impl<'a> Preview<'a> {
             light,
             shadow: ShadowMask::new(lo, hi, light),
             ground: Ground::empty(),
+            grid,
             target: Target::new(width * ss, height * ss),
             image: Image {
                 width,
@@ -488,6 +511,18 @@ impl<'a> Preview<'a> {
     /// Number of track frames (the longest track's).
     pub fn frame_count(&self) -> usize {
         self.frames
+    }
+
+    /// Where world point `p` lands in the picture, pixels from the top-left corner; `None`
+    /// when it is behind the camera or outside the picture.
+    pub fn project(&self, p: Vec3) -> Option<glam::Vec2> {
+        let v = self.camera.to_view(p);
+        if v.z < NEAR {
+            return None;
+        }
+        let s = self.camera.to_screen(v) / self.ss as f32;
+        (s.x >= 0.0 && s.y >= 0.0 && s.x < self.width as f32 && s.y < self.height as f32)
+            .then_some(s)
     }
 
     /// Draws track frame `frame` (a shorter track holds its last pose).
@@ -554,7 +589,7 @@ impl<'a> Preview<'a> {
     fn draw_ground(&mut self, t: f32) {
         let scorches = self.scorches(t);
         if self.ground.scorches != Some(scorches.len()) {
-            self.ground = Ground::new(&self.camera, self.light, &scorches);
+            self.ground = Ground::new(&self.camera, self.light, &scorches, self.grid);
         }
         let g = &self.ground;
         self.target.color.copy_from_slice(&g.color);
@@ -744,7 +779,7 @@ impl Ground {
         }
     }
 
-    fn new(cam: &Camera, light: Vec3, scorches: &[(Vec3, f32)]) -> Ground {
+    fn new(cam: &Camera, light: Vec3, scorches: &[(Vec3, f32)], grid: f32) -> Ground {
         let (w, h) = (cam.size.x as usize, cam.size.y as usize);
         let n = w * h;
         let mut g = Ground {
@@ -777,12 +812,13 @@ impl Ground {
                 // grid lines are box-filtered over it (anti-aliased without supersampling)
                 // and fade out where they would shimmer.
                 let foot = dist * pixel * len / -dir.y;
-                let hw = 0.012;
+                let hw = 0.012 * grid;
                 let line = |c: f32| {
-                    let d = (c - c.round()).abs();
+                    let c = c / grid;
+                    let d = (c - c.round()).abs() * grid;
                     ((hw + 0.5 * foot - d) / foot).clamp(0.0, 1.0) * (2.0 * hw / foot).min(1.0)
                 };
-                let fade = (1.0 - (foot - 0.04) / 0.12).clamp(0.0, 1.0);
+                let fade = (1.0 - (foot / grid - 0.04) / 0.12).clamp(0.0, 1.0);
                 let mut base = GROUND.lerp(GRID, (line(p.x).max(line(p.z)) * fade).min(1.0) * 0.8);
                 for &(c, r) in scorches {
                     let d = ((p.x - c.x).powi(2) + (p.z - c.z).powi(2)).sqrt();
