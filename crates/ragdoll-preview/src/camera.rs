@@ -83,14 +83,14 @@ impl Camera {
 
     /// A world point in view space: x right, y up, z the distance along the view axis.
     #[inline]
-    pub fn to_view(&self, p: Vec3) -> Vec3 {
+    pub fn view_space(&self, p: Vec3) -> Vec3 {
         let rel = p - self.eye;
         Vec3::new(rel.dot(self.right), rel.dot(self.up), rel.dot(self.forward))
     }
 
     /// A view-space point (z > 0) on the picture, pixels from the top-left corner.
     #[inline]
-    pub fn to_screen(&self, v: Vec3) -> Vec2 {
+    pub fn screen_point(&self, v: Vec3) -> Vec2 {
         let ndc = Vec2::new(v.x, v.y) / (v.z * self.tan_half);
         Vec2::new(
             (ndc.x * 0.5 + 0.5) * self.size.x,
@@ -133,9 +133,9 @@ mod tests {
                 if i & 2 == 0 { lo.y } else { hi.y },
                 if i & 4 == 0 { lo.z } else { hi.z },
             );
-            let v = cam.to_view(c);
+            let v = cam.view_space(c);
             assert!(v.z > NEAR);
-            let s = cam.to_screen(v);
+            let s = cam.screen_point(v);
             assert!(
                 (0.0..=640.0).contains(&s.x) && (0.0..=480.0).contains(&s.y),
                 "{s}"
@@ -151,8 +151,8 @@ mod tests {
         let box_ = [(Vec3::ZERO, 0.1), (Vec3::ONE, 0.1)];
         let cam = Camera::framing(&box_, Vec3::new(0.3, 0.5, 1.0), 320.0, 200.0);
         let p = Vec3::new(0.2, 0.7, 0.4);
-        let v = cam.to_view(p);
-        let s = cam.to_screen(v);
+        let v = cam.view_space(p);
+        let s = cam.screen_point(v);
         let hit = cam.eye + cam.ray(s.x, s.y) * v.z;
         assert!((hit - p).length() < 1e-4, "{hit} vs {p}");
     }

@@ -431,7 +431,7 @@ impl<'a> Preview<'a> {
             let marks = match *m {
                 Marker::Blast {
                     position, tnt_kg, ..
-                } => [(position, fireball_radius(tnt_kg)); 2],
+                } => [(position, 1.4 * fireball_radius(tnt_kg)); 2],
                 Marker::Shot { origin, end, .. } => [(origin, 0.05), (end, 0.05)],
             };
             if marks.iter().any(|(p, _)| !p.is_finite()) {
@@ -516,11 +516,11 @@ impl<'a> Preview<'a> {
     /// Where world point `p` lands in the picture, pixels from the top-left corner; `None`
     /// when it is behind the camera or outside the picture.
     pub fn project(&self, p: Vec3) -> Option<glam::Vec2> {
-        let v = self.camera.to_view(p);
+        let v = self.camera.view_space(p);
         if v.z < NEAR {
             return None;
         }
-        let s = self.camera.to_screen(v) / self.ss as f32;
+        let s = self.camera.screen_point(v) / self.ss as f32;
         (s.x >= 0.0 && s.y >= 0.0 && s.x < self.width as f32 && s.y < self.height as f32)
             .then_some(s)
     }
@@ -721,12 +721,12 @@ impl<'a> Preview<'a> {
     }
 
     fn line(&mut self, a: Vec3, b: Vec3, color: Vec3, width: f32) {
-        let (va, vb) = (self.camera.to_view(a), self.camera.to_view(b));
+        let (va, vb) = (self.camera.view_space(a), self.camera.view_space(b));
         if va.z < NEAR || vb.z < NEAR {
             return;
         }
-        let sa = self.camera.to_screen(va).extend(1.0 / va.z);
-        let sb = self.camera.to_screen(vb).extend(1.0 / vb.z);
+        let sa = self.camera.screen_point(va).extend(1.0 / va.z);
+        let sb = self.camera.screen_point(vb).extend(1.0 / vb.z);
         self.target.line(sa, sb, color, width);
     }
 
@@ -859,11 +859,11 @@ fn hash(k: usize) -> f32 {
 fn project(cam: &Camera, positions: &[Vec3], screen: &mut Vec<Vec3>) {
     screen.clear();
     screen.extend(positions.iter().map(|&p| {
-        let v = cam.to_view(p);
+        let v = cam.view_space(p);
         if v.z < NEAR {
             Vec3::NAN
         } else {
-            cam.to_screen(v).extend(1.0 / v.z)
+            cam.screen_point(v).extend(1.0 / v.z)
         }
     }));
 }
