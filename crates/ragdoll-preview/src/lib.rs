@@ -111,6 +111,16 @@ impl PreviewOptions {
                 self.supersample
             ));
         }
+        let drawn = self.width as u64 * self.height as u64 * (self.supersample as u64).pow(2);
+        if drawn > 1 << 24 {
+            return bad(format!(
+                "{}×{} pixels drawn {} times over would need {drawn} pixels of buffer; at most {} (lower the size or the supersampling)",
+                self.width,
+                self.height,
+                self.supersample * self.supersample,
+                1u64 << 24
+            ));
+        }
         if !(self.gif_fps.is_finite() && (1.0..=50.0).contains(&self.gif_fps)) {
             return bad(format!(
                 "the GIF frame rate must be 1 to 50 per second, not {}",

@@ -315,6 +315,12 @@ fn bad_requests_are_errors_that_say_what_is_wrong() {
             view_from: Vec3::Y,
             ..small()
         },
+        PreviewOptions {
+            width: 4096,
+            height: 4096,
+            supersample: 2,
+            ..small()
+        },
     ] {
         assert!(Preview::new(&actors, &[], &bad).is_err(), "{bad:?}");
     }
