@@ -78,6 +78,7 @@ pub fn markers(blasts: &[Blast], shots: &[Projectile], hits: &[ProjectileReport]
             origin: s.origin,
             end,
             time_s: s.time_s,
+            hit: hit.is_some(),
         });
     }
     out
@@ -267,6 +268,7 @@ fn report_markers(glb: &Path) -> Result<Vec<Marker>> {
                 origin: point,
                 end: point,
                 time_s,
+                hit: true,
             });
         }
     }

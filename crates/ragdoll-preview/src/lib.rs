@@ -3,18 +3,20 @@
 //!
 //! What a picture shows: each character as its skinned mesh deformed by linear blend
 //! skinning ([`ragdoll::skeleton::skinning`]), or, without a mesh, as the capsules and boxes
-//! of its ragdoll; lit by a sun (Lambert plus a sky term); a ground with a one-metre grid
-//! and soft shadows; blasts as a fireball at the charge from its detonation time and a
+//! of its ragdoll; lit by a sun (Lambert plus a sky term); a ground with a grid (1 m for
+//! people) and soft shadows; blasts as a fireball at the charge from its detonation time, a
 //! scorch mark after; shots as a tracer from muzzle to hit around their time; a frame
 //! counter. The camera frames everything that happens over the whole run and stays put,
 //! so the motion reads against a still ground.
 //!
-//! How: one z-buffer rasteriser (`raster.rs`) draws every triangle and line, so occlusion
-//! is right whatever the order; the ground is ray-cast per pixel into the same z-buffer
-//! (exact to the horizon, nothing to clip); shadows are the silhouettes projected along
-//! the sunlight into a mask over the ground and blurred (`shadow.rs`); the picture is
-//! drawn at twice the size and averaged down (anti-aliasing). GIFs share one palette and
-//! store only what changed between frames (`encode.rs`).
+//! How, one file each: a single z-buffer rasteriser (`raster.rs`) draws every triangle and
+//! line, so occlusion is right whatever the order; the ground is ray-cast per pixel into
+//! the same z-buffer, once, since the camera never moves (`ground.rs`; exact to the
+//! horizon, nothing to clip); shadows are the silhouettes projected along the sunlight into
+//! a mask over the ground and blurred (`shadow.rs`); markers are in `markers.rs`, lighting
+//! and marker shapes in `mesh.rs`, the counter's font in `font.rs`. The picture is drawn at
+//! twice the size and averaged down (anti-aliasing). GIFs share one palette and store only
+//! what changed between frames (`encode.rs`).
 //!
 //! ```
 //! use ragdoll::{skeleton, spec, world::{World, WorldSettings}};
@@ -37,6 +39,9 @@
 mod camera;
 mod encode;
 mod font;
+mod ground;
+mod markers;
+mod mesh;
 mod raster;
 mod shadow;
 
@@ -51,6 +56,9 @@ use ragdoll::track::Track;
 use ragdoll::{Error, Result};
 
 use camera::{Camera, NEAR};
+use ground::Ground;
+use markers::fireball_radius;
+use mesh::{cube, draw_lit, icosphere, vertex_normals};
 use raster::Target;
 use shadow::ShadowMask;
 
@@ -158,7 +166,7 @@ pub enum Marker {
         tnt_kg: f32,
     },
     /// A shot: a tracer from `origin` to `end` shortly before and after `time_s`, and a spark
-    /// at `end`.
+    /// at `end` when it hit something.
     Shot {
         /// Where it was fired from, metres.
         origin: Vec3,
@@ -166,6 +174,8 @@ pub enum Marker {
         end: Vec3,
         /// When it hit, seconds.
         time_s: f32,
+        /// Whether it hit a body. The camera frames the end of a hit, not of a miss.
+        hit: bool,
     },
 }
 
@@ -302,10 +312,10 @@ const ALBEDO: [Vec3; 5] = [
     Vec3::new(0.84, 0.72, 0.32),
     Vec3::new(0.68, 0.45, 0.78),
 ];
-const SKY_HORIZON: Vec3 = Vec3::new(0.86, 0.89, 0.93);
-const SKY_ZENITH: Vec3 = Vec3::new(0.52, 0.66, 0.85);
-const GROUND: Vec3 = Vec3::new(0.80, 0.78, 0.73);
-const GRID: Vec3 = Vec3::new(0.48, 0.49, 0.50);
+pub(crate) const SKY_HORIZON: Vec3 = Vec3::new(0.86, 0.89, 0.93);
+pub(crate) const SKY_ZENITH: Vec3 = Vec3::new(0.52, 0.66, 0.85);
+pub(crate) const GROUND: Vec3 = Vec3::new(0.80, 0.78, 0.73);
+pub(crate) const GRID: Vec3 = Vec3::new(0.48, 0.49, 0.50);
 
 /// One mesh of a character, with buffers reused every frame.
 struct MeshView<'a> {
@@ -442,7 +452,9 @@ impl<'a> Preview<'a> {
                 Marker::Blast {
                     position, tnt_kg, ..
                 } => [(position, 1.4 * fireball_radius(tnt_kg)); 2],
-                Marker::Shot { origin, end, .. } => [(origin, 0.05), (end, 0.05)],
+                Marker::Shot {
+                    origin, end, hit, ..
+                } => [(origin, 0.05), (if hit { end } else { origin }, 0.05)],
             };
             if marks.iter().any(|(p, _)| !p.is_finite()) {
                 return Err(err("a marker's position is not finite".into()));
@@ -615,131 +627,6 @@ impl<'a> Preview<'a> {
         }
     }
 
-    /// The blasts that have gone off by time `t` and sit low enough to scorch the ground:
-    /// centre and radius.
-    fn scorches(&self, t: f32) -> Vec<(Vec3, f32)> {
-        self.markers
-            .iter()
-            .filter_map(|m| match *m {
-                Marker::Blast {
-                    position,
-                    time_s,
-                    tnt_kg,
-                } if t >= time_s && position.y < fireball_radius(tnt_kg) => {
-                    Some((position, 0.8 * fireball_radius(tnt_kg)))
-                }
-                _ => None,
-            })
-            .collect()
-    }
-
-    fn draw_markers(&mut self, t: f32) {
-        let cam = self.camera;
-        let ss = self.ss as f32;
-        for m in self.markers.clone() {
-            match m {
-                Marker::Blast {
-                    position,
-                    time_s,
-                    tnt_kg,
-                } => {
-                    let tau = t - time_s;
-                    let radius = fireball_radius(tnt_kg);
-                    if tau < 0.0 {
-                        // The charge, waiting.
-                        let s = 0.06 * tnt_kg.cbrt().clamp(0.5, 3.0);
-                        let pos: Vec<Vec3> =
-                            self.cube.0.iter().map(|&v| position + v * s).collect();
-                        let nrm = self.cube.0.clone();
-                        draw_lit(
-                            &mut self.target,
-                            &cam,
-                            self.light,
-                            &pos,
-                            &nrm,
-                            &self.cube.1,
-                            |_| Vec3::new(0.35, 0.12, 0.1),
-                            &mut self.screen,
-                            &mut self.shade,
-                        );
-                    } else if tau < 0.45 {
-                        // A ragged fireball that swells in 50 ms, then cools and fades.
-                        let grow = (tau / 0.05).min(1.0);
-                        let r = radius * grow * (1.0 + 0.4 * tau);
-                        let heat = (tau / 0.45).clamp(0.0, 1.0);
-                        let core = Vec3::new(1.0, 0.96, 0.75)
-                            .lerp(Vec3::new(1.0, 0.55, 0.12), (heat * 3.0).min(1.0))
-                            .lerp(Vec3::new(0.32, 0.28, 0.26), ((heat - 0.35) / 0.65).max(0.0));
-                        let pos: Vec<Vec3> = self
-                            .sphere
-                            .0
-                            .iter()
-                            .enumerate()
-                            .map(|(k, &v)| position + v * r * (0.8 + 0.4 * hash(k)))
-                            .collect();
-                        // Mottled: each vertex between the core colour and a deeper orange.
-                        let deep = core * Vec3::new(0.95, 0.55, 0.35);
-                        let colors: Vec<Vec3> = (0..pos.len())
-                            .map(|k| core.lerp(deep, hash(k + 101)))
-                            .collect();
-                        draw_flat(
-                            &mut self.target,
-                            &cam,
-                            &pos,
-                            &self.sphere.1,
-                            &colors,
-                            &mut self.screen,
-                        );
-                        if tau < 0.2 {
-                            // Sparks flying out of it.
-                            let spark = Vec3::new(1.0, 0.85, 0.35);
-                            let dirs: Vec<Vec3> =
-                                self.sphere.0.iter().step_by(4).copied().collect();
-                            for (k, d) in dirs.into_iter().enumerate() {
-                                let a = position + d * r * 0.9;
-                                let b = position + d * r * (1.4 + 0.8 * hash(k + 7));
-                                self.line(a, b, spark, 1.5 * ss);
-                            }
-                        }
-                    }
-                }
-                Marker::Shot {
-                    origin,
-                    end,
-                    time_s,
-                } => {
-                    let tau = t - time_s;
-                    if (-0.1..=0.25).contains(&tau) {
-                        self.line(origin, end, Vec3::new(1.0, 0.9, 0.3), 1.5 * ss);
-                    }
-                    if (0.0..=0.3).contains(&tau) {
-                        let pos: Vec<Vec3> =
-                            self.sphere.0.iter().map(|&v| end + v * 0.05).collect();
-                        let colors = vec![Vec3::new(1.0, 0.3, 0.15); pos.len()];
-                        draw_flat(
-                            &mut self.target,
-                            &cam,
-                            &pos,
-                            &self.sphere.1,
-                            &colors,
-                            &mut self.screen,
-                        );
-                    }
-                }
-            }
-        }
-    }
-
-    fn line(&mut self, a: Vec3, b: Vec3, color: Vec3, width: f32) {
-        let (va, vb) = (self.camera.view_space(a), self.camera.view_space(b));
-        if va.z < NEAR || vb.z < NEAR {
-            return;
-        }
-        let sa = self.camera.screen_point(va).extend(1.0 / va.z);
-        let sb = self.camera.screen_point(vb).extend(1.0 / vb.z);
-        self.target.line(sa, sb, color, width);
-    }
-
     /// Averages the supersampled buffer down into the picture.
     fn resolve(&mut self) {
         let ss = self.ss;
@@ -762,269 +649,4 @@ impl<'a> Preview<'a> {
             }
         }
     }
-}
-
-/// The empty scene (sky, ground, grid, scorch marks) ray-cast once per pixel, with what
-/// each ground pixel needs to take a shadow: the camera never moves, so only the shadows
-/// change from frame to frame (and the scorch marks, when a blast goes off).
-struct Ground {
-    /// How many scorch marks this picture has (`None`: not drawn yet).
-    scorches: Option<usize>,
-    color: Vec<Vec3>,
-    depth: Vec<f32>,
-    /// What full shadow takes away from each pixel (zero for the sky).
-    shade: Vec<Vec3>,
-    /// The ground point each pixel shows, (x, z); NaN for the sky.
-    xz: Vec<glam::Vec2>,
-}
-
-impl Ground {
-    fn empty() -> Ground {
-        Ground {
-            scorches: None,
-            color: Vec::new(),
-            depth: Vec::new(),
-            shade: Vec::new(),
-            xz: Vec::new(),
-        }
-    }
-
-    fn new(cam: &Camera, light: Vec3, scorches: &[(Vec3, f32)], grid: f32) -> Ground {
-        let (w, h) = (cam.size.x as usize, cam.size.y as usize);
-        let n = w * h;
-        let mut g = Ground {
-            scorches: Some(scorches.len()),
-            color: vec![Vec3::ZERO; n],
-            depth: vec![0.0; n],
-            shade: vec![Vec3::ZERO; n],
-            xz: vec![glam::Vec2::NAN; n],
-        };
-        // World size of one pixel at unit depth, for filtering the grid lines.
-        let pixel = 2.0 * cam.tan_half.y / cam.size.y;
-        let fog = 1.0 / (6.0 * (cam.eye.y.abs() + 10.0));
-        let sun = light.y;
-        let step = cam.right * (2.0 * cam.tan_half.x / cam.size.x);
-        for y in 0..h {
-            let row = cam.ray(0.5, y as f32 + 0.5);
-            for x in 0..w {
-                let dir = row + step * x as f32;
-                let i = y * w + x;
-                let len = dir.length();
-                if dir.y >= -1e-4 * len || cam.eye.y <= 0.0 {
-                    let s = (dir.y / len).max(0.0).sqrt();
-                    g.color[i] = SKY_HORIZON.lerp(SKY_ZENITH, s);
-                    continue;
-                }
-                let depth = -cam.eye.y / dir.y;
-                let p = cam.eye + dir * depth;
-                let dist = depth * len;
-                // Ground width of this pixel: wider the further and the more grazing. The
-                // grid lines are box-filtered over it (anti-aliased without supersampling)
-                // and fade out where they would shimmer.
-                let foot = dist * pixel * len / -dir.y;
-                let hw = 0.012 * grid;
-                let line = |c: f32| {
-                    let c = c / grid;
-                    let d = (c - c.round()).abs() * grid;
-                    ((hw + 0.5 * foot - d) / foot).clamp(0.0, 1.0) * (2.0 * hw / foot).min(1.0)
-                };
-                let fade = (1.0 - (foot / grid - 0.04) / 0.12).clamp(0.0, 1.0);
-                let mut base = GROUND.lerp(GRID, (line(p.x).max(line(p.z)) * fade).min(1.0) * 0.8);
-                for &(c, r) in scorches {
-                    let d = ((p.x - c.x).powi(2) + (p.z - c.z).powi(2)).sqrt();
-                    if d < r {
-                        let k = 1.0 - d / r;
-                        base *= 1.0 - 0.75 * (k * k * (3.0 - 2.0 * k));
-                    }
-                }
-                let haze = 1.0 - (-dist * fog).exp();
-                let lit = base * (0.42 + 0.62 * sun);
-                g.color[i] = lit.lerp(SKY_HORIZON, haze);
-                g.shade[i] = base * (0.62 * sun * 0.7 * (1.0 - haze));
-                g.depth[i] = 1.0 / depth;
-                g.xz[i] = glam::Vec2::new(p.x, p.z);
-            }
-        }
-        g
-    }
-}
-
-/// Fireball radius, metres, for a charge of `tnt_kg`: half a metre per ∛kg (an artistic
-/// size, not a physical one; the blast's reach is far larger).
-fn fireball_radius(tnt_kg: f32) -> f32 {
-    0.5 * tnt_kg.max(0.0).cbrt().clamp(0.2, 20.0)
-}
-
-/// A repeatable pseudo-random number in 0..1 for `k`.
-fn hash(k: usize) -> f32 {
-    let mut x = (k as u32).wrapping_mul(0x9E37_79B9) ^ 0x85EB_CA6B;
-    x ^= x >> 15;
-    x = x.wrapping_mul(0x2C1B_3C6D);
-    x ^= x >> 12;
-    (x & 0xFFFF) as f32 / 65535.0
-}
-
-/// Projects the vertices, giving each its screen position and `1/depth`; a vertex behind
-/// the near plane gets NaN so its triangles are skipped.
-fn project(cam: &Camera, positions: &[Vec3], screen: &mut Vec<Vec3>) {
-    screen.clear();
-    screen.extend(positions.iter().map(|&p| {
-        let v = cam.view_space(p);
-        if v.z < NEAR {
-            Vec3::NAN
-        } else {
-            cam.screen_point(v).extend(1.0 / v.z)
-        }
-    }));
-}
-
-fn draw_triangles(target: &mut Target, screen: &[Vec3], indices: &[u32], colors: &[Vec3]) {
-    for t in indices.chunks_exact(3) {
-        let [a, b, c] = [t[0] as usize, t[1] as usize, t[2] as usize];
-        let p = [screen[a], screen[b], screen[c]];
-        if p.iter().any(|v| !v.is_finite()) {
-            continue;
-        }
-        target.triangle(p, [colors[a], colors[b], colors[c]]);
-    }
-}
-
-/// Draws a mesh lit by the sun and the sky, colours computed per vertex (Gouraud).
-#[allow(clippy::too_many_arguments)]
-fn draw_lit(
-    target: &mut Target,
-    cam: &Camera,
-    light: Vec3,
-    positions: &[Vec3],
-    normals: &[Vec3],
-    indices: &[u32],
-    albedo: impl Fn(usize) -> Vec3,
-    screen: &mut Vec<Vec3>,
-    shade: &mut Vec<Vec3>,
-) {
-    project(cam, positions, screen);
-    shade.clear();
-    shade.extend(normals.iter().enumerate().map(|(k, n)| {
-        let sky = 0.30 + 0.12 * n.y;
-        let sun = 0.68 * n.dot(light).max(0.0);
-        albedo(k) * (sky + sun)
-    }));
-    draw_triangles(target, screen, indices, shade);
-}
-
-/// Draws a mesh in its own colours, unlit (fire glows).
-fn draw_flat(
-    target: &mut Target,
-    cam: &Camera,
-    positions: &[Vec3],
-    indices: &[u32],
-    colors: &[Vec3],
-    screen: &mut Vec<Vec3>,
-) {
-    project(cam, positions, screen);
-    draw_triangles(target, screen, indices, colors);
-}
-
-/// Area-weighted vertex normals, for meshes that come without any.
-fn vertex_normals(positions: &[Vec3], indices: &[u32], out: &mut Vec<Vec3>) {
-    out.clear();
-    out.resize(positions.len(), Vec3::ZERO);
-    for t in indices.chunks_exact(3) {
-        let [a, b, c] = [t[0] as usize, t[1] as usize, t[2] as usize];
-        let n = (positions[b] - positions[a]).cross(positions[c] - positions[a]);
-        for k in [a, b, c] {
-            out[k] += n;
-        }
-    }
-    for n in out.iter_mut() {
-        *n = n.try_normalize().unwrap_or(Vec3::Y);
-    }
-}
-
-/// A unit sphere: an icosahedron subdivided twice (320 triangles), vertices on the sphere
-/// (so each is also its own normal).
-fn icosphere() -> (Vec<Vec3>, Vec<u32>) {
-    let p = (1.0 + 5f32.sqrt()) / 2.0;
-    let mut v: Vec<Vec3> = [
-        (-1.0, p, 0.0),
-        (1.0, p, 0.0),
-        (-1.0, -p, 0.0),
-        (1.0, -p, 0.0),
-        (0.0, -1.0, p),
-        (0.0, 1.0, p),
-        (0.0, -1.0, -p),
-        (0.0, 1.0, -p),
-        (p, 0.0, -1.0),
-        (p, 0.0, 1.0),
-        (-p, 0.0, -1.0),
-        (-p, 0.0, 1.0),
-    ]
-    .iter()
-    .map(|&(x, y, z)| Vec3::new(x, y, z).normalize())
-    .collect();
-    let mut f: Vec<[u32; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    for _ in 0..2 {
-        let mut cache = std::collections::HashMap::new();
-        let mut mid = |a: u32, b: u32, v: &mut Vec<Vec3>| {
-            *cache.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                v.push(((v[a as usize] + v[b as usize]) * 0.5).normalize());
-                v.len() as u32 - 1
-            })
-        };
-        let mut next = Vec::with_capacity(f.len() * 4);
-        for [a, b, c] in f {
-            let (ab, bc, ca) = (mid(a, b, &mut v), mid(b, c, &mut v), mid(c, a, &mut v));
-            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
-        }
-        f = next;
-    }
-    (v, f.into_iter().flatten().collect())
-}
-
-/// A cube of half-size 1 as 8 shared corners (normals along the corners: rounded shading
-/// is fine for a marker this small).
-fn cube() -> (Vec<Vec3>, Vec<u32>) {
-    let v: Vec<Vec3> = (0..8)
-        .map(|i| {
-            Vec3::new(
-                if i & 1 == 0 { -1.0 } else { 1.0 },
-                if i & 2 == 0 { -1.0 } else { 1.0 },
-                if i & 4 == 0 { -1.0 } else { 1.0 },
-            )
-        })
-        .collect();
-    let faces = [
-        [0, 1, 3, 2],
-        [4, 6, 7, 5],
-        [0, 4, 5, 1],
-        [2, 3, 7, 6],
-        [0, 2, 6, 4],
-        [1, 5, 7, 3],
-    ];
-    let idx = faces
-        .iter()
-        .flat_map(|q| [q[0], q[1], q[2], q[0], q[2], q[3]])
-        .collect();
-    (v, idx)
 }

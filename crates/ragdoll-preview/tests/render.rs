@@ -336,3 +336,36 @@ fn bad_requests_are_errors_that_say_what_is_wrong() {
     };
     assert!(Preview::new(&[(&c, &spec, &broken)], &[], &small()).is_err());
 }
+
+#[test]
+fn a_shot_shows_a_tracer_around_its_time_and_a_spark_only_where_it_hit() {
+    let c = humanoid();
+    let spec = spec::build_spec(&c, &BuildOptions::default()).unwrap();
+    let track = still(&c, 30);
+    let (origin, end) = (Vec3::new(-1.5, 1.2, 3.0), Vec3::new(0.0, 1.25, 0.15));
+    for hit in [true, false] {
+        let markers = [Marker::Shot {
+            origin,
+            end,
+            time_s: 0.5,
+            hit,
+        }];
+        let mut p = Preview::new(&[(&c, &spec, &track)], &markers, &small()).unwrap();
+        let mid = p.project((origin + end) * 0.5).unwrap();
+        let tip = p.project(end).unwrap();
+        let yellow = |px: [u8; 3]| px[0] > 200 && px[1] > 180 && px[2] < 150;
+        let red = |px: [u8; 3]| px[0] > 200 && px[1] < 120 && px[2] < 100;
+        let at =
+            |img: &ragdoll_preview::Image, s: glam::Vec2| img.pixel(s.x as usize, s.y as usize);
+        let during = p.render(15).unwrap().clone();
+        assert!(yellow(at(&during, mid)), "tracer {:?}", at(&during, mid));
+        assert_eq!(
+            red(at(&during, tip)),
+            hit,
+            "hit {hit}: {:?}",
+            at(&during, tip)
+        );
+        let later = p.render(29).unwrap();
+        assert!(!yellow(at(later, mid)) && !red(at(later, tip)));
+    }
+}
