@@ -176,7 +176,7 @@ pub fn run(a: &PreviewArgs) -> Result<()> {
     .map_err(flag("preview"))?;
     write_atomic(&a.output, &bytes)?;
     eprintln!(
-        "{}: {} frames at {} fps drawn",
+        "{}: {} frames at {:.1} fps drawn",
         character.name,
         track.frames.len(),
         track.fps
