@@ -13,6 +13,7 @@ use ragdoll::spec::{self, BuildOptions, RagdollSpec};
 use ragdoll::track::Track;
 use ragdoll::world::{StartPose, World, WorldSettings};
 
+use crate::preview_cmd;
 use crate::progress::Progress;
 use crate::{
     BlastArgs, BuildArgs, DemoArgs, ImportArgs, InspectArgs, RagdollArgs, ShootArgs, SimArgs,
@@ -109,6 +110,7 @@ fn load_or_builtin(file: Option<&Path>, import: &ImportArgs) -> Result<(Characte
 
 pub fn shoot(a: &ShootArgs) -> Result<()> {
     let kind = output_kind(&a.output)?;
+    a.preview.check()?;
     let from = glam::Vec3::from_array(a.from);
     let shot = Projectile {
         origin: from,
@@ -136,7 +138,9 @@ pub fn shoot(a: &ShootArgs) -> Result<()> {
             None => eprintln!("missed"),
         }
     }
-    write_result(&kind, &a.output, &character, &spec, &track, &report)
+    write_result(&kind, &a.output, &character, &spec, &track, &report)?;
+    let markers = preview_cmd::markers(&[], &events.projectiles, &report.projectiles);
+    a.preview.write(&[(&character, &spec, &track)], &markers)
 }
 
 /// Runs the simulation with a progress bar; returns the track and its report.
@@ -225,6 +229,7 @@ fn encode(
 }
 
 pub fn demo(a: &DemoArgs) -> Result<()> {
+    a.preview.check()?;
     let character = skeleton::humanoid();
     let spec = ragdoll_spec(&character, &a.ragdoll)?;
     let (track, report) =
@@ -241,17 +246,22 @@ pub fn demo(a: &DemoArgs) -> Result<()> {
         write_atomic(path, bytes)?;
     }
     print_summary(&report, files.iter().map(|(p, _)| p.as_path()));
-    Ok(())
+    a.preview.write(&[(&character, &spec, &track)], &[])
 }
 
 pub fn simulate(a: &SimulateArgs) -> Result<()> {
     let kind = output_kind(&a.output)?;
+    a.preview.check()?;
     let character = load(&a.file, &a.import)?;
     let spec = ragdoll_spec(&character, &a.ragdoll)?;
     let input = a.file.display().to_string();
     let (track, report) =
         simulate_character(&input, &character, &spec, &a.sim, &Events::default())?;
-    write_result(&kind, &a.output, &character, &spec, &track, &report)
+    write_result(&kind, &a.output, &character, &spec, &track, &report)?;
+    if let Some(dir) = &a.obj_sequence {
+        preview_cmd::write_obj_sequence(dir, &character, &spec, &track)?;
+    }
+    a.preview.write(&[(&character, &spec, &track)], &[])
 }
 
 /// Encodes the track, then writes it and its report (each atomically).
@@ -273,6 +283,7 @@ fn write_result(
 
 pub fn blast(a: &BlastArgs) -> Result<()> {
     let kind = output_kind(&a.output)?;
+    a.preview.check()?;
     let blast = Blast {
         tnt_kg: a.tnt,
         position: glam::Vec3::from_array(a.at),
@@ -304,7 +315,9 @@ pub fn blast(a: &BlastArgs) -> Result<()> {
             }
         }
     }
-    write_result(&kind, &a.output, &character, &spec, &track, &report)
+    write_result(&kind, &a.output, &character, &spec, &track, &report)?;
+    let markers = preview_cmd::markers(&[blast], &[], &[]);
+    a.preview.write(&[(&character, &spec, &track)], &markers)
 }
 
 /// `OUT.glb` → `OUT.report.json`, next to it.

@@ -5,6 +5,7 @@
 
 mod bench;
 mod commands;
+mod preview_cmd;
 mod progress;
 mod scene_cmd;
 
@@ -39,6 +40,8 @@ enum Command {
     Shoot(ShootArgs),
     /// Measure simulation speed on the pile workload (DESIGN §6). A benchmark, not a test.
     Bench(bench::BenchArgs),
+    /// Draw a baked result (.glb written by ragdoll) as a PNG or an animated GIF, on the CPU.
+    Preview(preview_cmd::PreviewArgs),
 }
 
 /// How to read a character file.
@@ -153,6 +156,8 @@ struct DemoArgs {
     ragdoll: RagdollArgs,
     #[command(flatten)]
     sim: SimArgs,
+    #[command(flatten)]
+    preview: preview_cmd::PreviewArg,
 }
 
 #[derive(Args, Debug)]
@@ -196,6 +201,12 @@ struct SimulateArgs {
     ragdoll: RagdollArgs,
     #[command(flatten)]
     sim: SimArgs,
+    #[command(flatten)]
+    preview: preview_cmd::PreviewArg,
+    /// Also write the deformed mesh (or the ragdoll's bodies) as one OBJ per frame into
+    /// this folder (character files only).
+    #[arg(long, value_name = "DIR")]
+    obj_sequence: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]
@@ -223,6 +234,8 @@ struct BlastArgs {
     ragdoll: RagdollArgs,
     #[command(flatten)]
     sim: SimArgs,
+    #[command(flatten)]
+    preview: preview_cmd::PreviewArg,
 }
 
 #[derive(Args, Debug)]
@@ -253,6 +266,8 @@ struct ShootArgs {
     ragdoll: RagdollArgs,
     #[command(flatten)]
     sim: SimArgs,
+    #[command(flatten)]
+    preview: preview_cmd::PreviewArg,
 }
 
 /// Parses `X,Y,Z` (three finite numbers, metres).
@@ -286,6 +301,7 @@ fn main() -> ExitCode {
         Command::Blast(a) => commands::blast(&a),
         Command::Shoot(a) => commands::shoot(&a),
         Command::Bench(a) => bench::run(&a),
+        Command::Preview(a) => preview_cmd::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -51,6 +51,10 @@ pub fn run(a: &SimulateArgs, matches: &ArgMatches) -> Result<()> {
             );
         }
     }
+    if a.obj_sequence.is_some() {
+        bail!("--obj-sequence applies to a character file, not a scene file");
+    }
+    a.preview.check()?;
     let mut scene = Scene::load(&a.file)?;
     if given(matches, "seconds") {
         if !(a.sim.seconds.is_finite() && a.sim.seconds > 0.0 && a.sim.seconds <= 3600.0) {
@@ -87,7 +91,16 @@ pub fn run(a: &SimulateArgs, matches: &ArgMatches) -> Result<()> {
     for path in written {
         println!("{}", path.display());
     }
-    Ok(())
+    let actors: Vec<_> = scene
+        .characters
+        .iter()
+        .zip(&result.tracks)
+        .map(|(c, t)| (&c.character, &c.spec, t))
+        .collect();
+    let blasts: Vec<_> = scene.blasts.iter().map(|b| b.event).collect();
+    let shots: Vec<_> = scene.projectiles.iter().map(|p| p.event).collect();
+    let markers = crate::preview_cmd::markers(&blasts, &shots, &result.report.projectiles);
+    a.preview.write(&actors, &markers)
 }
 
 fn print_summary(r: &SceneReport) {

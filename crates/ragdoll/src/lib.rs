@@ -31,9 +31,10 @@
 //!
 //! # Note
 //!
-//! Only the rigid (rapier3d) backend exists so far; the particle backend, previews and the
-//! viewer come later. Powered mode (`world::Motors`) tracks legs within a few degrees but
-//! lags on arms, spine and head during fast motion.
+//! Only the rigid (rapier3d) backend exists so far; the particle backend and the viewer
+//! come later (preview pictures are drawn by the separate `ragdoll-preview` crate).
+//! Powered mode (`world::Motors`) tracks legs within a few degrees but lags on arms, spine
+//! and head during fast motion.
 //!
 //! Events ([`events`]): blasts, projectiles, pushes, fields, pins, and animation hand-over
 //! ([`world::Activation`]); scene files ([`scene`]) put characters and events together.

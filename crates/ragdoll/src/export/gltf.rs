@@ -22,6 +22,8 @@
 mod merge;
 mod shapes;
 
+pub(crate) use shapes::bodies_mesh;
+
 use std::collections::{HashMap, HashSet};
 
 use glam::{Mat4, Quat, Vec3};

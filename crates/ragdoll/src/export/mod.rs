@@ -1,9 +1,11 @@
-//! Exporters: a [`Track`](crate::track::Track) in, files out (glTF, BVH, the JSON report).
+//! Exporters: a [`Track`](crate::track::Track) in, files out (glTF, BVH, OBJ sequences, the
+//! JSON report).
 //! They know nothing of backends. Every file is written to a temporary name and renamed,
 //! so a failed run never leaves a half-written file.
 
 pub mod bvh;
 pub mod gltf;
+pub mod obj;
 
 use std::io::Write;
 use std::path::Path;

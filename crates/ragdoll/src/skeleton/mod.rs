@@ -3,6 +3,7 @@
 //! past this point knows the file format's units or up axis.
 
 mod humanoid;
+pub mod skinning;
 
 pub use humanoid::{DEFAULT_HEIGHT_M, humanoid};
 

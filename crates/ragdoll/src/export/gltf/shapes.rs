@@ -19,7 +19,7 @@ const RINGS: usize = 4;
 
 /// A triangle list with one joint per vertex (rigid skinning).
 #[derive(Debug, Default)]
-pub(super) struct BodyMesh {
+pub(crate) struct BodyMesh {
     pub positions: Vec<Vec3>,
     pub normals: Vec<Vec3>,
     pub joints: Vec<u16>,
@@ -96,7 +96,7 @@ pub(super) fn cuboid(size: [f32; 3]) -> (Vec<Vec3>, Vec<Vec3>, Vec<u32>) {
 
 /// Every body of `spec` as a mesh in the world rest pose, each vertex bound to its body's
 /// bone joint.
-pub(super) fn bodies_mesh(skeleton: &Skeleton, spec: &RagdollSpec) -> Result<BodyMesh> {
+pub(crate) fn bodies_mesh(skeleton: &Skeleton, spec: &RagdollSpec) -> Result<BodyMesh> {
     let rest_world = skeleton.rest_world();
     let mut out = BodyMesh::default();
     for body in &spec.bodies {
