@@ -6,6 +6,7 @@
 mod bench;
 mod commands;
 mod progress;
+mod rig_cmd;
 mod scene_cmd;
 
 use std::path::PathBuf;
@@ -37,6 +38,9 @@ enum Command {
     Blast(BlastArgs),
     /// Hit a character with a projectile (a straight shot) and bake the result.
     Shoot(ShootArgs),
+    /// Rig a mesh without a skeleton (OBJ, or glTF without a skin): a spine along its
+    /// centre line, optional mirrored limbs, automatic skin weights; writes a skinned .glb.
+    Rig(rig_cmd::RigArgs),
     /// Measure simulation speed on the pile workload (DESIGN §6). A benchmark, not a test.
     Bench(bench::BenchArgs),
 }
@@ -286,6 +290,7 @@ fn main() -> ExitCode {
         Command::Blast(a) => commands::blast(&a),
         Command::Shoot(a) => commands::shoot(&a),
         Command::Bench(a) => bench::run(&a),
+        Command::Rig(a) => rig_cmd::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

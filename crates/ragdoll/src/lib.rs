@@ -46,6 +46,7 @@ pub mod export;
 pub mod import;
 pub mod math;
 pub mod report;
+pub mod rig;
 pub mod scene;
 pub mod skeleton;
 pub mod spec;
