@@ -4,8 +4,10 @@ use glam::Vec3;
 
 use crate::math::principal_axes;
 
-/// Share of the body's length, at each end, whose bulk decides which end is the head.
+/// Share of the body's length, at each end, whose height decides which end is the head.
 const END_SHARE: f32 = 0.2;
+/// Rounds of the principal-curve fit: the nodes move little after a dozen.
+const CURVE_ROUNDS: usize = 20;
 
 /// Surface samples of a mesh: triangle centroids weighted by triangle area, so a region
 /// tessellated finely (a dragon's scales) counts no more than a coarse one of the same
@@ -105,36 +107,105 @@ pub(super) fn principal_polyline(
     line
 }
 
-/// How bulky each end of the body is: the weighted RMS distance of the samples in the end
-/// [`END_SHARE`] of its length from the centre line's axis through their own centroid.
-/// Returns (low end, high end) along `frame.axes[0]`.
-pub(super) fn end_bulk(frame: &Frame, points: &[Vec3], weights: &[f32]) -> (f32, f32) {
+/// How high each end of the body sits: the Y of the weighted centroid of the samples in
+/// the end [`END_SHARE`] of its length. Returns (low end, high end) along `frame.axes[0]`.
+pub(super) fn end_heights(frame: &Frame, points: &[Vec3], weights: &[f32]) -> (f32, f32) {
     let axis = frame.axes[0];
     let (lo, hi) = frame.span;
     let cut = END_SHARE * (hi - lo);
-    let bulk = |keep: &dyn Fn(f32) -> bool| {
-        let chosen: Vec<(Vec3, f32)> = points
+    let height = |keep: &dyn Fn(f32) -> bool| {
+        let (sum, mass) = points
             .iter()
             .zip(weights)
             .filter(|(p, _)| keep((**p - frame.centroid).dot(axis)))
-            .map(|(p, w)| (*p, *w))
-            .collect();
-        let m: f32 = chosen.iter().map(|c| c.1).sum();
-        if m <= 0.0 {
-            return 0.0;
-        }
-        let c = chosen.iter().map(|(p, w)| *p * *w).sum::<Vec3>() / m;
-        let var: f32 = chosen
-            .iter()
-            .map(|(p, w)| {
-                let d = *p - c;
-                w * (d - axis * d.dot(axis)).length_squared()
-            })
-            .sum::<f32>()
-            / m;
-        var.sqrt()
+            .fold((0.0, 0.0), |(s, m), (p, w)| (s + p.y * w, m + w));
+        if mass > 0.0 { sum / mass } else { f32::NEG_INFINITY }
     };
-    (bulk(&|t| t <= lo + cut), bulk(&|t| t >= hi - cut))
+    (height(&|t| t <= lo + cut), height(&|t| t >= hi - cut))
+}
+
+/// Pulls a polyline into the middle of the body it threads: Hastie and Stuetzle's principal
+/// curve (1989), discretised. Each round, every sample goes to the nearest point of the
+/// line and is shared between the two nodes of that segment; each node moves to the mean
+/// of what it received and is then smoothed with its neighbours. A straight slab line cuts
+/// across a curled body (a dragon's S-shaped neck and tail put two parts of the body in
+/// one slab, and their centroid in the air between them); the curve follows the body.
+/// The ends are then continued along their last segment to the farthest sample beyond
+/// them, since the curve itself retreats from the tips (each end node sits at the mean
+/// of its cap).
+pub(super) fn principal_curve(
+    initial: &[Vec3],
+    points: &[Vec3],
+    weights: &[f32],
+    nodes: usize,
+) -> Vec<Vec3> {
+    let total = length(initial);
+    let mut line: Vec<Vec3> = (0..nodes)
+        .map(|i| point_at(initial, total * i as f32 / (nodes - 1).max(1) as f32))
+        .collect();
+    if nodes < 3 || total <= 0.0 {
+        return initial.to_vec();
+    }
+    for _ in 0..CURVE_ROUNDS {
+        let mut sum = vec![Vec3::ZERO; nodes];
+        let mut mass = vec![0.0f32; nodes];
+        for (p, &w) in points.iter().zip(weights) {
+            let (seg, t) = nearest_on_line(&line, *p);
+            sum[seg] += *p * (w * (1.0 - t));
+            mass[seg] += w * (1.0 - t);
+            sum[seg + 1] += *p * (w * t);
+            mass[seg + 1] += w * t;
+        }
+        let means: Vec<Vec3> = (0..nodes)
+            .map(|k| if mass[k] > 0.0 { sum[k] / mass[k] } else { line[k] })
+            .collect();
+        for k in 0..nodes {
+            line[k] = if k == 0 || k == nodes - 1 {
+                means[k]
+            } else {
+                (means[k - 1] + 2.0 * means[k] + means[k + 1]) / 4.0
+            };
+        }
+    }
+    // Reach the tips: continue each end along its last segment as far as samples go.
+    for end in [0, 1] {
+        let (tip, prev) = if end == 0 {
+            (line[0], line[1])
+        } else {
+            (line[nodes - 1], line[nodes - 2])
+        };
+        let dir = (tip - prev).normalize_or_zero();
+        let reach = points
+            .iter()
+            .filter(|p| {
+                let (seg, t) = nearest_on_line(&line, **p);
+                if end == 0 { seg == 0 && t <= 0.0 } else { seg == nodes - 2 && t >= 1.0 }
+            })
+            .map(|p| (*p - tip).dot(dir))
+            .fold(0.0f32, f32::max);
+        let k = if end == 0 { 0 } else { nodes - 1 };
+        line[k] = tip + dir * reach;
+    }
+    line
+}
+
+/// The segment of `line` nearest to `p` and the parameter (0..1, clamped) along it.
+fn nearest_on_line(line: &[Vec3], p: Vec3) -> (usize, f32) {
+    let mut best = (0, 0.0, f32::INFINITY);
+    for (i, w) in line.windows(2).enumerate() {
+        let ab = w[1] - w[0];
+        let len2 = ab.length_squared();
+        let t = if len2 > 0.0 {
+            ((p - w[0]).dot(ab) / len2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let d = (w[0] + ab * t).distance_squared(p);
+        if d < best.2 {
+            best = (i, t, d);
+        }
+    }
+    (best.0, best.1)
 }
 
 /// Total length of a polyline.

@@ -4,13 +4,16 @@
 //! How [`rig`] builds the skeleton:
 //! 1. **Centre line.** By default, principal-component analysis of the mesh's surface
 //!    (area-weighted triangle centroids) gives the body's long axis; the surface is cut
-//!    into slabs across that axis and the line runs through the slab centroids, so it
-//!    bends with the body instead of leaving it. With [`RigOptions::centre_line`] the line
-//!    runs through the user's landmarks instead.
+//!    into slabs across that axis and a first line runs through the slab centroids. That
+//!    line is then refined as a principal curve (each node pulled to the mean of the
+//!    surface nearest to it, smoothed), so it bends with the body instead of cutting
+//!    across a curled one. With [`RigOptions::centre_line`] the line runs through the
+//!    user's landmarks instead.
 //! 2. **Which end is the head.** The end nearest [`RigOptions::head`] when given; else, for
-//!    landmarks, the last landmark; else the bulkier end (the one whose last fifth spreads
-//!    farther from the axis): a head with its jaws, horns or skull outweighs a tapering
-//!    tail on nearly every creature. Override it with `head` when that guess is wrong.
+//!    landmarks, the last landmark; else the higher end (the one whose last fifth of the
+//!    body has the higher centroid): a creature holds its head up and lets its tail trail,
+//!    and an upright figure has its head on top. Override it with `head` when that guess
+//!    is wrong (a fish, a snake lying flat).
 //! 3. **Spine.** [`RigOptions::joints`] joints evenly spaced by arc length from the tail
 //!    end, named `spine00`, `spine01`, …, the last one `head`, whose tip is the head end
 //!    of the line. The root is the tail end.
@@ -38,7 +41,9 @@ use weights::distance_squared_to_segment;
 use crate::error::{Error, Result};
 use crate::math::Transform;
 use crate::skeleton::{Joint, Skeleton, SkinnedMesh};
-use centre_line::{Frame, end_bulk, length, principal_polyline, resample, surface_samples};
+use centre_line::{
+    Frame, end_heights, length, principal_curve, principal_polyline, resample, surface_samples,
+};
 
 /// Spine joints when the user does not say: enough for a dragon's neck and tail to bend
 /// smoothly, few enough for a cheap ragdoll.
@@ -200,9 +205,10 @@ pub fn build_skeleton(meshes: &[SkinnedMesh], opts: &RigOptions) -> Result<Skele
     // 1–2. Centre line, tail first.
     let mut line = if opts.centre_line.is_empty() {
         let slabs = (SLABS_PER_JOINT * opts.joints).clamp(SLAB_RANGE[0], SLAB_RANGE[1]);
-        let line = principal_polyline(&frame, &points, &weights, slabs);
-        // The bulkier end is the head unless the user says otherwise.
-        let (low, high) = end_bulk(&frame, &points, &weights);
+        let slab_line = principal_polyline(&frame, &points, &weights, slabs);
+        let line = principal_curve(&slab_line, &points, &weights, slabs);
+        // The higher end is the head unless the user says otherwise.
+        let (low, high) = end_heights(&frame, &points, &weights);
         if low > high { line.into_iter().rev().collect() } else { line }
     } else {
         if opts.centre_line.len() < 2 {
