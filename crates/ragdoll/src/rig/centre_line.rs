@@ -8,6 +8,8 @@ use crate::math::principal_axes;
 const END_SHARE: f32 = 0.2;
 /// Rounds of the principal-curve fit: the nodes move little after a dozen.
 const CURVE_ROUNDS: usize = 20;
+/// Passes of [1 2 1] smoothing per round of the fit.
+const SMOOTHING_PASSES: usize = 2;
 
 /// Surface samples of a mesh: triangle centroids weighted by triangle area, so a region
 /// tessellated finely (a dragon's scales) counts no more than a coarse one of the same
@@ -130,9 +132,7 @@ pub(super) fn end_heights(frame: &Frame, points: &[Vec3], weights: &[f32]) -> (f
 /// of what it received and is then smoothed with its neighbours. A straight slab line cuts
 /// across a curled body (a dragon's S-shaped neck and tail put two parts of the body in
 /// one slab, and their centroid in the air between them); the curve follows the body.
-/// The ends are then continued along their last segment to the farthest sample beyond
-/// them, since the curve itself retreats from the tips (each end node sits at the mean
-/// of its cap).
+/// The two end nodes stay fixed at the initial line's ends (the body's extremes).
 pub(super) fn principal_curve(
     initial: &[Vec3],
     points: &[Vec3],
@@ -159,32 +159,19 @@ pub(super) fn principal_curve(
         let means: Vec<Vec3> = (0..nodes)
             .map(|k| if mass[k] > 0.0 { sum[k] / mass[k] } else { line[k] })
             .collect();
-        for k in 0..nodes {
-            line[k] = if k == 0 || k == nodes - 1 {
-                means[k]
-            } else {
-                (means[k - 1] + 2.0 * means[k] + means[k + 1]) / 4.0
-            };
+        // The ends stay where the slabs put them (the body's extremes along its axis):
+        // a free end node would sink to the mean of its cap and drift sideways with it.
+        // Then [1 2 1] smoothing, twice: a bending term that keeps the curve from
+        // chasing the surface (on a hollow shell of samples, a node a little off the axis
+        // sees more of the near wall and would drift further).
+        let mut smooth = means;
+        for _ in 0..SMOOTHING_PASSES {
+            let prev = smooth.clone();
+            for k in 1..nodes - 1 {
+                smooth[k] = (prev[k - 1] + 2.0 * prev[k] + prev[k + 1]) / 4.0;
+            }
         }
-    }
-    // Reach the tips: continue each end along its last segment as far as samples go.
-    for end in [0, 1] {
-        let (tip, prev) = if end == 0 {
-            (line[0], line[1])
-        } else {
-            (line[nodes - 1], line[nodes - 2])
-        };
-        let dir = (tip - prev).normalize_or_zero();
-        let reach = points
-            .iter()
-            .filter(|p| {
-                let (seg, t) = nearest_on_line(&line, **p);
-                if end == 0 { seg == 0 && t <= 0.0 } else { seg == nodes - 2 && t >= 1.0 }
-            })
-            .map(|p| (*p - tip).dot(dir))
-            .fold(0.0f32, f32::max);
-        let k = if end == 0 { 0 } else { nodes - 1 };
-        line[k] = tip + dir * reach;
+        line[1..nodes - 1].copy_from_slice(&smooth[1..nodes - 1]);
     }
     line
 }

@@ -233,7 +233,14 @@ pub fn build_skeleton(meshes: &[SkinnedMesh], opts: &RigOptions) -> Result<Skele
     }
 
     // The body's left (facing the head, Y up) and its symmetry plane.
-    let forward = (line[line.len() - 1] - line[0]).normalize_or(frame.axes[0]);
+    // Facing: the principal axis toward the head for a found centre line (its ends may sit
+    // off the axis), the line's own ends for the user's.
+    let chord = line[line.len() - 1] - line[0];
+    let forward = if opts.centre_line.is_empty() {
+        frame.axes[0] * chord.dot(frame.axes[0]).signum()
+    } else {
+        chord.normalize_or(frame.axes[0])
+    };
     let left = if forward.dot(Vec3::Y).abs() < UPRIGHT_COS {
         Vec3::Y.cross(forward).normalize()
     } else {
