@@ -22,7 +22,13 @@ fn write_bar(path: &Path) {
     for i in 0..n {
         for k in 0..4 {
             let k1 = (k + 1) % 4;
-            text += &format!("f {} {} {} {}\n", v(i, k), v(i + 1, k), v(i + 1, k1), v(i, k1));
+            text += &format!(
+                "f {} {} {} {}\n",
+                v(i, k),
+                v(i + 1, k),
+                v(i + 1, k1),
+                v(i, k1)
+            );
         }
     }
     text += &format!("f {} {} {} {}\n", v(0, 0), v(0, 1), v(0, 2), v(0, 3));
@@ -69,14 +75,14 @@ fn rig_writes_a_skinned_glb_that_reads_back_and_simulates() {
             .iter()
             .all(|w| (w.element_sum() - 1.0).abs() < 1e-5)
     );
-    assert!(c.clips.is_empty(), "a rig in the rest pose carries no animation");
+    assert!(
+        c.clips.is_empty(),
+        "a rig in the rest pose carries no animation"
+    );
 
     // The rigged file and the OBJ itself both simulate.
     for input in ["rigged.glb", "bar.obj"] {
-        let o = ragdoll(
-            dir,
-            &["simulate", input, "--seconds", "1", "-o", "sim.glb"],
-        );
+        let o = ragdoll(dir, &["simulate", input, "--seconds", "1", "-o", "sim.glb"]);
         assert!(o.status.success(), "{input}: {}", stderr(&o));
         let report = common::read_json(&dir.join("sim.report.json"));
         assert_eq!(report["nan"], false, "{input}");
@@ -101,7 +107,14 @@ fn rig_refuses_bad_input_with_a_clear_message_and_no_output() {
         &["rig", "bar.obj", "--branch", "leg=1,2", "-o", "rigged.glb"],
         &["rig", "bar.obj", "--head", "v100000", "-o", "rigged.glb"],
         // On the symmetry plane: its mirror image would coincide with it.
-        &["rig", "bar.obj", "--branch", "fin=0,0.9,0/0,1.2,0", "-o", "rigged.glb"],
+        &[
+            "rig",
+            "bar.obj",
+            "--branch",
+            "fin=0,0.9,0/0,1.2,0",
+            "-o",
+            "rigged.glb",
+        ],
     ];
     for args in cases {
         let out = ragdoll(dir, args);
@@ -110,7 +123,10 @@ fn rig_refuses_bad_input_with_a_clear_message_and_no_output() {
         assert!(!dir.join("rigged.glb").exists(), "{args:?} left a file");
         assert!(!dir.join("rigged.gltf").exists(), "{args:?} left a file");
     }
-    let out = ragdoll(dir, &["rig", "bar.obj", "--joints", "0", "-o", "rigged.glb"]);
+    let out = ragdoll(
+        dir,
+        &["rig", "bar.obj", "--joints", "0", "-o", "rigged.glb"],
+    );
     assert!(stderr(&out).contains("--joints"), "{}", stderr(&out));
 }
 
@@ -121,12 +137,13 @@ fn rig_refuses_a_file_that_already_has_a_skeleton() {
     };
     let tmp = tempfile::tempdir().unwrap();
     let fox = data.join("gltf/Fox.glb");
-    let out = ragdoll(
-        tmp.path(),
-        &["rig", fox.to_str().unwrap(), "-o", "fox.glb"],
-    );
+    let out = ragdoll(tmp.path(), &["rig", fox.to_str().unwrap(), "-o", "fox.glb"]);
     assert!(!out.status.success());
-    assert!(stderr(&out).contains("already has a skeleton"), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("already has a skeleton"),
+        "{}",
+        stderr(&out)
+    );
     assert!(!tmp.path().join("fox.glb").exists());
 }
 
@@ -139,10 +156,7 @@ fn rig_the_stanford_dragons() {
     for name in ["stanford_dragon_1k7", "stanford_dragon_13k"] {
         let obj = data.join("mesh").join(format!("{name}.obj"));
         let out_name = format!("{name}.glb");
-        let out = ragdoll(
-            tmp.path(),
-            &["rig", obj.to_str().unwrap(), "-o", &out_name],
-        );
+        let out = ragdoll(tmp.path(), &["rig", obj.to_str().unwrap(), "-o", &out_name]);
         assert!(out.status.success(), "{name}: {}", stderr(&out));
         let c = ragdoll::import::load(&tmp.path().join(&out_name), &Default::default()).unwrap();
         assert_eq!(c.skeleton.len(), ragdoll::rig::DEFAULT_JOINTS, "{name}");

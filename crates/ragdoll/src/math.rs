@@ -206,11 +206,9 @@ pub fn principal_axes(points: &[Vec3], weights: &[f32]) -> (Vec3, [Vec3; 3], [f3
                 row[p] = cs * x - sn * y;
                 row[q] = sn * x + cs * y;
             }
-            for k in 0..3 {
-                let (x, y) = (a[p][k], a[q][k]);
-                a[p][k] = cs * x - sn * y;
-                a[q][k] = sn * x + cs * y;
-            }
+            let (rp, rq) = (a[p], a[q]);
+            a[p] = std::array::from_fn(|k| cs * rp[k] - sn * rq[k]);
+            a[q] = std::array::from_fn(|k| sn * rp[k] + cs * rq[k]);
             for row in &mut v {
                 let (x, y) = (row[p], row[q]);
                 row[p] = cs * x - sn * y;
@@ -289,7 +287,11 @@ mod tests {
         for i in 0..9 {
             for j in 0..5 {
                 for k in 0..3 {
-                    let p = Vec3::new(i as f32 * 0.5 - 2.0, j as f32 * 0.5 - 1.0, k as f32 * 0.5 - 0.5);
+                    let p = Vec3::new(
+                        i as f32 * 0.5 - 2.0,
+                        j as f32 * 0.5 - 1.0,
+                        k as f32 * 0.5 - 0.5,
+                    );
                     pts.push(q * p + Vec3::new(3.0, -1.0, 2.0));
                 }
             }

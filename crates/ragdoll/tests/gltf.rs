@@ -391,9 +391,15 @@ fn built_in_humanoid_exports_a_skinned_body_mesh() {
     assert_eq!(back.meshes.len(), 1);
     let m = &back.meshes[0];
     assert_eq!(m.normals.len(), m.positions.len());
-    // Rigid skinning: one joint per vertex, weight 1.
-    assert!(m.weights.iter().all(|w| w.x == 1.0));
-    // The head capsule's vertices sit around the head bone, above the neck.
+    // Automatic skinning (issue 4): up to four bones per vertex, weights summing to 1,
+    // strongest first; shapes blend at the joints, so some vertices have several.
+    assert!(
+        m.weights
+            .iter()
+            .all(|w| (w.element_sum() - 1.0).abs() < 1e-5 && w.x >= w.y)
+    );
+    assert!(m.weights.iter().any(|w| w.y > 0.0));
+    // The vertices mostly on the head bone sit around it, above the neck.
     let head = back.skeleton.find("head").unwrap();
     let head_y = c.skeleton.rest_world()[head].translation.y;
     let on_head: Vec<Vec3> = m

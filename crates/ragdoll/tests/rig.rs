@@ -217,12 +217,28 @@ fn obj_errors_name_the_file_and_line() {
     let cases = [
         ("v 0 0 0\nv 1 0\nf 1 2 3\n", 2, "three numbers"),
         ("v 0 0 0\nv 1 zero 0\n", 2, "not a finite number"),
-        ("v 0 0 0\nv 1 0 0\nv 0 1 0\n\nf 1 2 4\n", 5, "vertex index 4 does not exist"),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\n\nf 1 2 4\n",
+            5,
+            "vertex index 4 does not exist",
+        ),
         ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 0\n", 4, "vertex index 0"),
-        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -4 2 3\n", 4, "vertex index -4"),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -4 2 3\n",
+            4,
+            "vertex index -4",
+        ),
         ("v 0 0 0\nv 1 0 0\nf 1 2\n", 3, "at least 3 corners"),
-        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1//1 2 3\n", 4, "normal index 1"),
-        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n", 4, "not a whole number"),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1//1 2 3\n",
+            4,
+            "normal index 1",
+        ),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n",
+            4,
+            "not a whole number",
+        ),
     ];
     for (text, line, needle) in cases {
         match parse(text) {
@@ -276,7 +292,10 @@ fn spine_follows_the_principal_axis_evenly_spaced_head_at_the_higher_end() {
     assert_eq!(s.joints()[n - 1].name, "head");
     assert_eq!(s.joints()[0].name, "spine00");
     let dir = (p[n - 1] - p[0]).normalize();
-    assert!(dir.dot(axis) > 0.999, "spine direction {dir:?}, axis {axis:?}");
+    assert!(
+        dir.dot(axis) > 0.999,
+        "spine direction {dir:?}, axis {axis:?}"
+    );
     // Every joint on the axis (the bar is symmetric, so the centre line is straight).
     for x in &p {
         let off = *x - axis * x.dot(axis);
@@ -370,11 +389,20 @@ fn mirrored_branches_are_symmetric_and_off_the_spine() {
     assert_eq!(s.len(), 6 + 2 * 3);
     let p = joint_positions(&s);
     // Facing +X with Y up, the left (up × forward) is −Z: the leg given at −Z is the left.
-    let r: Vec<usize> = (0..3).map(|k| s.find(&format!("leg_r{k:02}")).unwrap()).collect();
-    let l: Vec<usize> = (0..3).map(|k| s.find(&format!("leg_l{k:02}")).unwrap()).collect();
+    let r: Vec<usize> = (0..3)
+        .map(|k| s.find(&format!("leg_r{k:02}")).unwrap())
+        .collect();
+    let l: Vec<usize> = (0..3)
+        .map(|k| s.find(&format!("leg_l{k:02}")).unwrap())
+        .collect();
     for (a, b) in l.iter().zip(&r) {
         let mirrored = p[*b] * Vec3::new(1.0, 1.0, -1.0);
-        assert!(p[*a].distance(mirrored) < 1e-3, "{:?} vs {:?}", p[*a], p[*b]);
+        assert!(
+            p[*a].distance(mirrored) < 1e-3,
+            "{:?} vs {:?}",
+            p[*a],
+            p[*b]
+        );
     }
     assert!((p[l[1]] - Vec3::new(0.3, -0.05, -0.15)).length() < 1e-5);
     assert!(p[l[1]].z < -0.1 && p[r[1]].z > 0.1);
@@ -493,14 +521,18 @@ fn both_dragons_rig_build_and_fall_to_rest_on_the_floor() {
         // It fell (the scan floats 0.32 m up) and came to rest on the floor: the chain
         // creeps for a few seconds after landing, and is still by 6 s.
         let end = world.body_poses(id);
-        let mean_y = |v: &[Transform]| v.iter().map(|t| t.translation.y).sum::<f32>() / v.len() as f32;
+        let mean_y =
+            |v: &[Transform]| v.iter().map(|t| t.translation.y).sum::<f32>() / v.len() as f32;
         assert!(mean_y(&end) < mean_y(&start) - 0.2, "{file}: did not fall");
         let speed = world
             .body_velocities(id)
             .iter()
             .map(|(v, _)| v.length())
             .fold(0.0, f32::max);
-        assert!(speed < 0.01, "{file}: still moving at {speed} m/s after 7 s");
+        assert!(
+            speed < 0.01,
+            "{file}: still moving at {speed} m/s after 7 s"
+        );
         let lowest = end
             .iter()
             .map(|t| t.translation.y)

@@ -865,7 +865,8 @@ fn fresh(
     let weights: Vec<f32> = mesh.weights.iter().flat_map(|w| w.to_array()).collect();
     let vertex_count = mesh.positions.len();
     let pos_acc = bin.floats(&positions, "VEC3", Some(ARRAY_BUFFER), true);
-    let nrm_acc = (!normals.is_empty()).then(|| bin.floats(&normals, "VEC3", Some(ARRAY_BUFFER), false));
+    let nrm_acc =
+        (!normals.is_empty()).then(|| bin.floats(&normals, "VEC3", Some(ARRAY_BUFFER), false));
     let wgt_acc = bin.floats(&weights, "VEC4", Some(ARRAY_BUFFER), false);
     let (jtype, jbytes): (u32, Vec<u8>) = if n <= 256 {
         (

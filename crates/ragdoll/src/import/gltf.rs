@@ -179,23 +179,26 @@ fn read_unskinned(
     graph: &NodeGraph,
     reader: &AccessorReader,
 ) -> Result<Vec<SkinnedMesh>> {
-    let in_scene: Option<HashSet<usize>> = doc
-        .default_scene()
-        .or_else(|| doc.scenes().next())
-        .map(|scene| {
-            let mut keep = HashSet::new();
-            let mut stack: Vec<gltf::Node> = scene.nodes().collect();
-            while let Some(n) = stack.pop() {
-                if keep.insert(n.index()) {
-                    stack.extend(n.children());
+    let in_scene: Option<HashSet<usize>> =
+        doc.default_scene()
+            .or_else(|| doc.scenes().next())
+            .map(|scene| {
+                let mut keep = HashSet::new();
+                let mut stack: Vec<gltf::Node> = scene.nodes().collect();
+                while let Some(n) = stack.pop() {
+                    if keep.insert(n.index()) {
+                        stack.extend(n.children());
+                    }
                 }
-            }
-            keep
-        });
+                keep
+            });
     let mut out = Vec::new();
     for node in doc.nodes() {
         let Some(mesh) = node.mesh() else { continue };
-        if in_scene.as_ref().is_some_and(|k| !k.contains(&node.index())) {
+        if in_scene
+            .as_ref()
+            .is_some_and(|k| !k.contains(&node.index()))
+        {
             continue;
         }
         let world = graph.world[node.index()];

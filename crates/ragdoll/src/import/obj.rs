@@ -99,13 +99,17 @@ pub fn parse(text: &str, path: &Path, opts: &ImportOptions) -> Result<SkinnedMes
                             format!("`{keyword}` needs three numbers, found {k}"),
                         )
                     })?;
-                    *c = w.parse::<f32>().ok().filter(|x| x.is_finite()).ok_or_else(|| {
-                        parse_err(
-                            path,
-                            line_no,
-                            format!("`{keyword}`: {w:?} is not a finite number"),
-                        )
-                    })?;
+                    *c = w
+                        .parse::<f32>()
+                        .ok()
+                        .filter(|x| x.is_finite())
+                        .ok_or_else(|| {
+                            parse_err(
+                                path,
+                                line_no,
+                                format!("`{keyword}`: {w:?} is not a finite number"),
+                            )
+                        })?;
                 }
                 if keyword == "v" {
                     positions.push(Vec3::from_array(xyz));

@@ -28,7 +28,11 @@ pub(super) fn surface_samples(positions: &[Vec3], indices: &[u32]) -> (Vec<Vec3>
         }
     }
     if points.is_empty() {
-        points = positions.iter().copied().filter(|p| p.is_finite()).collect();
+        points = positions
+            .iter()
+            .copied()
+            .filter(|p| p.is_finite())
+            .collect();
         weights = vec![1.0; points.len()];
     }
     (points, weights)
@@ -121,7 +125,11 @@ pub(super) fn end_heights(frame: &Frame, points: &[Vec3], weights: &[f32]) -> (f
             .zip(weights)
             .filter(|(p, _)| keep((**p - frame.centroid).dot(axis)))
             .fold((0.0, 0.0), |(s, m), (p, w)| (s + p.y * w, m + w));
-        if mass > 0.0 { sum / mass } else { f32::NEG_INFINITY }
+        if mass > 0.0 {
+            sum / mass
+        } else {
+            f32::NEG_INFINITY
+        }
     };
     (height(&|t| t <= lo + cut), height(&|t| t >= hi - cut))
 }
@@ -157,7 +165,13 @@ pub(super) fn principal_curve(
             mass[seg + 1] += w * t;
         }
         let means: Vec<Vec3> = (0..nodes)
-            .map(|k| if mass[k] > 0.0 { sum[k] / mass[k] } else { line[k] })
+            .map(|k| {
+                if mass[k] > 0.0 {
+                    sum[k] / mass[k]
+                } else {
+                    line[k]
+                }
+            })
             .collect();
         // The ends stay where the slabs put them (the body's extremes along its axis):
         // a free end node would sink to the mean of its cap and drift sideways with it.

@@ -194,7 +194,7 @@ pub fn build_skeleton(meshes: &[SkinnedMesh], opts: &RigOptions) -> Result<Skele
     let (points, weights) = surface_samples(&vertices, &indices);
     let frame = Frame::new(&points, &weights, &vertices);
     let body_length = frame.span.1 - frame.span.0;
-    if points.is_empty() || !(body_length > 1e-6) {
+    if points.is_empty() || too_short(body_length) {
         return Err(Error::Skeleton {
             joint: String::new(),
             message: "cannot rig the mesh: its vertices have no extent (none, or all at one point)"
@@ -209,7 +209,11 @@ pub fn build_skeleton(meshes: &[SkinnedMesh], opts: &RigOptions) -> Result<Skele
         let line = principal_curve(&slab_line, &points, &weights, slabs);
         // The higher end is the head unless the user says otherwise.
         let (low, high) = end_heights(&frame, &points, &weights);
-        if low > high { line.into_iter().rev().collect() } else { line }
+        if low > high {
+            line.into_iter().rev().collect()
+        } else {
+            line
+        }
     } else {
         if opts.centre_line.len() < 2 {
             return Err(setting(
@@ -228,8 +232,11 @@ pub fn build_skeleton(meshes: &[SkinnedMesh], opts: &RigOptions) -> Result<Skele
             line.reverse();
         }
     }
-    if !(length(&line) > 1e-6) {
-        return Err(setting("rig.centre_line", "its landmarks are all at one point"));
+    if too_short(length(&line)) {
+        return Err(setting(
+            "rig.centre_line",
+            "its landmarks are all at one point",
+        ));
     }
 
     // The body's left (facing the head, Y up) and its symmetry plane.
@@ -312,7 +319,7 @@ pub fn build_skeleton(meshes: &[SkinnedMesh], opts: &RigOptions) -> Result<Skele
                 js.insert(0, path[0]);
                 (js, end)
             };
-            if !(length(&path) > 1e-6) {
+            if too_short(length(&path)) {
                 return Err(setting(what, "its landmarks are all at one point"));
             }
             for (k, p) in joints.iter().enumerate() {
@@ -363,6 +370,11 @@ pub fn build_skeleton(meshes: &[SkinnedMesh], opts: &RigOptions) -> Result<Skele
         })
         .collect();
     Skeleton::new(joints)
+}
+
+/// Whether a length (metres) is too small to rig along, or not a number.
+fn too_short(len: f32) -> bool {
+    len.is_nan() || len <= 1e-6
 }
 
 /// The spine joint whose bone (to the next joint, the last one's to `tip`) passes

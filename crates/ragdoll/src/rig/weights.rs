@@ -44,9 +44,7 @@ pub fn auto_weights(skeleton: &Skeleton, positions: &[Vec3]) -> (Vec<[u16; 4]>, 
             segments.push((i as u16, a, world[c].translation));
         }
         if !any_child {
-            let end = skeleton.joints()[i]
-                .tip
-                .map_or(a, |t| w.transform_point(t));
+            let end = skeleton.joints()[i].tip.map_or(a, |t| w.transform_point(t));
             segments.push((i as u16, a, end));
         }
     }
