@@ -48,10 +48,11 @@ enum Command {
 /// How to read a character file.
 #[derive(Args, Debug, Clone)]
 struct ImportArgs {
-    /// Length unit of a BVH file (detected from the skeleton's height by default).
+    /// Length unit of a BVH file (detected from the skeleton's height by default) or of an
+    /// OBJ file (metres by default).
     #[arg(long, value_enum)]
     units: Option<UnitsArg>,
-    /// Up axis of a BVH file (detected by default).
+    /// Up axis of a BVH file (detected by default) or of an OBJ file (Y by default).
     #[arg(long, value_enum)]
     up: Option<UpArg>,
 }
@@ -161,7 +162,7 @@ struct DemoArgs {
 
 #[derive(Args, Debug)]
 struct InspectArgs {
-    /// A .bvh, .glb or .gltf file.
+    /// A .bvh, .glb, .gltf or .obj file.
     file: PathBuf,
     /// Print JSON instead of text.
     #[arg(long)]
@@ -174,7 +175,7 @@ struct InspectArgs {
 
 #[derive(Args, Debug)]
 struct BuildArgs {
-    /// A .bvh, .glb or .gltf file.
+    /// A .bvh, .glb, .gltf or .obj file.
     file: PathBuf,
     /// Where to write the spec (TOML).
     #[arg(short, long, value_name = "SPEC.toml")]
@@ -187,7 +188,7 @@ struct BuildArgs {
 
 #[derive(Args, Debug)]
 struct SimulateArgs {
-    /// A .bvh, .glb or .gltf file, or a scene file (.toml; see the README's "Scene files").
+    /// A .bvh, .glb, .gltf or .obj file, or a scene file (.toml; see the README's "Scene files").
     file: PathBuf,
     /// Output file: .glb or .bvh. The report goes next to it as <stem>.report.json. For a
     /// scene file, the output folder (--seconds, --fps and --rest-pose then override the
@@ -204,7 +205,7 @@ struct SimulateArgs {
 
 #[derive(Args, Debug)]
 struct BlastArgs {
-    /// A .bvh, .glb or .gltf file; the built-in humanoid when left out.
+    /// A .bvh, .glb, .gltf or .obj file; the built-in humanoid when left out.
     file: Option<PathBuf>,
     /// Charge as TNT-equivalent mass, kg.
     #[arg(long, value_name = "KG")]
@@ -231,7 +232,7 @@ struct BlastArgs {
 
 #[derive(Args, Debug)]
 struct ShootArgs {
-    /// A .bvh, .glb or .gltf file; the built-in humanoid when left out.
+    /// A .bvh, .glb, .gltf or .obj file; the built-in humanoid when left out.
     file: Option<PathBuf>,
     /// Where the projectile starts, metres: X,Y,Z.
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
