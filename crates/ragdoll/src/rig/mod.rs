@@ -303,8 +303,10 @@ pub fn build_skeleton(meshes: &[SkinnedMesh], opts: &RigOptions) -> Result<Skele
             }
             sides.push((pts.iter().map(|&p| mirror(p)).collect(), -off_plane));
         }
+        // Both twins hang from the same spine joint, even where a curled spine passes
+        // nearer to one of them.
+        let attach = nearest_bone(&spine, tip, pts[0]);
         for (pts, side) in sides {
-            let attach = nearest_bone(&spine, tip, pts[0]);
             let stem = match (b.mirror, side > 0.0) {
                 (false, _) => b.name.clone(),
                 (true, true) => format!("{}_l", b.name),
