@@ -20,7 +20,7 @@ use crate::{
     SimulateArgs, UnitsArg, UpArg,
 };
 
-fn import_options(a: &ImportArgs) -> ImportOptions {
+pub(crate) fn import_options(a: &ImportArgs) -> ImportOptions {
     ImportOptions {
         units: a.units.map(|u| match u {
             UnitsArg::M => Units::M,

@@ -7,6 +7,7 @@ mod bench;
 mod commands;
 mod preview_cmd;
 mod progress;
+mod rig_cmd;
 mod scene_cmd;
 
 use std::path::PathBuf;
@@ -38,6 +39,9 @@ enum Command {
     Blast(BlastArgs),
     /// Hit a character with a projectile (a straight shot) and bake the result.
     Shoot(ShootArgs),
+    /// Rig a mesh without a skeleton (OBJ, or glTF without a skin): a spine along its
+    /// centre line, optional mirrored limbs, automatic skin weights; writes a skinned .glb.
+    Rig(rig_cmd::RigArgs),
     /// Measure simulation speed on the pile workload (DESIGN §6). A benchmark, not a test.
     Bench(bench::BenchArgs),
     /// Draw a baked result (.glb written by ragdoll) as a PNG or an animated GIF, on the CPU.
@@ -47,10 +51,11 @@ enum Command {
 /// How to read a character file.
 #[derive(Args, Debug, Clone)]
 struct ImportArgs {
-    /// Length unit of a BVH file (detected from the skeleton's height by default).
+    /// Length unit of a BVH file (detected from the skeleton's height by default) or of an
+    /// OBJ file (metres by default).
     #[arg(long, value_enum)]
     units: Option<UnitsArg>,
-    /// Up axis of a BVH file (detected by default).
+    /// Up axis of a BVH file (detected by default) or of an OBJ file (Y by default).
     #[arg(long, value_enum)]
     up: Option<UpArg>,
 }
@@ -162,7 +167,7 @@ struct DemoArgs {
 
 #[derive(Args, Debug)]
 struct InspectArgs {
-    /// A .bvh, .glb or .gltf file.
+    /// A .bvh, .glb, .gltf or .obj file.
     file: PathBuf,
     /// Print JSON instead of text.
     #[arg(long)]
@@ -175,7 +180,7 @@ struct InspectArgs {
 
 #[derive(Args, Debug)]
 struct BuildArgs {
-    /// A .bvh, .glb or .gltf file.
+    /// A .bvh, .glb, .gltf or .obj file.
     file: PathBuf,
     /// Where to write the spec (TOML).
     #[arg(short, long, value_name = "SPEC.toml")]
@@ -188,7 +193,7 @@ struct BuildArgs {
 
 #[derive(Args, Debug)]
 struct SimulateArgs {
-    /// A .bvh, .glb or .gltf file, or a scene file (.toml; see the README's "Scene files").
+    /// A .bvh, .glb, .gltf or .obj file, or a scene file (.toml; see the README's "Scene files").
     file: PathBuf,
     /// Output file: .glb or .bvh. The report goes next to it as <stem>.report.json. For a
     /// scene file, the output folder (--seconds, --fps and --rest-pose then override the
@@ -211,7 +216,7 @@ struct SimulateArgs {
 
 #[derive(Args, Debug)]
 struct BlastArgs {
-    /// A .bvh, .glb or .gltf file; the built-in humanoid when left out.
+    /// A .bvh, .glb, .gltf or .obj file; the built-in humanoid when left out.
     file: Option<PathBuf>,
     /// Charge as TNT-equivalent mass, kg.
     #[arg(long, value_name = "KG")]
@@ -240,7 +245,7 @@ struct BlastArgs {
 
 #[derive(Args, Debug)]
 struct ShootArgs {
-    /// A .bvh, .glb or .gltf file; the built-in humanoid when left out.
+    /// A .bvh, .glb, .gltf or .obj file; the built-in humanoid when left out.
     file: Option<PathBuf>,
     /// Where the projectile starts, metres: X,Y,Z.
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
@@ -302,6 +307,7 @@ fn main() -> ExitCode {
         Command::Shoot(a) => commands::shoot(&a),
         Command::Bench(a) => bench::run(&a),
         Command::Preview(a) => preview_cmd::run(&a),
+        Command::Rig(a) => rig_cmd::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

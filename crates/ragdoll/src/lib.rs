@@ -6,8 +6,13 @@
 //! ```text
 //! import ──► skeleton::Character ──► spec::RagdollSpec ──► world::World ──► track::Track ──► export
 //! (BVH, glTF,  joints, rest pose,     bodies, shapes,        steps the        per-frame joint   glTF, BVH,
-//!  built-in)   skin, clips            masses, joints         backend          world transforms  report
+//!  OBJ,        skin, clips            masses, joints         backend          world transforms  report
+//!  built-in)
 //! ```
+//!
+//! A mesh that comes without a skeleton (an OBJ, a glTF without a skin) is given one on
+//! import by [`rig`]: a spine along its centre line, optional mirrored limbs, automatic
+//! skin weights.
 //!
 //! # Conventions
 //!
@@ -47,6 +52,7 @@ pub mod export;
 pub mod import;
 pub mod math;
 pub mod report;
+pub mod rig;
 pub mod scene;
 pub mod skeleton;
 pub mod spec;

@@ -391,9 +391,15 @@ fn built_in_humanoid_exports_a_skinned_body_mesh() {
     assert_eq!(back.meshes.len(), 1);
     let m = &back.meshes[0];
     assert_eq!(m.normals.len(), m.positions.len());
-    // Rigid skinning: one joint per vertex, weight 1.
-    assert!(m.weights.iter().all(|w| w.x == 1.0));
-    // The head capsule's vertices sit around the head bone, above the neck.
+    // Automatic skinning (issue 4): up to four bones per vertex, weights summing to 1,
+    // strongest first; shapes blend at the joints, so some vertices have several.
+    assert!(
+        m.weights
+            .iter()
+            .all(|w| (w.element_sum() - 1.0).abs() < 1e-5 && w.x >= w.y)
+    );
+    assert!(m.weights.iter().any(|w| w.y > 0.0));
+    // The vertices mostly on the head bone sit around it, above the neck.
     let head = back.skeleton.find("head").unwrap();
     let head_y = c.skeleton.rest_world()[head].translation.y;
     let on_head: Vec<Vec3> = m
@@ -505,14 +511,24 @@ fn assert_format_error(r: ragdoll::Result<Character>, needle: &str) -> String {
 }
 
 #[test]
-fn a_gltf_without_a_skin_or_nodes_is_an_error_naming_the_file() {
+fn a_gltf_without_a_skin_is_rigged_and_without_a_mesh_or_nodes_is_an_error() {
     let Some(mut doc) = simple_skin_json() else {
         return;
     };
     let mut no_skin = doc.clone();
     no_skin.as_object_mut().unwrap().remove("skins");
     no_skin["nodes"][0].as_object_mut().unwrap().remove("skin");
-    let msg = assert_format_error(import_json(&no_skin, "Unrigged.gltf"), "has no skin");
+    // A mesh without a skin is rigged like an OBJ (issue 4): a spine of the default
+    // length, every vertex weighted.
+    let rigged = import_json(&no_skin, "Unrigged.gltf").unwrap();
+    assert!(matches!(rigged.source, Source::Mesh(_)));
+    assert_eq!(rigged.skeleton.len(), ragdoll::rig::DEFAULT_JOINTS);
+    let m = &rigged.meshes[0];
+    assert_eq!(m.weights.len(), m.positions.len());
+    let mut no_mesh = no_skin.clone();
+    no_mesh.as_object_mut().unwrap().remove("meshes");
+    no_mesh["nodes"][0].as_object_mut().unwrap().remove("mesh");
+    let msg = assert_format_error(import_json(&no_mesh, "Unrigged.gltf"), "has no skin");
     assert!(msg.contains("Unrigged.gltf"), "{msg}");
     let o = doc.as_object_mut().unwrap();
     for key in ["nodes", "skins", "scenes", "animations"] {

@@ -9,8 +9,11 @@
 //!   validator counts as errors), joint indices with zero weight are set to 0, and joint
 //!   nodes given as a `matrix` are rewritten as TRS (animated nodes must not use `matrix`).
 //! - **BVH or built-in input** (no mesh): a fresh glTF with one node per joint, a skin, and
-//!   the ragdoll's bodies drawn as their capsules and boxes, rigidly skinned, so the motion
-//!   is visible in any viewer.
+//!   the ragdoll's bodies drawn as their capsules and boxes, skinned with
+//!   [`crate::rig::auto_weights`], so the motion is visible in any viewer.
+//! - **A rigged mesh** ([`Source::Mesh`]: an OBJ, a glTF that had no skin): a fresh glTF as
+//!   above with the character's own mesh and automatic skin instead of the bodies.
+//!   [`rig_to_glb`] writes it with no animation, in the rest pose.
 //!
 //! - **Several characters** ([`scene_to_glb`], for scene files): each character's document
 //!   as above, merged into one file with every index renumbered, and their tracks as the
@@ -60,6 +63,35 @@ pub fn to_glb(character: &Character, spec: &RagdollSpec, track: &Track) -> Resul
     glb(&root, &bin)
 }
 
+/// Writes a character's skeleton and skinned meshes in the rest pose, with no animation:
+/// what `ragdoll rig` hands to a modeller or back to `ragdoll simulate`.
+///
+/// Fails when the character has no mesh (a BVH or the built-in humanoid: use [`to_glb`]).
+///
+/// # Example
+///
+/// ```
+/// use glam::Vec3;
+/// use ragdoll::{export::gltf::rig_to_glb, rig, skeleton::{Character, SkinnedMesh, Source}};
+///
+/// let positions = vec![Vec3::ZERO, Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 0.2, 0.0), Vec3::new(0.0, 0.2, 0.1)];
+/// let mut meshes = vec![SkinnedMesh { positions, indices: vec![0, 1, 2, 0, 2, 3], ..Default::default() }];
+/// let skeleton = rig::rig(&mut meshes, &rig::RigOptions { joints: 3, ..Default::default() }).unwrap();
+/// let character = Character { name: "strip".into(), skeleton, meshes, clips: vec![], source: Source::Mesh("strip.obj".into()) };
+/// let glb = rig_to_glb(&character).unwrap();
+/// assert_eq!(&glb[..4], b"glTF");
+/// ```
+pub fn rig_to_glb(character: &Character) -> Result<Vec<u8>> {
+    if character.meshes.is_empty() {
+        return Err(track_err(format!(
+            "character {:?} has no mesh to write with its rig",
+            character.name
+        )));
+    }
+    let (root, bin) = fresh(character, None, None)?;
+    glb(&root, &bin)
+}
+
 /// Writes several characters, each with its own track, into one binary glTF (a scene).
 ///
 /// Every character keeps what [`to_glb`] would give it alone (its own nodes, skin and
@@ -87,7 +119,9 @@ fn document(character: &Character, spec: &RagdollSpec, track: &Track) -> Result<
     check_track(&character.skeleton, track)?;
     match &character.source {
         Source::Gltf(src) => from_source(character, src, track),
-        Source::BuiltIn | Source::Bvh(_) => fresh(character, spec, track),
+        Source::BuiltIn | Source::Bvh(_) | Source::Mesh(_) => {
+            fresh(character, Some(spec), Some(track))
+        }
     }
 }
 
@@ -765,12 +799,33 @@ fn joint_nodes_as_trs(
     Ok(scales)
 }
 
-/// A new glTF for a character without a source glTF: joints, skin, body meshes, animation.
-fn fresh(character: &Character, spec: &RagdollSpec, track: &Track) -> Result<(Value, Vec<u8>)> {
-    spec.validate()?;
+/// A new glTF for a character without a source glTF: joints, skin, a mesh (the
+/// character's own, else `spec`'s bodies) and, given a track, its animation.
+fn fresh(
+    character: &Character,
+    spec: Option<&RagdollSpec>,
+    track: Option<&Track>,
+) -> Result<(Value, Vec<u8>)> {
     let skeleton = &character.skeleton;
     let n = skeleton.len();
-    let mesh = shapes::bodies_mesh(skeleton, spec)?;
+    let (mesh, mesh_name) = match spec {
+        _ if !character.meshes.is_empty() => {
+            (shapes::character_mesh(character), character.name.clone())
+        }
+        Some(spec) => {
+            spec.validate()?;
+            (
+                shapes::bodies_mesh(skeleton, spec)?,
+                format!("{} ragdoll bodies", character.name),
+            )
+        }
+        None => {
+            return Err(track_err(format!(
+                "character {:?} has neither a mesh nor a ragdoll spec to draw",
+                character.name
+            )));
+        }
+    };
     let mut bin = Bin::default();
     let mut nodes: Vec<Value> = skeleton
         .joints()
@@ -809,30 +864,24 @@ fn fresh(character: &Character, spec: &RagdollSpec, track: &Track) -> Result<(Va
     let ibm = bin.floats(&ibms, "MAT4", None, false);
     let positions: Vec<f32> = mesh.positions.iter().flat_map(|p| p.to_array()).collect();
     let normals: Vec<f32> = mesh.normals.iter().flat_map(|p| p.to_array()).collect();
-    let weights: Vec<f32> = mesh
-        .joints
-        .iter()
-        .flat_map(|_| [1.0, 0.0, 0.0, 0.0])
-        .collect();
+    let weights: Vec<f32> = mesh.weights.iter().flat_map(|w| w.to_array()).collect();
     let vertex_count = mesh.positions.len();
     let pos_acc = bin.floats(&positions, "VEC3", Some(ARRAY_BUFFER), true);
-    let nrm_acc = bin.floats(&normals, "VEC3", Some(ARRAY_BUFFER), false);
+    let nrm_acc =
+        (!normals.is_empty()).then(|| bin.floats(&normals, "VEC3", Some(ARRAY_BUFFER), false));
     let wgt_acc = bin.floats(&weights, "VEC4", Some(ARRAY_BUFFER), false);
     let (jtype, jbytes): (u32, Vec<u8>) = if n <= 256 {
         (
             UNSIGNED_BYTE,
-            mesh.joints
-                .iter()
-                .flat_map(|&j| [j as u8, 0, 0, 0])
-                .collect(),
+            mesh.joints.iter().flatten().map(|&j| j as u8).collect(),
         )
     } else {
         (
             UNSIGNED_SHORT,
             mesh.joints
                 .iter()
-                .flat_map(|&j| [j, 0, 0, 0])
-                .flat_map(u16::to_le_bytes)
+                .flatten()
+                .flat_map(|j| j.to_le_bytes())
                 .collect(),
         )
     };
@@ -859,17 +908,28 @@ fn fresh(character: &Character, spec: &RagdollSpec, track: &Track) -> Result<(Va
         "bufferView": iview, "componentType": itype, "count": mesh.indices.len(), "type": "SCALAR",
     }));
     let mesh_node = nodes.len();
-    nodes.push(json!({"name": format!("{} ragdoll bodies", character.name), "mesh": 0, "skin": 0}));
+    nodes.push(json!({"name": mesh_name, "mesh": 0, "skin": 0}));
     let joint_nodes: Vec<usize> = (0..n).collect();
     let node_scales: Vec<Vec3> = skeleton.joints().iter().map(|j| j.rest.scale).collect();
-    let animation = ragdoll_animation(
-        &mut bin,
-        skeleton,
-        &joint_nodes,
-        &vec![Transform::IDENTITY; n],
-        &node_scales,
-        track,
-    )?;
+    let animation = match track {
+        Some(track) => Some(ragdoll_animation(
+            &mut bin,
+            skeleton,
+            &joint_nodes,
+            &vec![Transform::IDENTITY; n],
+            &node_scales,
+            track,
+        )?),
+        None => None,
+    };
+    let mut attributes = json!({
+        "POSITION": pos_acc,
+        "JOINTS_0": jnt_acc,
+        "WEIGHTS_0": wgt_acc,
+    });
+    if let Some(nrm) = nrm_acc {
+        attributes["NORMAL"] = json!(nrm);
+    }
     let mut skin =
         json!({"name": character.name, "joints": joint_nodes, "inverseBindMatrices": ibm});
     if let [root] = roots[..] {
@@ -877,21 +937,16 @@ fn fresh(character: &Character, spec: &RagdollSpec, track: &Track) -> Result<(Va
     }
     let mut scene_nodes = roots.clone();
     scene_nodes.push(mesh_node);
-    let root = json!({
+    let mut root = json!({
         "asset": {"version": "2.0", "generator": generator()},
         "scene": 0,
         "scenes": [{"name": character.name, "nodes": scene_nodes}],
         "nodes": nodes,
         "skins": [skin],
         "meshes": [{
-            "name": format!("{} ragdoll bodies", character.name),
+            "name": mesh_name,
             "primitives": [{
-                "attributes": {
-                    "POSITION": pos_acc,
-                    "NORMAL": nrm_acc,
-                    "JOINTS_0": jnt_acc,
-                    "WEIGHTS_0": wgt_acc,
-                },
+                "attributes": attributes,
                 "indices": idx_acc,
                 "material": 0,
                 "mode": 4,
@@ -905,10 +960,12 @@ fn fresh(character: &Character, spec: &RagdollSpec, track: &Track) -> Result<(Va
                 "roughnessFactor": 0.7,
             },
         }],
-        "animations": [animation],
         "accessors": bin.accessors,
         "bufferViews": bin.views,
         "buffers": [{"byteLength": bin.data.len()}],
     });
+    if let Some(a) = animation {
+        root["animations"] = json!([a]);
+    }
     Ok((root, bin.data))
 }

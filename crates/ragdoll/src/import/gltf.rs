@@ -18,6 +18,10 @@
 //!   chosen skin. Points, lines, strips and fans are skipped (no ragdoll needs them).
 //!   Morph targets are ignored. Up to four influences are kept per vertex (the strongest,
 //!   renormalised to sum 1); a vertex whose weights sum to 0 gets weight 1 on its first joint.
+//! - **No skin**: a file with triangle meshes but no skin (a scanned or modelled prop) is
+//!   rigged like an OBJ ([`crate::rig`]): every triangle primitive of every node in the
+//!   default scene (or of every node, when there is no scene) in world space. Its source is
+//!   then [`Source::Mesh`] (a fresh glTF is written on export; materials are not kept).
 //! - **Clips**: one per animation that moves at least one joint (animations of other nodes
 //!   only are skipped), sampled from its first to its last key at the key spacing when the
 //!   keys are regular, else at 30 fps. `CUBICSPLINE` is evaluated as the cubic Hermite
@@ -38,6 +42,7 @@ pub(crate) use data::{AccessorReader, decode_data_uri, external_path, format_err
 
 use crate::error::{Error, Result};
 use crate::math::Transform;
+use crate::rig::RigOptions;
 use crate::skeleton::{Character, Clip, Joint, Skeleton, SkinnedMesh, Source};
 
 /// What the glTF exporter needs to write the input back, untouched but for a new animation
@@ -67,13 +72,23 @@ pub struct GltfSource {
 
 /// Loads a glTF 2.0 file (.glb, or .gltf with `data:` URIs or external buffers).
 pub fn load(path: &Path) -> Result<Character> {
+    load_rigged(path, &RigOptions::default())
+}
+
+/// [`load`], rigging a file without a skin with `rig`.
+pub fn load_rigged(path: &Path, rig: &RigOptions) -> Result<Character> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    from_bytes(&bytes, path)
+    from_bytes_rigged(&bytes, path, rig)
 }
 
 /// Loads a glTF 2.0 file already in memory; `path` names it in errors and anchors its
 /// relative URIs (external buffers), as if the bytes had been read from there.
 pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Character> {
+    from_bytes_rigged(bytes, path, &RigOptions::default())
+}
+
+/// [`from_bytes`], rigging a file without a skin with `rig`.
+pub fn from_bytes_rigged(bytes: &[u8], path: &Path, rig: &RigOptions) -> Result<Character> {
     let container = data::split_container(bytes, path)?;
     let json: serde_json::Value = serde_json::from_slice(container.json).map_err(|e| {
         let place = if container.json_offset > 0 {
@@ -114,6 +129,17 @@ pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Character> {
         path,
     };
     let graph = NodeGraph::new(&doc, path)?;
+    if doc.skins().len() == 0 {
+        let meshes = read_unskinned(&doc, &graph, &reader)?;
+        if meshes.is_empty() {
+            return Err(format_err(
+                path,
+                "skins",
+                "has no skin and no triangle mesh: nothing to build a ragdoll from",
+            ));
+        }
+        return super::obj::rigged_character(file_stem(path), meshes, rig, path);
+    }
     let skin_index = choose_skin(&doc, path)?;
     let skin = doc
         .skins()
@@ -123,12 +149,8 @@ pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Character> {
     let skeleton = Skeleton::new(rig.joints.clone())?;
     let meshes = read_meshes(&doc, &skin, &rig, &graph, &reader)?;
     let clips = read_clips(&doc, &rig, &reader)?;
-    let name = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
     Ok(Character {
-        name,
+        name: file_stem(path),
         skeleton,
         meshes,
         clips,
@@ -142,6 +164,96 @@ pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Character> {
             parent_offsets: rig.offsets,
         })),
     })
+}
+
+fn file_stem(path: &Path) -> String {
+    path.file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default()
+}
+
+/// Every triangle primitive of the nodes of the default scene (all nodes when the file
+/// has no scene), in world space: the meshes of a file without a skin, to be rigged.
+fn read_unskinned(
+    doc: &gltf::Document,
+    graph: &NodeGraph,
+    reader: &AccessorReader,
+) -> Result<Vec<SkinnedMesh>> {
+    let in_scene: Option<HashSet<usize>> =
+        doc.default_scene()
+            .or_else(|| doc.scenes().next())
+            .map(|scene| {
+                let mut keep = HashSet::new();
+                let mut stack: Vec<gltf::Node> = scene.nodes().collect();
+                while let Some(n) = stack.pop() {
+                    if keep.insert(n.index()) {
+                        stack.extend(n.children());
+                    }
+                }
+                keep
+            });
+    let mut out = Vec::new();
+    for node in doc.nodes() {
+        let Some(mesh) = node.mesh() else { continue };
+        if in_scene
+            .as_ref()
+            .is_some_and(|k| !k.contains(&node.index()))
+        {
+            continue;
+        }
+        let world = graph.world[node.index()];
+        let normal_mat = Mat3::from_mat4(world).inverse().transpose();
+        for prim in mesh.primitives() {
+            let Some(pos_acc) = prim.get(&Semantic::Positions) else {
+                continue;
+            };
+            if prim.mode() != Mode::Triangles {
+                continue;
+            }
+            reader.expect_dims(&pos_acc, &[Dimensions::Vec3], "POSITION")?;
+            let (pos, _) = reader.floats(&pos_acc)?;
+            let n = pos.len() / 3;
+            let indices = match prim.indices() {
+                Some(a) => {
+                    reader.expect_dims(&a, &[Dimensions::Scalar], "indices")?;
+                    let (ix, _) = reader.uints(&a)?;
+                    if let Some(bad) = ix.iter().find(|&&i| i as usize >= n) {
+                        return Err(format_err(
+                            reader.path,
+                            format!("accessor {}", a.index()),
+                            format!("index {bad} is not below the vertex count {n}"),
+                        ));
+                    }
+                    ix
+                }
+                None => (0..n as u32).collect(),
+            };
+            let normals = match prim.get(&Semantic::Normals) {
+                Some(a) if a.count() == n && a.dimensions() == Dimensions::Vec3 => {
+                    let (f, _) = reader.floats(&a)?;
+                    f.chunks_exact(3)
+                        .map(|c| (normal_mat * Vec3::from_slice(c)).normalize_or(Vec3::Y))
+                        .collect()
+                }
+                _ => Vec::new(),
+            };
+            out.push(SkinnedMesh {
+                name: mesh
+                    .name()
+                    .map(str::to_string)
+                    .unwrap_or_else(|| format!("mesh{}", mesh.index())),
+                positions: pos
+                    .chunks_exact(3)
+                    .map(|c| world.transform_point3(Vec3::from_slice(c)))
+                    .collect(),
+                normals,
+                indices: indices[..indices.len() / 3 * 3].to_vec(),
+                joints: Vec::new(),
+                weights: Vec::new(),
+            });
+        }
+    }
+    Ok(out)
 }
 
 /// Checks the JSON against the glTF schema (types, required fields, index ranges) so that

@@ -3,12 +3,14 @@
 
 pub mod bvh;
 pub mod gltf;
+pub mod obj;
 
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
+use crate::rig::RigOptions;
 use crate::skeleton::Character;
 
 /// Length unit of a file whose format does not say (BVH).
@@ -56,8 +58,15 @@ pub struct ImportOptions {
     pub up: Option<UpAxis>,
 }
 
-/// Loads any supported character file, choosing the importer by extension.
+/// Loads any supported character file, choosing the importer by extension. A mesh without
+/// a skeleton (an OBJ, a glTF without a skin) is rigged with the default [`RigOptions`].
 pub fn load(path: &Path, opts: &ImportOptions) -> Result<Character> {
+    load_rigged(path, opts, &RigOptions::default())
+}
+
+/// [`load`], rigging a mesh without a skeleton with `rig` (ignored for files that have
+/// one).
+pub fn load_rigged(path: &Path, opts: &ImportOptions, rig: &RigOptions) -> Result<Character> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
@@ -65,7 +74,8 @@ pub fn load(path: &Path, opts: &ImportOptions) -> Result<Character> {
         .unwrap_or_default();
     match ext.as_str() {
         "bvh" => bvh::load(path, opts),
-        "glb" | "gltf" => gltf::load(path),
+        "glb" | "gltf" => gltf::load_rigged(path, rig),
+        "obj" => obj::load(path, opts, rig),
         _ => {
             if !path.exists() {
                 return Err(Error::io(

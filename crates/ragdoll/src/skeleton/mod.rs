@@ -277,4 +277,8 @@ pub enum Source {
     Bvh(crate::import::bvh::BvhLayout),
     /// A glTF 2.0 file.
     Gltf(Box<crate::import::gltf::GltfSource>),
+    /// A mesh that came without a skeleton (an OBJ, a glTF without a skin), rigged by
+    /// [`crate::rig`]: its exporters write a fresh glTF of the mesh and its automatic skin.
+    /// Holds the file read.
+    Mesh(std::path::PathBuf),
 }

@@ -129,9 +129,9 @@ fn blend(joints: &[u16; 4], weights: Vec4, matrices: &[Mat4]) -> Option<Mat4> {
 }
 
 /// The ragdoll's bodies (capsules and boxes, as the simulation sees them) as one mesh in
-/// the world rest pose, each vertex rigidly bound to its body's bone: what a character
-/// without a skinned mesh (BVH, the built-in humanoid) is drawn as. The same triangles the
-/// glTF exporter writes for such characters.
+/// the world rest pose, skinned with [`crate::rig::auto_weights`] so the skin bends over the
+/// joints: what a character without a skinned mesh (BVH, the built-in humanoid) is drawn
+/// as. The same triangles and weights the glTF exporter writes for such characters.
 ///
 /// ```
 /// use ragdoll::{skeleton::{humanoid, skinning}, spec};
@@ -140,17 +140,16 @@ fn blend(joints: &[u16; 4], weights: Vec4, matrices: &[Mat4]) -> Option<Mat4> {
 /// let spec = spec::build_spec(&character, &spec::BuildOptions::default()).unwrap();
 /// let mesh = skinning::bodies_mesh(&character.skeleton, &spec).unwrap();
 /// assert_eq!(mesh.positions.len(), mesh.weights.len());
-/// assert!(mesh.weights.iter().all(|w| w.x == 1.0));
+/// assert!(mesh.weights.iter().all(|w| (w.x + w.y + w.z + w.w - 1.0).abs() < 1e-5));
 /// ```
 pub fn bodies_mesh(skeleton: &Skeleton, spec: &RagdollSpec) -> Result<SkinnedMesh> {
     let body = crate::export::gltf::bodies_mesh(skeleton, spec)?;
-    let n = body.positions.len();
     Ok(SkinnedMesh {
         name: format!("{} ragdoll bodies", spec.name),
         positions: body.positions,
         normals: body.normals,
         indices: body.indices,
-        joints: body.joints.iter().map(|&j| [j, 0, 0, 0]).collect(),
-        weights: vec![Vec4::X; n],
+        joints: body.joints,
+        weights: body.weights,
     })
 }

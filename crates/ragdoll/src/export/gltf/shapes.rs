@@ -1,14 +1,16 @@
 //! Triangle meshes for the ragdoll's collision shapes, so a skeleton-only character (BVH,
 //! built-in humanoid) still shows something in a viewer: each body drawn as the capsule or
-//! box the simulation uses, rigidly skinned to its bone.
+//! box the simulation uses, skinned with [`auto_weights`] so the shapes bend together at
+//! the joints instead of cracking apart.
 
 use std::f32::consts::{FRAC_PI_2, TAU};
 
-use glam::{Quat, Vec3};
+use glam::{Quat, Vec3, Vec4};
 
 use crate::error::{Error, Result};
 use crate::math::Transform;
-use crate::skeleton::Skeleton;
+use crate::rig::auto_weights;
+use crate::skeleton::{Character, Skeleton};
 use crate::spec::{RagdollSpec, Shape};
 
 /// Segments around a capsule's axis: round enough to read as a limb, cheap enough for
@@ -17,13 +19,48 @@ const SEGMENTS: usize = 12;
 /// Rings per hemisphere of a capsule.
 const RINGS: usize = 4;
 
-/// A triangle list with one joint per vertex (rigid skinning).
+/// A skinned triangle list: up to four joints per vertex and their weights.
 #[derive(Debug, Default)]
 pub(crate) struct BodyMesh {
     pub positions: Vec<Vec3>,
+    /// Empty when any source mesh had none.
     pub normals: Vec<Vec3>,
-    pub joints: Vec<u16>,
+    pub joints: Vec<[u16; 4]>,
+    pub weights: Vec<Vec4>,
     pub indices: Vec<u32>,
+}
+
+/// A character's own skinned meshes (an OBJ rigged by [`crate::rig`]) as one triangle list.
+pub(super) fn character_mesh(character: &Character) -> BodyMesh {
+    let mut out = BodyMesh::default();
+    let with_normals = character
+        .meshes
+        .iter()
+        .all(|m| m.normals.len() == m.positions.len());
+    for m in &character.meshes {
+        let n = m.positions.len();
+        let base = out.positions.len() as u32;
+        out.positions.extend_from_slice(&m.positions);
+        if with_normals {
+            out.normals.extend_from_slice(&m.normals);
+        }
+        if m.joints.len() == n && m.weights.len() == n {
+            out.joints.extend_from_slice(&m.joints);
+            out.weights.extend_from_slice(&m.weights);
+        } else {
+            let (j, w) = auto_weights(&character.skeleton, &m.positions);
+            out.joints.extend(j);
+            out.weights.extend(w);
+        }
+        out.indices.extend(
+            m.indices
+                .iter()
+                .filter(|&&i| (i as usize) < n)
+                .map(|i| i + base),
+        );
+    }
+    out.indices.truncate(out.indices.len() / 3 * 3);
+    out
 }
 
 /// A capsule centred on the origin, its axis along Y: positions, outward normals, and
@@ -94,8 +131,8 @@ pub(super) fn cuboid(size: [f32; 3]) -> (Vec<Vec3>, Vec<Vec3>, Vec<u32>) {
     (pos, nrm, idx)
 }
 
-/// Every body of `spec` as a mesh in the world rest pose, each vertex bound to its body's
-/// bone joint.
+/// Every body of `spec` as a mesh in the world rest pose, skinned to the skeleton with
+/// [`auto_weights`].
 pub(crate) fn bodies_mesh(skeleton: &Skeleton, spec: &RagdollSpec) -> Result<BodyMesh> {
     let rest_world = skeleton.rest_world();
     let mut out = BodyMesh::default();
@@ -124,10 +161,9 @@ pub(crate) fn bodies_mesh(skeleton: &Skeleton, spec: &RagdollSpec) -> Result<Bod
             .extend(pos.iter().map(|&p| body_world.transform_point(p)));
         out.normals
             .extend(nrm.iter().map(|&n| body_world.transform_dir(n)));
-        out.joints
-            .extend(std::iter::repeat_n(joint as u16, pos.len()));
         out.indices.extend(idx.iter().map(|i| i + base));
     }
+    (out.joints, out.weights) = auto_weights(skeleton, &out.positions);
     Ok(out)
 }
 

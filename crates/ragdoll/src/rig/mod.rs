@@ -1,0 +1,403 @@
+//! Rigging (offline): a skeleton for a bare triangle mesh (an OBJ, a glTF without a skin),
+//! and automatic skin weights for any skeleton and mesh.
+//!
+//! How [`rig`] builds the skeleton:
+//! 1. **Centre line.** By default, principal-component analysis of the mesh's surface
+//!    (area-weighted triangle centroids) gives the body's long axis; the surface is cut
+//!    into slabs across that axis and a first line runs through the slab centroids. That
+//!    line is then refined as a principal curve (each node pulled to the mean of the
+//!    surface nearest to it, smoothed), so it bends with the body instead of cutting
+//!    across a curled one. With [`RigOptions::centre_line`] the line runs through the
+//!    user's landmarks instead.
+//! 2. **Which end is the head.** The end nearest [`RigOptions::head`] when given; else, for
+//!    landmarks, the last landmark; else the higher end (the one whose last fifth of the
+//!    body has the higher centroid): a creature holds its head up and lets its tail trail,
+//!    and an upright figure has its head on top. Override it with `head` when that guess
+//!    is wrong (a fish, a snake lying flat).
+//! 3. **Spine.** [`RigOptions::joints`] joints evenly spaced by arc length from the tail
+//!    end, named `spine00`, `spine01`, …, the last one `head`, whose tip is the head end
+//!    of the line. The root is the tail end.
+//! 4. **Branches** ([`Branch`]: legs, fins, whiskers) hang from the spine joint nearest
+//!    their first landmark. Each starts with a joint on that spine joint, so the branch
+//!    leaves the spine sideways instead of bending the spine's own bone, and runs through
+//!    its landmarks. A mirrored branch gets a twin reflected across the body's symmetry
+//!    plane: the plane through the centroid that holds the head-to-tail direction and the
+//!    vertical (Y); for an upright body, the plane across the second principal axis (a
+//!    standing figure's width). A branch whose first landmark lies on that plane is
+//!    refused, since its twin would coincide with it.
+//! 5. **Rest rotations**: each joint's Y axis runs along its bone (to the next joint, or
+//!    to its tip), X toward the body's left, as in glTF and Blender rigs.
+//!
+//! Skin weights come from [`auto_weights`].
+
+mod centre_line;
+mod weights;
+
+use glam::{Quat, Vec3};
+
+pub use weights::auto_weights;
+use weights::distance_squared_to_segment;
+
+use crate::error::{Error, Result};
+use crate::math::Transform;
+use crate::skeleton::{Joint, Skeleton, SkinnedMesh};
+use centre_line::{
+    Frame, end_heights, length, principal_curve, principal_polyline, resample, surface_samples,
+};
+
+/// Spine joints when the user does not say: enough for a dragon's neck and tail to bend
+/// smoothly, few enough for a cheap ragdoll.
+pub const DEFAULT_JOINTS: usize = 12;
+/// Most spine joints (or joints of one branch) a rig may ask for: more adds nothing a
+/// ragdoll can use and each joint costs a rigid body.
+pub const MAX_JOINTS: usize = 256;
+/// Slabs along the principal axis per spine joint: two keep each joint's neighbourhood
+/// sampled on both sides without letting one leg dominate a slab.
+const SLABS_PER_JOINT: usize = 2;
+/// Fewest and most slabs, whatever the joint count.
+const SLAB_RANGE: [usize; 2] = [8, 64];
+/// A mirrored branch's first landmark must be at least this far from the symmetry plane,
+/// as a fraction of the body's length, or its twin would sit on top of it.
+const MIN_OFF_PLANE_OF_LENGTH: f32 = 0.01;
+/// Body axes closer to vertical than this (|cos|) count as upright when choosing the
+/// symmetry plane.
+const UPRIGHT_COS: f32 = 0.9;
+
+/// A point the user picks on or in the mesh.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Landmark {
+    /// A point in world space, metres (after the importer's unit and up-axis conversion).
+    Point(Vec3),
+    /// A mesh vertex, by its 0-based index over all the meshes' vertices in order (an OBJ's
+    /// `v` lines: OBJ's vertex number minus one).
+    Vertex(usize),
+}
+
+/// A limb, fin or whisker: a chain of joints through landmarks, hanging from the spine.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Branch {
+    /// Name stem of its joints: `{name}_l00`, `{name}_r00`, … when mirrored (left and right
+    /// of the body facing its head, Y up), `{name}00`, … otherwise.
+    pub name: String,
+    /// From the body outward; at least two. The last one is where the branch ends.
+    pub points: Vec<Landmark>,
+    /// Joints of the branch after its first (the one on the spine): 0 puts one on every
+    /// landmark but the last; otherwise this many, evenly spaced along the landmarks.
+    pub joints: usize,
+    /// Whether to add the twin reflected across the body's symmetry plane.
+    pub mirror: bool,
+}
+
+/// How [`rig`] builds a skeleton.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RigOptions {
+    /// Spine joints, evenly spaced along the centre line; default [`DEFAULT_JOINTS`].
+    pub joints: usize,
+    /// Landmarks the centre line runs through, tail to head; empty (the default): found by
+    /// principal-component analysis.
+    pub centre_line: Vec<Landmark>,
+    /// A point near the head: the end of the centre line nearest it is the head.
+    pub head: Option<Landmark>,
+    /// Limbs, fins, whiskers.
+    pub branches: Vec<Branch>,
+}
+
+impl Default for RigOptions {
+    fn default() -> Self {
+        RigOptions {
+            joints: DEFAULT_JOINTS,
+            centre_line: Vec::new(),
+            head: None,
+            branches: Vec::new(),
+        }
+    }
+}
+
+/// Builds a skeleton for `meshes` (world space, metres, Y up) and skins them to it: their
+/// `joints` and `weights` are overwritten with [`auto_weights`].
+///
+/// Fails with [`Error::Setting`] on options that cannot be met (a joint count out of
+/// range, a landmark vertex that does not exist, a mirrored branch on the symmetry plane)
+/// and with [`Error::Skeleton`] when the meshes have no extent to rig.
+///
+/// # Example
+///
+/// ```
+/// use glam::Vec3;
+/// use ragdoll::{rig::{rig, RigOptions}, skeleton::SkinnedMesh};
+///
+/// // A long thin box along X: the spine runs along it.
+/// let positions: Vec<Vec3> = (0..8)
+///     .map(|i| Vec3::new(if i & 1 == 0 { -1.0 } else { 1.0 }, (i >> 1 & 1) as f32 * 0.2, (i >> 2) as f32 * 0.2))
+///     .collect();
+/// let indices = vec![0, 1, 3, 0, 3, 2, 4, 7, 5, 4, 6, 7, 0, 4, 5, 0, 5, 1, 2, 3, 7, 2, 7, 6, 0, 2, 6, 0, 6, 4, 1, 5, 7, 1, 7, 3];
+/// let mut meshes = vec![SkinnedMesh { positions, indices, ..Default::default() }];
+/// let skeleton = rig(&mut meshes, &RigOptions { joints: 4, ..Default::default() }).unwrap();
+/// assert_eq!(skeleton.len(), 4);
+/// assert_eq!(meshes[0].weights.len(), 8);
+/// ```
+pub fn rig(meshes: &mut [SkinnedMesh], opts: &RigOptions) -> Result<Skeleton> {
+    let skeleton = build_skeleton(meshes, opts)?;
+    for m in meshes.iter_mut() {
+        let (joints, weights) = auto_weights(&skeleton, &m.positions);
+        m.joints = joints;
+        m.weights = weights;
+    }
+    Ok(skeleton)
+}
+
+fn setting(setting: impl Into<String>, message: impl Into<String>) -> Error {
+    Error::Setting {
+        setting: setting.into(),
+        message: message.into(),
+    }
+}
+
+/// The skeleton [`rig`] would bind `meshes` to, without touching them.
+pub fn build_skeleton(meshes: &[SkinnedMesh], opts: &RigOptions) -> Result<Skeleton> {
+    if !(1..=MAX_JOINTS).contains(&opts.joints) {
+        return Err(setting(
+            "rig.joints",
+            format!(
+                "must be between 1 and {MAX_JOINTS} spine joints, got {}",
+                opts.joints
+            ),
+        ));
+    }
+    // Every vertex, in order, so landmarks can name vertices; triangle indices shifted.
+    let mut vertices = Vec::new();
+    let mut indices = Vec::new();
+    for m in meshes {
+        let base = vertices.len() as u32;
+        indices.extend(m.indices.iter().map(|i| i + base));
+        vertices.extend_from_slice(&m.positions);
+    }
+    let resolve = |l: &Landmark, what: &str| -> Result<Vec3> {
+        let p = match *l {
+            Landmark::Point(p) => p,
+            Landmark::Vertex(i) => *vertices.get(i).ok_or_else(|| {
+                setting(
+                    what,
+                    format!(
+                        "vertex {i} does not exist: the mesh has {} vertices (numbered from 0)",
+                        vertices.len()
+                    ),
+                )
+            })?,
+        };
+        if p.is_finite() {
+            Ok(p)
+        } else {
+            Err(setting(what, "a landmark is not a finite point"))
+        }
+    };
+    let (points, weights) = surface_samples(&vertices, &indices);
+    let frame = Frame::new(&points, &weights, &vertices);
+    let body_length = frame.span.1 - frame.span.0;
+    if points.is_empty() || too_short(body_length) {
+        return Err(Error::Skeleton {
+            joint: String::new(),
+            message: "cannot rig the mesh: its vertices have no extent (none, or all at one point)"
+                .into(),
+        });
+    }
+
+    // 1–2. Centre line, tail first.
+    let mut line = if opts.centre_line.is_empty() {
+        let slabs = (SLABS_PER_JOINT * opts.joints).clamp(SLAB_RANGE[0], SLAB_RANGE[1]);
+        let slab_line = principal_polyline(&frame, &points, &weights, slabs);
+        let line = principal_curve(&slab_line, &points, &weights, slabs);
+        // The higher end is the head unless the user says otherwise.
+        let (low, high) = end_heights(&frame, &points, &weights);
+        if low > high {
+            line.into_iter().rev().collect()
+        } else {
+            line
+        }
+    } else {
+        if opts.centre_line.len() < 2 {
+            return Err(setting(
+                "rig.centre_line",
+                "needs at least two landmarks (tail end, head end)",
+            ));
+        }
+        opts.centre_line
+            .iter()
+            .map(|l| resolve(l, "rig.centre_line"))
+            .collect::<Result<Vec<_>>>()?
+    };
+    if let Some(h) = &opts.head {
+        let h = resolve(h, "rig.head")?;
+        if line[0].distance(h) < line[line.len() - 1].distance(h) {
+            line.reverse();
+        }
+    }
+    if too_short(length(&line)) {
+        return Err(setting(
+            "rig.centre_line",
+            "its landmarks are all at one point",
+        ));
+    }
+
+    // The body's left (facing the head, Y up) and its symmetry plane.
+    // Facing: the principal axis toward the head for a found centre line (its ends may sit
+    // off the axis), the line's own ends for the user's.
+    let chord = line[line.len() - 1] - line[0];
+    let forward = if opts.centre_line.is_empty() {
+        frame.axes[0] * chord.dot(frame.axes[0]).signum()
+    } else {
+        chord.normalize_or(frame.axes[0])
+    };
+    let left = if forward.dot(Vec3::Y).abs() < UPRIGHT_COS {
+        Vec3::Y.cross(forward).normalize()
+    } else {
+        let side = frame.axes[1];
+        (side - forward * side.dot(forward)).normalize_or(forward.any_orthonormal_vector())
+    };
+    let mirror = |p: Vec3| p - 2.0 * (p - frame.centroid).dot(left) * left;
+
+    // 3. Spine.
+    let (spine, tip) = resample(&line, opts.joints);
+    let mut names: Vec<String> = (0..opts.joints).map(|i| format!("spine{i:02}")).collect();
+    if opts.joints > 1 {
+        names[opts.joints - 1] = "head".into();
+    }
+    let mut world_pos: Vec<Vec3> = spine.clone();
+    let mut parents: Vec<Option<usize>> = (0..opts.joints).map(|i| i.checked_sub(1)).collect();
+    let mut tips: Vec<Option<Vec3>> = vec![None; opts.joints];
+    tips[opts.joints - 1] = Some(tip);
+
+    // 4. Branches.
+    for b in &opts.branches {
+        let what = format!("rig.branch \"{}\"", b.name);
+        if b.points.len() < 2 {
+            return Err(setting(
+                what,
+                "needs at least two landmarks (where it leaves the body, where it ends)",
+            ));
+        }
+        if b.joints > MAX_JOINTS {
+            return Err(setting(
+                what,
+                format!("asks for {} joints, more than {MAX_JOINTS}", b.joints),
+            ));
+        }
+        let pts = b
+            .points
+            .iter()
+            .map(|l| resolve(l, &what))
+            .collect::<Result<Vec<_>>>()?;
+        let off_plane = (pts[0] - frame.centroid).dot(left);
+        let mut sides = vec![(pts.clone(), off_plane)];
+        if b.mirror {
+            if off_plane.abs() < MIN_OFF_PLANE_OF_LENGTH * body_length {
+                return Err(setting(
+                    what,
+                    format!(
+                        "its first landmark lies on the body's symmetry plane ({:.3} m from it), \
+                         so its mirror image would coincide with it: start it to one side, or \
+                         do not mirror it",
+                        off_plane.abs()
+                    ),
+                ));
+            }
+            sides.push((pts.iter().map(|&p| mirror(p)).collect(), -off_plane));
+        }
+        // Both twins hang from the same spine joint, even where a curled spine passes
+        // nearer to one of them.
+        let attach = nearest_bone(&spine, tip, pts[0]);
+        for (pts, side) in sides {
+            let stem = match (b.mirror, side > 0.0) {
+                (false, _) => b.name.clone(),
+                (true, true) => format!("{}_l", b.name),
+                (true, false) => format!("{}_r", b.name),
+            };
+            let mut path = vec![spine[attach]];
+            path.extend_from_slice(&pts);
+            let (joints, end) = if b.joints == 0 {
+                (path[..path.len() - 1].to_vec(), path[path.len() - 1])
+            } else {
+                let (mut js, end) = resample(&path[1..], b.joints);
+                js.insert(0, path[0]);
+                (js, end)
+            };
+            if too_short(length(&path)) {
+                return Err(setting(what, "its landmarks are all at one point"));
+            }
+            for (k, p) in joints.iter().enumerate() {
+                parents.push(Some(if k == 0 { attach } else { world_pos.len() - 1 }));
+                world_pos.push(*p);
+                tips.push(None);
+                names.push(format!("{stem}{k:02}"));
+            }
+            *tips.last_mut().expect("a branch has joints") = Some(end);
+        }
+    }
+
+    // 5. Rest frames: Y along the bone, X toward the left.
+    let n = world_pos.len();
+    let mut first_child = vec![None; n];
+    for (i, p) in parents.iter().enumerate() {
+        if let Some(p) = *p {
+            // A branch's first joint sits on its spine joint; the spine's own next joint
+            // (listed first) is the bone that matters.
+            first_child[p].get_or_insert(i);
+        }
+    }
+    let rotations: Vec<Quat> = (0..n)
+        .map(|i| {
+            let end = first_child[i]
+                .map(|c| world_pos[c])
+                .filter(|e| e.distance(world_pos[i]) > 1e-6)
+                .or(tips[i])
+                .unwrap_or(world_pos[i] + forward);
+            bone_frame((end - world_pos[i]).normalize_or(forward), left)
+        })
+        .collect();
+    let worlds: Vec<Transform> = (0..n)
+        .map(|i| Transform::new(world_pos[i], rotations[i]))
+        .collect();
+    let joints = (0..n)
+        .map(|i| {
+            let rest = match parents[i] {
+                Some(p) => worlds[p].inverse().mul(&worlds[i]),
+                None => worlds[i],
+            };
+            Joint {
+                name: names[i].clone(),
+                parent: parents[i],
+                rest,
+                tip: tips[i].map(|t| worlds[i].inverse().transform_point(t)),
+            }
+        })
+        .collect();
+    Skeleton::new(joints)
+}
+
+/// Whether a length (metres) is too small to rig along, or not a number.
+fn too_short(len: f32) -> bool {
+    len.is_nan() || len <= 1e-6
+}
+
+/// The spine joint whose bone (to the next joint, the last one's to `tip`) passes
+/// nearest `p`.
+fn nearest_bone(spine: &[Vec3], tip: Vec3, p: Vec3) -> usize {
+    let end = |i: usize| spine.get(i + 1).copied().unwrap_or(tip);
+    (0..spine.len())
+        .min_by(|&a, &b| {
+            distance_squared_to_segment(p, spine[a], end(a))
+                .total_cmp(&distance_squared_to_segment(p, spine[b], end(b)))
+        })
+        .unwrap_or(0)
+}
+
+/// The rotation whose Y axis is `y` and whose X axis is as close to `left` as possible.
+fn bone_frame(y: Vec3, left: Vec3) -> Quat {
+    let mut x = left - y * left.dot(y);
+    if x.length_squared() < 1e-8 {
+        x = y.any_orthonormal_vector();
+    }
+    let x = x.normalize();
+    let z = x.cross(y);
+    Quat::from_mat3(&glam::Mat3::from_cols(x, y, z)).normalize()
+}
