@@ -7,6 +7,7 @@ mod bench;
 mod commands;
 mod progress;
 mod scene_cmd;
+mod view_cmd;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -39,6 +40,9 @@ enum Command {
     Shoot(ShootArgs),
     /// Measure simulation speed on the pile workload (DESIGN §6). A benchmark, not a test.
     Bench(bench::BenchArgs),
+    /// Open the interactive viewer: serves a local web page that shows the simulation live;
+    /// drag body parts, place blasts, scrub, edit the ragdoll.
+    View(view_cmd::ViewArgs),
 }
 
 /// How to read a character file.
@@ -286,6 +290,7 @@ fn main() -> ExitCode {
         Command::Blast(a) => commands::blast(&a),
         Command::Shoot(a) => commands::shoot(&a),
         Command::Bench(a) => bench::run(&a),
+        Command::View(a) => view_cmd::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
