@@ -698,6 +698,12 @@ function pick(ray) {
   return best;
 }
 
+// The body under a screen point (CSS pixels), as a click there would pick it.
+viewer.pickAt = (x, y) => {
+  const hit = pick(mouseRay({ clientX: x, clientY: y }));
+  return hit ? { ragdoll: hit.ragdoll, body: hit.body } : null;
+};
+
 let drag = null, orbit = null, scrubbing = false, lastMove = 0;
 canvas.addEventListener('contextmenu', (e) => e.preventDefault());
 canvas.addEventListener('mousedown', (ev) => {
