@@ -44,6 +44,8 @@ pub(crate) fn router(app: Arc<App>) -> Router {
         .route("/", get(index))
         .route("/viewer.js", get(script))
         .route("/api/state", get(state))
+        // Browsers ask for an icon; an empty answer keeps a 404 out of the page's console.
+        .route("/favicon.ico", get(|| async { StatusCode::NO_CONTENT }))
         .route("/ws", get(upgrade))
         .with_state(app)
 }

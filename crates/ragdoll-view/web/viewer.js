@@ -585,7 +585,13 @@ function draw() {
   if (!gl) return;
   const w = canvas.clientWidth * devicePixelRatio, h = canvas.clientHeight * devicePixelRatio;
   if (canvas.width !== w || canvas.height !== h) { canvas.width = w; canvas.height = h; }
-  // Camera.
+  // Camera: eases toward the first character's centre of mass when following, so a thrown
+  // character stays in view.
+  const c = $('follow').checked && !orbit && !drag && centreOfMass(0);
+  if (c) {
+    const goal = [c[0], Math.max(0.5, c[1]), c[2]];
+    camera.target = V.add(camera.target, V.scale(V.sub(goal, camera.target), 0.08));
+  }
   const cp = Math.cos(camera.pitch);
   camera.eye = V.add(camera.target, V.scale([cp * Math.sin(camera.yaw), Math.sin(camera.pitch), cp * Math.cos(camera.yaw)], camera.dist));
   viewProj = M4.mul(M4.perspective(0.8, w / Math.max(h, 1), 0.05, 200), M4.lookAt(camera.eye, camera.target, [0, 1, 0]));
@@ -737,6 +743,7 @@ window.addEventListener('mousemove', (ev) => {
   const dx = ev.clientX - orbit.x, dy = ev.clientY - orbit.y;
   orbit.x = ev.clientX; orbit.y = ev.clientY;
   if (orbit.pan) {
+    $('follow').checked = false; // the user moves the camera's target now
     const fwd = V.norm(V.sub(camera.target, camera.eye));
     const right = V.norm(V.cross(fwd, [0, 1, 0])), up = V.cross(right, fwd);
     const k = camera.dist * 0.0015;

@@ -16,7 +16,9 @@ fn bar() -> (World, RagdollId) {
         ground: None,
         ..Default::default()
     };
-    World::with_ragdoll(&character, &spec, &settings).unwrap()
+    let (mut world, id) = World::with_ragdoll(&character, &spec, &settings).unwrap();
+    world.run(0.0); // records the first frame, so poses can be read
+    (world, id)
 }
 
 fn centre(world: &World, id: RagdollId) -> Vec3 {

