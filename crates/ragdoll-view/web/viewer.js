@@ -250,8 +250,9 @@ uniform int uGround;
 out vec4 outColor;
 ${LIT}
 void main() {
+  // Normals come with the meshes (outward); triangle winding varies between files, so
+  // it is not used to flip them.
   vec3 n = normalize(vNormal);
-  if (!gl_FrontFacing) n = -n;
   vec3 albedo = uColor;
   if (uGround == 1) {
     vec2 c = floor(vWorld.xz);

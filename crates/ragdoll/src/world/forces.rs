@@ -280,9 +280,11 @@ impl super::World {
         if !(local.is_finite() && target.is_finite()) {
             return Err(setting_error("drag", "the point and target must be finite"));
         }
-        if !(stiffness_hz.is_finite() && stiffness_hz > 0.0)
-            || !(damping_ratio.is_finite() && damping_ratio >= 0.0)
-        {
+        let spring_ok = stiffness_hz.is_finite()
+            && stiffness_hz > 0.0
+            && damping_ratio.is_finite()
+            && damping_ratio >= 0.0;
+        if !spring_ok {
             return Err(setting_error(
                 "drag",
                 "stiffness must be positive Hz, damping zero or positive",
