@@ -35,9 +35,22 @@ use crate::protocol::{BackendChoice, ClientMsg, SceneShape};
 /// simulation pauses rather than grow without bound.
 const MAX_STEPS: usize = 36_000;
 
-/// Stiffness of the mouse's soft pin, Hz: firm enough that a limb follows the mouse within
-/// a few frames, soft enough that the rest of the body is pulled, not yanked.
+/// Stiffness of the mouse's soft pin on a heavy part (10 kg and up), Hz: firm enough that
+/// it follows the mouse within a few frames, soft enough that the rest of the body is
+/// pulled, not yanked.
 const DRAG_STIFFNESS_HZ: f32 = 3.0;
+
+/// Stiffest the mouse's pin gets on a light part, Hz. The pin's force is the part's own
+/// mass times its acceleration, so at 3 Hz a 0.5 kg hand pulls with under 100 N and cannot
+/// lift its arm off the floor; lighter parts get a higher frequency (as √(10 kg / mass)),
+/// up to this, where one collision substep (1/240 s) is still a small fraction of a period.
+const DRAG_MAX_STIFFNESS_HZ: f32 = 12.0;
+
+/// The mouse pin's frequency for a part of `mass_kg`.
+fn drag_stiffness_hz(mass_kg: f32) -> f32 {
+    (DRAG_STIFFNESS_HZ * (10.0 / mass_kg.max(1e-3)).sqrt())
+        .clamp(DRAG_STIFFNESS_HZ, DRAG_MAX_STIFFNESS_HZ)
+}
 
 /// Damping ratio of the mouse's pin: critical, so a dragged part does not bounce.
 const DRAG_DAMPING: f32 = 1.0;
@@ -408,12 +421,17 @@ impl Session {
                 if let Some(d) = self.drag.take() {
                     self.world.drag_end(d);
                 }
+                let mass = self.scene.characters[ragdoll]
+                    .spec
+                    .bodies
+                    .get(body)
+                    .map_or(1.0, |b| b.mass_kg);
                 let d = self.world.drag_start(
                     self.ids[ragdoll],
                     body,
                     local,
                     target,
-                    DRAG_STIFFNESS_HZ,
+                    drag_stiffness_hz(mass),
                     DRAG_DAMPING,
                 )?;
                 self.drag = Some(d);

@@ -239,7 +239,7 @@ impl super::World {
     /// Starts dragging body `body` (spec order) of ragdoll `id` by the point `local` (in
     /// the body's frame) toward `target` (world space): a soft pin, a damped spring of
     /// natural frequency `stiffness_hz` and damping ratio `damping_ratio`, whose target
-    /// [`World::drag_move`] moves at run time (a viewer's mouse). Unlike [`World::add_pin`]'s
+    /// [`Self::drag_move`] moves at run time (a viewer's mouse). Unlike [`Self::add_pin`]'s
     /// keyed path, the target is whatever was set last, so it can follow input that is not
     /// known in advance. The rest of the ragdoll follows through its joints.
     ///
