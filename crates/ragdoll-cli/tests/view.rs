@@ -12,7 +12,10 @@ use common::{ragdoll, repo, stderr};
 #[test]
 fn a_missing_file_is_an_error_naming_it() {
     let dir = tempfile::tempdir().unwrap();
-    let out = ragdoll(dir.path(), &["view", "nowhere.glb", "--port", "0", "--no-open"]);
+    let out = ragdoll(
+        dir.path(),
+        &["view", "nowhere.glb", "--port", "0", "--no-open"],
+    );
     assert!(!out.status.success());
     assert!(stderr(&out).contains("nowhere.glb"), "{}", stderr(&out));
 }
@@ -59,7 +62,10 @@ fn a_scene_file_is_served_on_the_port_printed() {
         .and_then(|rest| rest.split('/').next())
         .unwrap_or_else(|| panic!("no URL in {line:?}"))
         .to_string();
-    assert!(addr.starts_with("127.0.0.1:") && !addr.ends_with(":0"), "{addr}");
+    assert!(
+        addr.starts_with("127.0.0.1:") && !addr.ends_with(":0"),
+        "{addr}"
+    );
     let mut s = TcpStream::connect(&addr).unwrap();
     write!(
         s,

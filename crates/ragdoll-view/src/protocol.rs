@@ -22,6 +22,9 @@ pub const MAX_COORDINATE_M: f32 = 1000.0;
 /// character leaves any view in one frame).
 pub const MAX_TNT_KG: f32 = 1000.0;
 
+/// Heaviest body an edit may set, kg.
+pub const MAX_MASS_KG: f32 = 1.0e7;
+
 /// Longest delay before a charge placed in the viewer goes off, seconds.
 pub const MAX_DELAY_S: f32 = 60.0;
 
@@ -268,12 +271,14 @@ fn check(msg: &ClientMsg, shape: &SceneShape) -> Result<(), Rejected> {
             mass_kg,
         } => {
             body_index(*ragdoll, *body, shape)?;
-            in_range("radius_m", *radius_m, 0.005, 2.0)?;
-            in_range("length_m", *length_m, 0.0, 5.0)?;
+            // Wide bounds: some files are in centimetres read as metres (Fox), and their
+            // bodies are that large. The spec's own validation judges the result.
+            in_range("radius_m", *radius_m, 1e-3, MAX_COORDINATE_M)?;
+            in_range("length_m", *length_m, 0.0, MAX_COORDINATE_M)?;
             for v in center_m {
-                in_range("center_m", *v, -5.0, 5.0)?;
+                in_range("center_m", *v, -MAX_COORDINATE_M, MAX_COORDINATE_M)?;
             }
-            in_range("mass_kg", *mass_kg, 0.01, 1000.0)
+            in_range("mass_kg", *mass_kg, 1e-3, MAX_MASS_KG)
         }
         ClientMsg::EditJoint {
             ragdoll,

@@ -114,6 +114,10 @@ pub(crate) struct Session {
     playing: bool,
     backend: BackendChoice,
     out: Outlets,
+    /// Per ragdoll, the inverse of each joint's rest (bind) matrix: a joint's skinning
+    /// matrix is its world matrix now times this. Matrices, not rigid transforms, because
+    /// glTF joints may carry scale (Fox's do).
+    rest_inverse: Vec<Vec<glam::Mat4>>,
 }
 
 /// Converts a transform to `[tx, ty, tz, qx, qy, qz, qw]`, the layout the page reads.
@@ -159,7 +163,20 @@ impl Session {
         scene.settings = viewer_settings(&scene.settings);
         let (mut world, ids) = scene.build_world()?;
         world.run(0.0);
+        let rest_inverse = scene
+            .characters
+            .iter()
+            .map(|c| {
+                c.character
+                    .skeleton
+                    .rest_world()
+                    .iter()
+                    .map(|t| t.to_mat4().inverse())
+                    .collect()
+            })
+            .collect();
         let mut s = Session {
+            rest_inverse,
             scene,
             save_dir,
             save_stem,
@@ -214,10 +231,6 @@ impl Session {
             .iter()
             .map(|c| {
                 let sk = &c.character.skeleton;
-                let mut rest = Vec::new();
-                for t in sk.rest_world() {
-                    push_transform(&mut rest, &t);
-                }
                 let meshes: Vec<Mesh> = c
                     .character
                     .meshes
@@ -240,12 +253,11 @@ impl Session {
                     .map(|j| sk.parent(j).map_or(-1, |p| p as i64))
                     .collect();
                 // The meshes are skinned into the rest pose before the character is
-                // placed; the page skins with joint_now · rest⁻¹, and the placement comes
-                // with the joints' transforms.
+                // placed; frames carry each joint's joint_now · rest⁻¹ (placement
+                // included), which the page's vertex shader blends.
                 json!({
                     "name": c.name,
                     "parents": parents,
-                    "rest": rest,
                     "meshes": meshes,
                 })
             })
@@ -337,11 +349,16 @@ impl Session {
             .bodies
             .iter()
             .zip(&snap.joints)
-            .map(|(b, j)| {
-                let (mut bodies, mut joints) = (Vec::new(), Vec::new());
+            .zip(&self.rest_inverse)
+            .map(|((b, j), rest_inverse)| {
+                let mut bodies = Vec::new();
                 b.iter().for_each(|t| push_transform(&mut bodies, t));
-                j.iter().for_each(|t| push_transform(&mut joints, t));
-                json!({"bodies": bodies, "joints": joints})
+                let skin: Vec<f32> = j
+                    .iter()
+                    .zip(rest_inverse)
+                    .flat_map(|(t, inv)| (t.to_mat4() * *inv).to_cols_array())
+                    .collect();
+                json!({"bodies": bodies, "skin": skin})
             })
             .collect();
         let frame = json!({

@@ -106,6 +106,12 @@ fn numbers_that_are_not_finite_or_out_of_range_are_refused() {
         r#"{"type":"edit_body","ragdoll":0,"body":0,"radius_m":0,"length_m":0.3,"center_m":[0,0,0],"mass_kg":4}"#,
     );
     refused(
+        r#"{"type":"edit_body","ragdoll":0,"body":0,"radius_m":0.1,"length_m":-0.3,"center_m":[0,0,0],"mass_kg":4}"#,
+    );
+    refused(
+        r#"{"type":"edit_body","ragdoll":0,"body":0,"radius_m":0.1,"length_m":0.3,"center_m":[0,2000,0],"mass_kg":4}"#,
+    );
+    refused(
         r#"{"type":"edit_body","ragdoll":0,"body":0,"radius_m":0.1,"length_m":0.3,"center_m":[0,0,0],"mass_kg":0}"#,
     );
     refused(r#"{"type":"edit_joint","ragdoll":0,"joint":0,"min_deg":10,"max_deg":-10}"#);

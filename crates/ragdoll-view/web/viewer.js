@@ -41,15 +41,14 @@ function tr(arr, i) {
 const T = {
   apply: (a, p) => V.add(a.t, Q.rotate(a.q, p)),
   mul: (a, b) => ({ t: V.add(a.t, Q.rotate(a.q, b.t)), q: Q.mul(a.q, b.q) }),
-  inv(a) { const qi = Q.conj(a.q); return { t: V.scale(Q.rotate(qi, a.t), -1), q: qi }; },
 };
 const M4 = {
-  fromTr(a, s = [1, 1, 1]) {
+  fromTr(a) {
     const [x, y, z, w] = a.q;
     const m = new Float32Array(16);
-    m[0] = (1 - 2 * (y * y + z * z)) * s[0]; m[1] = 2 * (x * y + z * w) * s[0]; m[2] = 2 * (x * z - y * w) * s[0];
-    m[4] = 2 * (x * y - z * w) * s[1]; m[5] = (1 - 2 * (x * x + z * z)) * s[1]; m[6] = 2 * (y * z + x * w) * s[1];
-    m[8] = 2 * (x * z + y * w) * s[2]; m[9] = 2 * (y * z - x * w) * s[2]; m[10] = (1 - 2 * (x * x + y * y)) * s[2];
+    m[0] = 1 - 2 * (y * y + z * z); m[1] = 2 * (x * y + z * w); m[2] = 2 * (x * z - y * w);
+    m[4] = 2 * (x * y - z * w); m[5] = 1 - 2 * (x * x + z * z); m[6] = 2 * (y * z + x * w);
+    m[8] = 2 * (x * z + y * w); m[9] = 2 * (y * z - x * w); m[10] = 1 - 2 * (x * x + y * y);
     m[12] = a.t[0]; m[13] = a.t[1]; m[14] = a.t[2]; m[15] = 1;
     return m;
   },
@@ -88,6 +87,7 @@ const M4 = {
 // ---------------------------------------------------------------- state
 const $ = (id) => document.getElementById(id);
 const viewer = {
+  size: 1, // the character's size in units of an adult's half height (scales views)
   ready: false, webgl: false, glError: null, connected: false,
   scene: null, specs: null, frame: null, frames: 0, notices: [],
   selected: null, blastAt: null,
@@ -140,7 +140,15 @@ function onFrame(m) {
   viewer.frames++;
   if (first) {
     const c = centreOfMass(0);
-    if (c) camera.target = [c[0], Math.max(0.6, c[1]), c[2]];
+    if (c) {
+      camera.target = [c[0], Math.max(0.6, c[1]), c[2]];
+      // Frame the whole character, whatever its size (some files are in centimetres).
+      let extent = 0;
+      const poses = m.ragdolls[0].bodies;
+      for (let i = 0; i < poses.length; i += 7) extent = Math.max(extent, V.len(V.sub(tr(poses, i).t, c)));
+      viewer.size = Math.max(1, extent / 0.9);
+      camera.dist = 4 * viewer.size;
+    }
   }
   $('time').textContent = `${m.t.toFixed(2)} s / ${m.head_t.toFixed(2)} s`;
   $('play').textContent = m.playing ? 'Pause' : 'Play';
@@ -247,6 +255,7 @@ precision highp float;
 in vec3 vWorld, vNormal;
 uniform vec3 uColor, uEye;
 uniform int uGround;
+uniform float uScale;
 out vec4 outColor;
 ${LIT}
 void main() {
@@ -255,10 +264,10 @@ void main() {
   vec3 n = normalize(vNormal);
   vec3 albedo = uColor;
   if (uGround == 1) {
-    vec2 c = floor(vWorld.xz);
+    vec2 c = floor(vWorld.xz / uScale);
     float k = mod(c.x + c.y, 2.0);
     albedo = mix(vec3(0.36, 0.39, 0.42), vec3(0.43, 0.46, 0.49), k);
-    float fade = clamp(length(vWorld.xz) / 30.0, 0.0, 1.0);
+    float fade = clamp(length(vWorld.xz) / (30.0 * uScale), 0.0, 1.0);
     albedo = mix(albedo, vec3(0.2, 0.22, 0.25), fade);
   }
   outColor = vec4(shade(albedo, n, vWorld, uEye), 1.0);
@@ -323,7 +332,7 @@ if (gl) {
     gl.bindFramebuffer(gl.FRAMEBUFFER, null);
     shadow = { tex, fb };
     ground = makeMesh(
-      [-40, 0, -40, 40, 0, -40, 40, 0, 40, -40, 0, 40],
+      [-2000, 0, -2000, 2000, 0, -2000, 2000, 0, 2000, -2000, 0, 2000],
       [0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0],
       [0, 2, 1, 0, 3, 2],
     );
@@ -449,18 +458,17 @@ function smoothNormals(mesh) {
 function lightSetup() {
   const c = centreOfMass(0) || camera.target;
   const dir = V.norm([0.45, 1.0, 0.3]);
-  const eye = V.add(c, V.scale(dir, 10));
+  const k = viewer.size;
+  const eye = V.add(c, V.scale(dir, 10 * k));
   const view = M4.lookAt(eye, c, [0, 1, 0]);
-  const ext = 4.0;
-  return { dir, vp: M4.mul(M4.ortho(-ext, ext, -ext, ext, 0.5, 25), view) };
+  const ext = 4.0 * k;
+  return { dir, vp: M4.mul(M4.ortho(-ext, ext, -ext, ext, 0.5 * k, 25 * k), view) };
 }
 
+// Skinning matrices (joint now · rest⁻¹, column-major), computed by the server.
 function boneMatrices(ragdoll, frameRagdoll) {
-  const n = ragdoll.parents.length, data = new Float32Array(16 * n);
-  for (let j = 0; j < n; j++) {
-    const now = tr(frameRagdoll.joints, 7 * j), rest = tr(ragdoll.rest, 7 * j);
-    data.set(M4.fromTr(T.mul(now, T.inv(rest))), 16 * j);
-  }
+  const data = new Float32Array(16 * ragdoll.parents.length);
+  data.set(frameRagdoll.skin.slice(0, data.length));
   return data;
 }
 
@@ -526,7 +534,7 @@ function overlayLines() {
         if (!parent || !child) return;
         const fp = T.mul(parent, tr(j.frame_parent, 0)), fc = tr(j.frame_child, 0);
         const anchor = T.apply(child, fc.t);
-        const kind = r.spec.joints[ji].kind, len = 0.12;
+        const kind = r.spec.joints[ji].kind, len = 0.12 * viewer.size;
         const x = Q.rotate(fp.q, [1, 0, 0]);
         // The child's centre seen from the joint at rest, in the joint frame.
         let d = Q.rotate(Q.conj(fc.q), V.scale(fc.t, -1));
@@ -562,14 +570,15 @@ function overlayLines() {
     const c = [viewer.blastAt[0], groundY() + Number($('height').value), viewer.blastAt[2]];
     const red = [1, 0.3, 0.2];
     for (let i = 0; i < 3; i++) {
-      const a = [0, 0, 0]; a[i] = 0.15;
+      const a = [0, 0, 0]; a[i] = 0.15 * viewer.size;
       line(V.sub(c, a), V.add(c, a), red);
     }
     line(c, [c[0], groundY(), c[2]], red);
     let prev = null;
     for (let i = 0; i <= 32; i++) {
       const a = i / 32 * Math.PI * 2;
-      const p = [c[0] + 0.3 * Math.cos(a), groundY() + 0.005, c[2] + 0.3 * Math.sin(a)];
+      const k = 0.3 * viewer.size;
+      const p = [c[0] + k * Math.cos(a), groundY() + 0.005 * viewer.size, c[2] + k * Math.sin(a)];
       if (prev) line(prev, p, red);
       prev = p;
     }
@@ -590,12 +599,13 @@ function draw() {
   // character stays in view.
   const c = $('follow').checked && !orbit && !drag && centreOfMass(0);
   if (c) {
-    const goal = [c[0], Math.max(0.5, c[1]), c[2]];
+    const goal = [c[0], Math.max(0.5 * viewer.size, c[1]), c[2]];
     camera.target = V.add(camera.target, V.scale(V.sub(goal, camera.target), 0.08));
   }
   const cp = Math.cos(camera.pitch);
   camera.eye = V.add(camera.target, V.scale([cp * Math.sin(camera.yaw), Math.sin(camera.pitch), cp * Math.cos(camera.yaw)], camera.dist));
-  viewProj = M4.mul(M4.perspective(0.8, w / Math.max(h, 1), 0.05, 200), M4.lookAt(camera.eye, camera.target, [0, 1, 0]));
+  viewProj = M4.mul(M4.perspective(0.8, w / Math.max(h, 1), 0.05 * viewer.size, 400 * viewer.size),
+    M4.lookAt(camera.eye, camera.target, [0, 1, 0]));
   const light = lightSetup();
   // Shadow pass.
   gl.bindFramebuffer(gl.FRAMEBUFFER, shadow.fb);
@@ -619,6 +629,7 @@ function draw() {
     gl.uniform3fv(p.u.uLightDir, light.dir);
     gl.uniform3fv(p.u.uEye, camera.eye);
     gl.uniform1i(p.u.uShadow, 0);
+    gl.uniform1f(p.u.uScale, viewer.size);
   }, false);
   const lines = overlayLines();
   if (lines.length) {
@@ -772,7 +783,7 @@ window.addEventListener('mouseup', (ev) => {
 });
 canvas.addEventListener('wheel', (ev) => {
   ev.preventDefault();
-  camera.dist = Math.min(60, Math.max(0.5, camera.dist * Math.exp(ev.deltaY * 0.001)));
+  camera.dist = Math.min(60 * viewer.size, Math.max(0.5 * viewer.size, camera.dist * Math.exp(ev.deltaY * 0.001)));
 }, { passive: false });
 
 // ---------------------------------------------------------------- panel
@@ -786,7 +797,10 @@ function slider(id, unit, digits) {
   const show = () => { out.textContent = `${Number(el.value).toFixed(digits)} ${unit}`; };
   el.addEventListener('input', show);
   show();
-  return { el, show, set(v) { el.value = v; show(); }, get value() { return Number(el.value); } };
+  // `range(lo, hi)` fits the slider to the value being edited (characters differ in size
+  // by orders of magnitude), so setting a value never clamps it.
+  return { el, show, set(v) { el.value = v; show(); }, get value() { return Number(el.value); },
+    range(lo, hi) { el.min = lo; el.max = hi; el.step = 'any'; } };
 }
 const ui = {
   tnt: slider('tnt', 'kg', 1), height: slider('height', 'm', 2), delay: slider('delay', 's', 1),
@@ -820,13 +834,16 @@ function showSelected() {
   const spec = s.ragdolls[sel.ragdoll].spec;
   $('body-name').textContent = body.name;
   $('body-shape').textContent = body.shape.kind;
-  if (body.shape.kind === 'capsule') {
-    ui.radius.set(body.shape.radius_m); ui.length.set(body.shape.length_m);
-  } else {
-    ui.radius.set(Math.min(...body.shape.size_m) / 2); ui.length.set(body.shape.size_m[1]);
+  const radius = body.shape.kind === 'capsule' ? body.shape.radius_m : Math.min(...body.shape.size_m) / 2;
+  const length = body.shape.kind === 'capsule' ? body.shape.length_m : body.shape.size_m[1];
+  const size = Math.max(radius, length);
+  ui.radius.range(0.005 * size, 3 * size); ui.radius.set(radius);
+  ui.length.range(0, 3 * size); ui.length.set(length);
+  for (const [k, i] of [['cx', 0], ['cy', 1], ['cz', 2]]) {
+    ui[k].range(-2 * size, 2 * size);
+    ui[k].set(body.center_m[i]);
   }
-  ui.cx.set(body.center_m[0]); ui.cy.set(body.center_m[1]); ui.cz.set(body.center_m[2]);
-  ui.mass.set(body.mass_kg);
+  ui.mass.range(body.mass_kg / 20, body.mass_kg * 5); ui.mass.set(body.mass_kg);
   const ji = spec.joints.findIndex((j) => j.child === body.name);
   const joint = spec.joints[ji];
   $('joint-panel').classList.toggle('hidden', !joint || (joint.kind !== 'hinge' && joint.kind !== 'swing_twist'));
