@@ -882,5 +882,13 @@ for (const k of ['swing', 'tmin', 'tmax']) {
   });
 }
 
+// Space plays or pauses, "." steps, "f" follows the character again.
+window.addEventListener('keydown', (ev) => {
+  if (ev.target instanceof HTMLInputElement || ev.target instanceof HTMLSelectElement) return;
+  if (ev.key === ' ') { ev.preventDefault(); $('play').click(); }
+  else if (ev.key === '.') send({ type: 'step' });
+  else if (ev.key === 'f') $('follow').checked = true;
+});
+
 connect();
 requestAnimationFrame(draw);
