@@ -40,7 +40,7 @@ fn load(file: &Path, a: &ImportArgs) -> Result<Character> {
 }
 
 /// The spec from `--spec`, or one built from the character.
-fn ragdoll_spec(character: &Character, a: &RagdollArgs) -> Result<RagdollSpec> {
+pub(crate) fn ragdoll_spec(character: &Character, a: &RagdollArgs) -> Result<RagdollSpec> {
     if let Some(m) = a.mass
         && !(m.is_finite() && m > 0.0)
     {
@@ -101,7 +101,10 @@ fn flag_error(e: ragdoll::Error) -> anyhow::Error {
 }
 
 /// The character from `file`, or the built-in humanoid; and how to name it in the report.
-fn load_or_builtin(file: Option<&Path>, import: &ImportArgs) -> Result<(Character, String)> {
+pub(crate) fn load_or_builtin(
+    file: Option<&Path>,
+    import: &ImportArgs,
+) -> Result<(Character, String)> {
     Ok(match file {
         Some(file) => (load(file, import)?, file.display().to_string()),
         None => (skeleton::humanoid(), "built-in".to_string()),

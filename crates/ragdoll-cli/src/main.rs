@@ -9,6 +9,7 @@ mod preview_cmd;
 mod progress;
 mod rig_cmd;
 mod scene_cmd;
+mod view_cmd;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -46,6 +47,9 @@ enum Command {
     Bench(bench::BenchArgs),
     /// Draw a baked result (.glb written by ragdoll) as a PNG or an animated GIF, on the CPU.
     Preview(preview_cmd::PreviewArgs),
+    /// Open the interactive viewer: serves a local web page that shows the simulation live;
+    /// drag body parts, place blasts, scrub, edit the ragdoll.
+    View(view_cmd::ViewArgs),
 }
 
 /// How to read a character file.
@@ -308,6 +312,7 @@ fn main() -> ExitCode {
         Command::Bench(a) => bench::run(&a),
         Command::Preview(a) => preview_cmd::run(&a),
         Command::Rig(a) => rig_cmd::run(&a),
+        Command::View(a) => view_cmd::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

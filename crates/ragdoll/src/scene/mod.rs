@@ -56,7 +56,7 @@ use crate::math::Transform;
 use crate::skeleton::Character;
 use crate::spec::RagdollSpec;
 use crate::track::Track;
-use crate::world::{Activation, World, WorldSettings};
+use crate::world::{Activation, RagdollId, World, WorldSettings};
 
 /// End of a time window left open in the file (`end_s` omitted): later than any scene, and
 /// finite, so it survives the world's checks and a duration changed after loading (the
@@ -209,52 +209,7 @@ impl Scene {
     /// a progress bar.
     pub fn run_with_progress(&self, mut progress: impl FnMut(u64, u64)) -> Result<SceneResult> {
         let started = Instant::now();
-        let mut world = World::new(&self.settings).map_err(|e| self.error(1, "settings", e))?;
-        let mut ids = Vec::with_capacity(self.characters.len());
-        for c in &self.characters {
-            let place = format!("[[character]] \"{}\"", c.name);
-            let id = world
-                .add_ragdoll(&c.character, &c.spec, c.placement())
-                .map_err(|e| self.error(c.line, &place, e))?;
-            world
-                .set_activation(id, c.activation)
-                .map_err(|e| self.error(c.line, &place, e))?;
-            if let Some(motors) = &c.motors {
-                world
-                    .set_motors(id, motors.clone())
-                    .map_err(|e| self.error(c.line, &place, e))?;
-            }
-            ids.push(id);
-        }
-        let at = |line: usize, kind: &str| {
-            let place = format!("[[{kind}]]");
-            move |err| self.error(line, &place, err)
-        };
-        for b in &self.blasts {
-            world.add_blast(b.event).map_err(at(b.line, "blast"))?;
-        }
-        for p in &self.projectiles {
-            world
-                .add_projectile(p.event)
-                .map_err(at(p.line, "projectile"))?;
-        }
-        for p in &self.pushes {
-            let id = ids[p.character.unwrap_or(0)];
-            world
-                .add_push(id, p.event.clone())
-                .map_err(at(p.line, "push"))?;
-        }
-        for f in &self.fields {
-            world
-                .add_field(f.event.clone())
-                .map_err(at(f.line, "field"))?;
-        }
-        for p in &self.pins {
-            let id = ids[p.character.unwrap_or(0)];
-            world
-                .add_pin(id, p.event.clone())
-                .map_err(at(p.line, "pin"))?;
-        }
+        let (mut world, ids) = self.build_world()?;
         let steps = (self.duration_s as f64 / self.settings.dt as f64).round() as u64;
         let mut worst = vec![(0.0f32, 0.0f32); ids.len()];
         world.run(0.0);
@@ -307,6 +262,59 @@ impl Scene {
             projectiles: world.projectile_reports(),
         };
         Ok(SceneResult { tracks, report })
+    }
+
+    /// The scene's world at time 0: every character placed, activated and powered as the
+    /// file says, every event added; with each character's ragdoll id, in scene order. For
+    /// callers that step the world themselves (the interactive viewer).
+    pub fn build_world(&self) -> Result<(World, Vec<RagdollId>)> {
+        let mut world = World::new(&self.settings).map_err(|e| self.error(1, "settings", e))?;
+        let mut ids = Vec::with_capacity(self.characters.len());
+        for c in &self.characters {
+            let place = format!("[[character]] \"{}\"", c.name);
+            let id = world
+                .add_ragdoll(&c.character, &c.spec, c.placement())
+                .map_err(|e| self.error(c.line, &place, e))?;
+            world
+                .set_activation(id, c.activation)
+                .map_err(|e| self.error(c.line, &place, e))?;
+            if let Some(motors) = &c.motors {
+                world
+                    .set_motors(id, motors.clone())
+                    .map_err(|e| self.error(c.line, &place, e))?;
+            }
+            ids.push(id);
+        }
+        let at = |line: usize, kind: &str| {
+            let place = format!("[[{kind}]]");
+            move |err| self.error(line, &place, err)
+        };
+        for b in &self.blasts {
+            world.add_blast(b.event).map_err(at(b.line, "blast"))?;
+        }
+        for p in &self.projectiles {
+            world
+                .add_projectile(p.event)
+                .map_err(at(p.line, "projectile"))?;
+        }
+        for p in &self.pushes {
+            let id = ids[p.character.unwrap_or(0)];
+            world
+                .add_push(id, p.event.clone())
+                .map_err(at(p.line, "push"))?;
+        }
+        for f in &self.fields {
+            world
+                .add_field(f.event.clone())
+                .map_err(at(f.line, "field"))?;
+        }
+        for p in &self.pins {
+            let id = ids[p.character.unwrap_or(0)];
+            world
+                .add_pin(id, p.event.clone())
+                .map_err(at(p.line, "pin"))?;
+        }
+        Ok((world, ids))
     }
 
     /// Encodes every output, file name and bytes, in a fixed order (glTF, BVHs, report),

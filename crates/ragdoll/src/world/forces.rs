@@ -20,6 +20,10 @@ pub(crate) struct ActivePush {
     pub done: bool,
 }
 
+/// Handle of a drag started with [`super::World::drag_start`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct DragId(usize);
+
 /// A pin resolved onto a body.
 #[derive(Clone, Debug)]
 pub(crate) struct ActivePin {
@@ -230,6 +234,100 @@ impl super::World {
             released: false,
         });
         Ok(())
+    }
+
+    /// Starts dragging body `body` (spec order) of ragdoll `id` by the point `local` (in
+    /// the body's frame) toward `target` (world space): a soft pin, a damped spring of
+    /// natural frequency `stiffness_hz` and damping ratio `damping_ratio`, whose target
+    /// [`Self::drag_move`] moves at run time (a viewer's mouse). Unlike [`Self::add_pin`]'s
+    /// keyed path, the target is whatever was set last, so it can follow input that is not
+    /// known in advance. The rest of the ragdoll follows through its joints.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use ragdoll::{skeleton, spec, world::{World, WorldSettings}};
+    ///
+    /// let character = skeleton::humanoid();
+    /// let spec = spec::build_spec(&character, &spec::BuildOptions::default()).unwrap();
+    /// let (mut world, id) = World::with_ragdoll(&character, &spec, &WorldSettings::default()).unwrap();
+    /// world.run(0.0); // records the first frame, so poses can be read
+    /// let head = spec.body_index("head").unwrap();
+    /// let start = world.body_poses(id)[head].translation;
+    /// let drag = world.drag_start(id, head, Vec3::ZERO, start, 4.0, 1.0).unwrap();
+    /// world.drag_move(drag, start + Vec3::new(0.0, 0.5, 0.0)).unwrap(); // lift the head
+    /// world.run(1.0);
+    /// // The body hangs from its head (which sags below the target under the body's
+    /// // weight) instead of slumping onto the ground.
+    /// assert!(world.body_poses(id)[head].translation.y > start.y + 0.15);
+    /// world.drag_end(drag);
+    /// ```
+    pub fn drag_start(
+        &mut self,
+        id: RagdollId,
+        body: usize,
+        local: Vec3,
+        target: Vec3,
+        stiffness_hz: f32,
+        damping_ratio: f32,
+    ) -> Result<DragId> {
+        let inst = &self.instances[id.0];
+        let Some(name) = inst.body_names.get(body) else {
+            return Err(setting_error(
+                "drag",
+                &format!("{} has no body number {body}", inst.name),
+            ));
+        };
+        if !(local.is_finite() && target.is_finite()) {
+            return Err(setting_error("drag", "the point and target must be finite"));
+        }
+        let spring_ok = stiffness_hz.is_finite()
+            && stiffness_hz > 0.0
+            && damping_ratio.is_finite()
+            && damping_ratio >= 0.0;
+        if !spring_ok {
+            return Err(setting_error(
+                "drag",
+                "stiffness must be positive Hz, damping zero or positive",
+            ));
+        }
+        let pin = crate::events::Pin {
+            target: name.clone(),
+            keys: vec![(0.0, target)],
+            stiffness_hz: Some(stiffness_hz),
+            damping_ratio,
+            release_s: None,
+        };
+        self.pins.push(ActivePin {
+            pin,
+            body: inst.first_body + body,
+            local,
+            handle: None,
+            released: false,
+        });
+        Ok(DragId(self.pins.len() - 1))
+    }
+
+    /// Moves a drag's target (world space, metres); takes effect from the next step.
+    /// Errors when the drag has ended or the target is not finite.
+    pub fn drag_move(&mut self, drag: DragId, target: Vec3) -> Result<()> {
+        if !target.is_finite() {
+            return Err(setting_error("drag", "the target must be finite"));
+        }
+        match self.pins.get_mut(drag.0) {
+            Some(p) if !p.released => {
+                p.pin.keys = vec![(0.0, target)];
+                Ok(())
+            }
+            _ => Err(setting_error("drag", "this drag has ended")),
+        }
+    }
+
+    /// Lets go of a drag: from the next step the body moves freely. Ending a drag twice
+    /// does nothing.
+    pub fn drag_end(&mut self, drag: DragId) {
+        if let Some(p) = self.pins.get_mut(drag.0) {
+            p.released = true;
+        }
     }
 
     /// The body a name refers to (a skeleton joint, on the body it rides on; or a body of

@@ -13,6 +13,7 @@ mod forces;
 mod motors;
 mod playback;
 
+pub use forces::DragId;
 pub use motors::Motors;
 pub use playback::Activation;
 

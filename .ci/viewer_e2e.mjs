@@ -1,0 +1,253 @@
+// End-to-end test of `ragdoll view` in a real browser: Debian's Chromium, driven by
+// playwright-core (its own browser download cannot work here).
+//
+//   node .ci/viewer_e2e.mjs BIN [CHARACTER_FILE] [--shots DIR]
+//
+// Starts BIN view on the character (the built-in humanoid when none is given) on a free
+// port, opens the printed URL, and checks with the server's state (GET /api/state) and
+// screenshots that:
+//   1. the page draws with WebGL2 and receives frames;
+//   2. a mouse drag on an arm lifts it while held (the soft pin pulls it up);
+//   3. a charge placed by clicking the ground, then "Detonate", throws the character
+//      (its centre of mass moves), and the screenshots before and after differ;
+//   4. malformed and hostile WebSocket messages are dropped with a log line each, the
+//      connection that sent them keeps working, and an oversized one closes only its own
+//      connection: the server survives all of it.
+import { spawn } from 'node:child_process';
+import { mkdtempSync, mkdirSync, writeFileSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { join } from 'node:path';
+import { chromium } from 'playwright-core';
+
+const args = process.argv.slice(2);
+const shotsAt = args.indexOf('--shots');
+let shots = null;
+if (shotsAt >= 0) { shots = args[shotsAt + 1]; args.splice(shotsAt, 2); }
+const [bin, file] = args;
+if (!bin) {
+  console.error('usage: node .ci/viewer_e2e.mjs BIN [CHARACTER_FILE] [--shots DIR]');
+  process.exit(2);
+}
+shots = shots || mkdtempSync(join(tmpdir(), 'ragdoll-view-'));
+mkdirSync(shots, { recursive: true });
+const CHROMIUM = process.env.CHROMIUM || '/usr/bin/chromium';
+
+let passed = 0, failed = 0;
+function check(ok, what, detail = '') {
+  if (ok) { passed++; console.log(`ok   ${what}${detail ? `: ${detail}` : ''}`); }
+  else { failed++; console.log(`FAIL ${what}${detail ? `: ${detail}` : ''}`); }
+  return ok;
+}
+const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+
+// ------------------------------------------------------------------ the server
+const serverArgs = ['view', ...(file ? [file] : []), '--port', '0', '--no-open'];
+const server = spawn(bin, serverArgs, { stdio: ['ignore', 'pipe', 'pipe'] });
+let stdout = '', stderr = '', exited = null;
+server.stdout.on('data', (d) => { stdout += d; });
+server.stderr.on('data', (d) => { stderr += d; });
+server.on('exit', (code, signal) => { exited = { code, signal }; });
+
+let browser = null;
+async function finish() {
+  if (browser) await browser.close().catch(() => {});
+  if (exited === null) server.kill('SIGTERM');
+  writeFileSync(join(shots, 'server.log'), stderr);
+  console.log(`screenshots and server log in ${shots}`);
+  console.log(`viewer e2e: ${passed} passed, ${failed} failed`);
+  process.exit(failed === 0 ? 0 : 1);
+}
+process.on('unhandledRejection', async (e) => {
+  check(false, 'the test ran to the end', String(e && e.stack || e));
+  await finish();
+});
+
+let url = null;
+for (let i = 0; i < 300 && !url && exited === null; i++) {
+  const m = stdout.match(/http:\/\/127\.0\.0\.1:(\d+)\//);
+  if (m) url = m[0];
+  else await sleep(100);
+}
+if (!check(url !== null, 'the server prints its URL', url || `stdout: ${stdout} stderr: ${stderr}`)) await finish();
+check(!url.endsWith(':0/'), 'the URL shows the port picked for --port 0', url);
+
+async function state() {
+  const r = await fetch(`${url}api/state`);
+  if (!r.ok) throw new Error(`GET /api/state: ${r.status}`);
+  return r.json();
+}
+const com = (s) => s.ragdolls[0].centre_of_mass;
+const dist = (a, b) => Math.hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]);
+
+// ------------------------------------------------------------------ the page
+browser = await chromium.launch({
+  executablePath: CHROMIUM,
+  args: ['--headless', '--no-sandbox', '--no-first-run', '--disable-background-networking',
+    '--disable-component-update', '--disable-sync', '--disable-quic',
+    '--use-angle=swiftshader', '--enable-unsafe-swiftshader'],
+});
+const page = await browser.newPage({ viewport: { width: 1280, height: 800 } });
+const pageErrors = [];
+page.on('pageerror', (e) => pageErrors.push(String(e)));
+page.on('console', (m) => { if (m.type() === 'error') pageErrors.push(m.text()); });
+await page.goto(url);
+await page.waitForFunction(() => window.viewer && window.viewer.ready && window.viewer.drawn > 3,
+  null, { timeout: 30000 }).catch(() => {});
+const info = await page.evaluate(() => ({
+  ready: window.viewer.ready, webgl: window.viewer.webgl, glError: window.viewer.glError,
+  frames: window.viewer.frames, drawn: window.viewer.drawn || 0,
+}));
+check(info.ready && info.frames > 0, 'the page connects and receives the scene and frames', JSON.stringify(info));
+if (!check(info.webgl && info.drawn > 0, 'the page draws with WebGL2', info.glError || '')) await finish();
+
+// Let the character fall and come to rest.
+let s = await state();
+for (let i = 0; i < 100; i++) {
+  const a = com(s);
+  await sleep(300);
+  s = await state();
+  if (s.time_s > 2.5 && dist(a, com(s)) < 0.01) break;
+}
+check(s.time_s > 2.5, 'the simulation runs in real time', `t = ${s.time_s.toFixed(2)} s`);
+await page.screenshot({ path: join(shots, '1-settled.png') });
+
+// ------------------------------------------------------------------ drag an arm
+const names = s.ragdolls[0].bodies.map((b) => b.name);
+const candidates = ['hand_l', 'hand_r', 'forearm_l', 'forearm_r', 'upper_arm_l', 'upper_arm_r', 'head']
+  .map((n) => names.indexOf(n)).filter((i) => i >= 0);
+let grab = null;
+for (const b of candidates.length ? candidates : names.map((_, i) => i)) {
+  const at = await page.evaluate((b) => window.viewer.project(window.viewer.bodyPosition(0, b)), b);
+  const hit = await page.evaluate(([x, y]) => window.viewer.pickAt(x, y), [at.x, at.y]);
+  if (hit && hit.body === b) { grab = { body: b, at }; break; }
+}
+if (!check(grab !== null, 'an arm (or the head) is visible under the mouse')) await finish();
+const before = (await state()).ragdolls[0].bodies[grab.body].position;
+await page.mouse.move(grab.at.x, grab.at.y);
+await page.mouse.down();
+for (let i = 1; i <= 20; i++) {
+  await page.mouse.move(grab.at.x, grab.at.y - 9 * i);
+  await sleep(30);
+}
+await sleep(1500);
+s = await state();
+const held = s.ragdolls[0].bodies[grab.body].position;
+check(s.dragging, 'the server holds a drag while the button is down');
+await page.screenshot({ path: join(shots, '2-dragging.png') });
+await page.mouse.up();
+check(held[1] - before[1] > 0.3,
+  `dragging ${names[grab.body]} up by the mouse lifts it`,
+  `height ${before[1].toFixed(2)} m → ${held[1].toFixed(2)} m`);
+await sleep(300);
+s = await state();
+check(!s.dragging, 'releasing the button ends the drag');
+await sleep(1500);
+
+// ------------------------------------------------------------------ blast by clicks
+s = await state();
+const c0 = com(s);
+const charge = [c0[0] + 0.6, 0, c0[2] + 0.3];
+const click = await page.evaluate((p) => window.viewer.project(p), charge);
+await page.mouse.click(click.x, click.y);
+const placed = await page.evaluate(() => window.viewer.blastAt);
+check(placed && Math.hypot(placed[0] - charge[0], placed[2] - charge[2]) < 0.05,
+  'a click on the ground places the charge there', JSON.stringify(placed));
+check(await page.isEnabled('#detonate'), 'the Detonate button is enabled once a charge is placed');
+await page.evaluate(() => {
+  const set = (id, v) => {
+    const el = document.getElementById(id);
+    el.value = v;
+    el.dispatchEvent(new Event('input'));
+  };
+  set('tnt', 20); set('height', 0.3); set('delay', 0);
+});
+const shotBefore = await page.screenshot({ path: join(shots, '3-before-blast.png') });
+const t0 = (await state()).time_s;
+await page.click('#detonate');
+let farthest = 0, highest = c0[1], shotAfter = null;
+for (let i = 0; i < 40; i++) {
+  await sleep(50);
+  s = await state();
+  farthest = Math.max(farthest, dist(com(s), c0));
+  highest = Math.max(highest, com(s)[1]);
+  if (!shotAfter && s.time_s > t0 + 0.35) shotAfter = await page.screenshot({ path: join(shots, '4-after-blast.png') });
+}
+check(farthest > 1.0, 'the blast throws the character', `its centre of mass moved ${farthest.toFixed(2)} m, rose to ${highest.toFixed(2)} m`);
+check(s.events >= 1, 'the server recorded the blast as an event', `events = ${s.events}`);
+const changed = await page.evaluate(async ([a, b]) => {
+  const load = (b64) => new Promise((res, rej) => {
+    const img = new Image();
+    img.onload = () => res(img);
+    img.onerror = rej;
+    img.src = `data:image/png;base64,${b64}`;
+  });
+  const [ia, ib] = await Promise.all([load(a), load(b)]);
+  const px = (img) => {
+    const c = document.createElement('canvas');
+    c.width = img.width; c.height = img.height;
+    const g = c.getContext('2d');
+    g.drawImage(img, 0, 0);
+    return g.getImageData(0, 0, c.width, c.height).data;
+  };
+  const da = px(ia), db = px(ib);
+  let n = 0;
+  for (let i = 0; i < da.length; i += 4) {
+    if (Math.abs(da[i] - db[i]) + Math.abs(da[i + 1] - db[i + 1]) + Math.abs(da[i + 2] - db[i + 2]) > 40) n++;
+  }
+  return n / (da.length / 4);
+}, [shotBefore.toString('base64'), (shotAfter || shotBefore).toString('base64')]);
+check(changed > 0.005, 'the screenshots before and after the blast differ',
+  `${(changed * 100).toFixed(1)} % of pixels changed`);
+
+// ------------------------------------------------------------------ hostile messages
+const dropsBefore = (stderr.match(/dropped/g) || []).length;
+const hostile = await page.evaluate(async () => {
+  const open = () => new Promise((res, rej) => {
+    const w = new WebSocket(`ws://${location.host}/ws`);
+    w.onopen = () => res(w);
+    w.onerror = () => rej(new Error('cannot connect'));
+  });
+  const w = await open();
+  let closed = false;
+  w.onclose = () => { closed = true; };
+  const bad = [
+    'not json at all',
+    '{"type":"launch_missiles"}',
+    '{"type":"pause","extra":1}',
+    '{"type":"blast","position":[1e39,0,0],"tnt_kg":5,"delay_s":0}',
+    '{"type":"blast","position":[0,0,0],"tnt_kg":-5,"delay_s":0}',
+    '{"type":"drag_start","ragdoll":0,"body":999,"local":[0,0,0],"target":[0,1,0]}',
+    '{"type":"drag_start","ragdoll":7,"body":0,"local":[0,0,0],"target":[0,1,0]}',
+    '{"type":"edit_body","ragdoll":0,"body":0,"radius_m":0.1,"length_m":0.2,"center_m":[0,0,0],"mass_kg":NaN}',
+    '{"type":"edit_joint","ragdoll":0,"joint":0,"min_deg":10,"max_deg":-10}',
+    '{"type":"scrub","time_s":-1}',
+    `{"type":"pause","pad":"${'x'.repeat(100000)}"}`,
+  ];
+  for (const m of bad) w.send(m);
+  w.send(new Uint8Array([1, 2, 3, 4]));
+  // Still connected, and a good message on the same socket still works.
+  w.send('{"type":"pause"}');
+  await new Promise((r) => setTimeout(r, 500));
+  const pausedOk = !closed;
+  w.send('{"type":"play"}');
+  // A message over the WebSocket layer's limit closes that one connection.
+  const w2 = await open();
+  const closedBig = new Promise((r) => { w2.onclose = () => r(true); setTimeout(() => r(false), 5000); });
+  w2.send('x'.repeat(2 * 1024 * 1024));
+  return { sent: bad.length + 1, stillOpen: pausedOk, bigClosed: await closedBig };
+});
+await sleep(300);
+const drops = (stderr.match(/dropped/g) || []).length - dropsBefore;
+check(drops === hostile.sent, 'every malformed or hostile message is dropped with a log line',
+  `${drops} of ${hostile.sent} logged`);
+check(hostile.stillOpen, 'the connection that sent them stays open');
+check(hostile.bigClosed, 'a 2 MiB message closes only its own connection');
+const a = await state();
+await sleep(500);
+const b = await state();
+check(exited === null && b.time_s > a.time_s, 'the server survives and keeps simulating',
+  `t ${a.time_s.toFixed(2)} → ${b.time_s.toFixed(2)} s`);
+const stillDrawing = await page.evaluate(() => window.viewer.connected);
+check(stillDrawing, "the page's own connection is unaffected");
+check(pageErrors.length === 0, 'the page logged no errors', pageErrors.join(' | '));
+await finish();
