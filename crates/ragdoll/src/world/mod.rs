@@ -630,6 +630,24 @@ impl World {
     /// penetrations in our runs; the lift is a few millimetres, once in a while.
     fn project_limits(&mut self) {
         let ground = self.settings.ground;
+        // Bodies something outside the ragdoll holds (a pin, a drag, a root kept on its
+        // clip): turning one of them would tear it from its holder, whose constraint then
+        // yanks it back, a fight that flung a pinned dragon's chain tens of metres. The
+        // projection turns the other side of the joint instead.
+        let mut held = vec![false; self.states.len()];
+        for p in self.pins.iter().filter(|p| !p.released) {
+            if let Some(h) = held.get_mut(p.body) {
+                *h = true;
+            }
+        }
+        for inst in &self.instances {
+            if let Some(m) = &inst.motors
+                && m.engaged
+                && m.motors.root_on_clip
+            {
+                held[inst.first_body + m.root] = true;
+            }
+        }
         for inst in self.instances.iter().filter(|i| i.active) {
             let base = inst.first_body;
             for &k in &inst.joint_order {
@@ -650,13 +668,25 @@ impl World {
                         (delta * p.rotation).normalize(),
                     )
                 };
-                let delta = full;
-                // How far the turned subtree would sink below the ground beyond the slack
-                // (and beyond where it already was): the whole ragdoll is lifted by that
-                // much, so the limit wins without pushing a body into the floor.
+                let subtree = &inst.subtrees[k];
+                let (turned, delta) = if subtree.iter().all(|&b| !held[base + b]) {
+                    (subtree.clone(), full)
+                } else {
+                    let rest: Vec<usize> = (0..inst.shapes.len())
+                        .filter(|b| !subtree.contains(b))
+                        .collect();
+                    if rest.iter().any(|&b| held[base + b]) {
+                        // Held on both sides: the holders decide.
+                        continue;
+                    }
+                    (rest, full.conjugate())
+                };
+                // How far the turned bodies would sink below the ground beyond the slack
+                // (and beyond where they already were): the whole ragdoll is lifted by
+                // that much, so the limit wins without pushing a body into the floor.
                 let mut lift = 0.0f32;
                 if let Some(g) = ground {
-                    for &b in &inst.subtrees[k] {
+                    for &b in &turned {
                         let shape = &inst.shapes[b];
                         let before = lowest_point(&self.states[base + b].pose, shape);
                         let after = lowest_point(&moved(&self.states[base + b].pose, delta), shape);
@@ -664,12 +694,14 @@ impl World {
                         lift = lift.max(floor - after);
                     }
                 }
-                for &b in &inst.subtrees[k] {
+                for &b in &turned {
                     let pose = moved(&self.states[base + b].pose, delta);
                     self.states[base + b].pose = pose;
                     self.backend.set_body_pose(base + b, &pose);
                 }
-                if lift > 0.0 {
+                // A held ragdoll is not lifted: its holder would pull it straight back.
+                let any_held = (0..inst.shapes.len()).any(|b| held[base + b]);
+                if lift > 0.0 && !any_held {
                     for b in 0..inst.shapes.len() {
                         self.states[base + b].pose.translation.y += lift;
                         let pose = self.states[base + b].pose;
