@@ -219,12 +219,14 @@ impl World {
                 },
                 settings.dt,
             ))),
-            BackendKind::Particle => AnyBackend::Particle(Box::new(ParticleBackend::new(ParticleSettings {
-                gravity: settings.gravity,
-                ground: settings.ground,
-                substeps: settings.substeps,
-                iterations: settings.iterations,
-            }))),
+            BackendKind::Particle => {
+                AnyBackend::Particle(Box::new(ParticleBackend::new(ParticleSettings {
+                    gravity: settings.gravity,
+                    ground: settings.ground,
+                    substeps: settings.substeps,
+                    iterations: settings.iterations,
+                })))
+            }
         };
         Ok(World {
             settings: settings.clone(),
@@ -855,7 +857,9 @@ const MIN_BONE_M: f32 = 1.0e-3;
 /// it measures both backends alike.
 fn bone_stretch(parents: &[Option<usize>], lengths: &mut Vec<f32>, frame: &[Transform]) -> f32 {
     let length = |j: usize| {
-        parents[j].map_or(0.0, |p| (frame[j].translation - frame[p].translation).length())
+        parents[j].map_or(0.0, |p| {
+            (frame[j].translation - frame[p].translation).length()
+        })
     };
     if lengths.is_empty() {
         lengths.extend((0..frame.len()).map(length));

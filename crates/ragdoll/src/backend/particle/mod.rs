@@ -280,7 +280,10 @@ fn capsule_of(shape: &Shape) -> ([Vec3; 2], f32) {
 /// Inertia tensor of a shape about its centre, body frame, kg·m².
 fn inertia_of(shape: &Shape, mass: f32) -> Mat3 {
     match *shape {
-        Shape::Capsule { radius_m: r, length_m: l } => {
+        Shape::Capsule {
+            radius_m: r,
+            length_m: l,
+        } => {
             let v_cyl = std::f32::consts::PI * r * r * l;
             let v_sph = 4.0 / 3.0 * std::f32::consts::PI * r * r * r;
             let total = (v_cyl + v_sph).max(1e-12);
@@ -381,7 +384,9 @@ impl ParticleBackend {
         // 1. A particle per joint anchor (anchors of one parent that coincide share one).
         let mut jp: Vec<u32> = Vec::with_capacity(joint_descs.len());
         for (k, j) in joint_descs.iter().enumerate() {
-            let p = descs[j.child].pose.transform_point(j.frame_child.translation);
+            let p = descs[j.child]
+                .pose
+                .transform_point(j.frame_child.translation);
             let shared = (0..k).find(|&k2| {
                 joint_descs[k2].parent == j.parent
                     && (self.x[jp[k2] as usize] - p).length() < MERGE_M
@@ -453,7 +458,8 @@ impl ParticleBackend {
                 let u = (rb - ra) / len;
                 let t = ((-ra).dot(u) / len).clamp(0.05, 0.95);
                 let (p, q) = (t * len, (1.0 - t) * len);
-                let across = 0.5 * (inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z - u.dot(inertia * u));
+                let across = 0.5
+                    * (inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z - u.dot(inertia * u));
                 axial_inertia = u.dot(inertia * u).max(1e-6);
                 let m = desc.mass;
                 let (mut ma, mut mb) = (across / (p * (p + q)), across / (q * (p + q)));
@@ -465,7 +471,11 @@ impl ParticleBackend {
                 let mid = self.new_particle(pose.transform_point(ra + u * p));
                 list.push(mid);
                 shares = vec![ma, mb, m - ma - mb];
-                self.distances.push(Distance { a: base, b: tip, len });
+                self.distances.push(Distance {
+                    a: base,
+                    b: tip,
+                    len,
+                });
                 self.middles.push(Middle {
                     c: mid,
                     a: base,
@@ -563,17 +573,16 @@ impl ParticleBackend {
             for (s, q) in [e[0], e[1], Vec3::ZERO].into_iter().enumerate() {
                 self.weights(bi, q, &mut be[s]);
             }
-            let mut resid = [Vec3::ZERO; 2];
-            for s in 0..2 {
-                let recon: Vec3 = (0..count).map(|k| rest[k] * be[s][k]).sum();
-                resid[s] = e[s] - recon;
-            }
+            let resid = [0, 1].map(|s| {
+                let recon: Vec3 = rest.iter().zip(&be[s]).map(|(r, b)| *r * *b).sum();
+                e[s] - recon
+            });
             self.resid_e.push(resid);
             self.beta_e[0].extend_from_slice(&be[0]);
             self.beta_e[1].extend_from_slice(&be[1]);
-            for s in 0..2 {
-                let total: f32 = be[s].iter().map(|b| b.max(0.0)).sum();
-                self.push_e[s].extend(be[s].iter().map(|b| b.max(0.0) / total.max(1e-9)));
+            for (push, exact) in self.push_e.iter_mut().zip(&be) {
+                let total: f32 = exact.iter().map(|b| b.max(0.0)).sum();
+                push.extend(exact.iter().map(|b| b.max(0.0) / total.max(1e-9)));
             }
             self.beta_o.extend_from_slice(&be[2]);
         }

@@ -66,8 +66,7 @@ fn extract_rotation(a: &Mat3, mut q: Quat) -> Quat {
     for _ in 0..ROTATION_ITERATIONS {
         let r = Mat3::from_quat(q);
         let num = r.x_axis.cross(a.x_axis) + r.y_axis.cross(a.y_axis) + r.z_axis.cross(a.z_axis);
-        let den = (r.x_axis.dot(a.x_axis) + r.y_axis.dot(a.y_axis) + r.z_axis.dot(a.z_axis))
-            .abs()
+        let den = (r.x_axis.dot(a.x_axis) + r.y_axis.dot(a.y_axis) + r.z_axis.dot(a.z_axis)).abs()
             + 1.0e-9;
         let omega = num / den;
         let angle = omega.length();
@@ -200,7 +199,10 @@ impl ParticleBackend {
             let b = self.order[idx] as usize;
             if self.bodies[b].kinematic {
                 let body = &mut self.bodies[b];
-                body.pos = body.kin_from.translation.lerp(body.kin_to.translation, frac);
+                body.pos = body
+                    .kin_from
+                    .translation
+                    .lerp(body.kin_to.translation, frac);
                 body.rot = body.kin_from.rotation.slerp(body.kin_to.rotation, frac);
                 body.sync_twist = true;
             }
