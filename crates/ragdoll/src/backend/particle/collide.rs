@@ -247,7 +247,7 @@ impl ParticleBackend {
                 for (k, &i) in self.parts[range.clone()].iter().enumerate() {
                     let i = i as usize;
                     self.x[i].y += self.w[i] * beta[k] * lambda;
-                    moved += (self.x[i] - self.x_prev[i]) * beta[k];
+                    moved += (self.x[i] - self.x_prev[i]) * exact[k];
                 }
                 let slide = Vec3::new(moved.x, 0.0, moved.z);
                 let len = slide.length();
@@ -260,7 +260,7 @@ impl ParticleBackend {
                     };
                     for (k, &i) in self.parts[range.clone()].iter().enumerate() {
                         let i = i as usize;
-                        self.x[i] += corr * (self.w[i] * beta[k] / wsum);
+                        self.x[i] += corr * (self.w[i] * beta[k] / gain);
                     }
                 }
             }
@@ -300,17 +300,18 @@ impl ParticleBackend {
                 rb.clone()
                     .map(|k| (1.0 - t) * self.push_e[0][k] + t * self.push_e[1][k]),
             );
-            let wa: f32 = ra
-                .clone()
-                .zip(&ba)
-                .map(|(k, x)| x * x * self.w[self.parts[k] as usize])
-                .sum();
-            let wb: f32 = rb
-                .clone()
-                .zip(&bb)
-                .map(|(k, x)| x * x * self.w[self.parts[k] as usize])
-                .sum();
-            let wsum = wa + wb;
+            // Per unit push along the spread weights, each contact point moves by
+            // Σ exactᵢ·pushᵢ·wᵢ (its gain); dividing by the sum separates them exactly.
+            let gain = |range: std::ops::Range<usize>, push: &[f32], t: f32| -> f32 {
+                range
+                    .zip(push)
+                    .map(|(k, x)| {
+                        let exact = (1.0 - t) * self.beta_e[0][k] + t * self.beta_e[1][k];
+                        exact * x * self.w[self.parts[k] as usize]
+                    })
+                    .sum()
+            };
+            let wsum = gain(ra.clone(), &ba, s) + gain(rb.clone(), &bb, t);
             if wsum <= 1e-12 {
                 continue;
             }
@@ -319,12 +320,14 @@ impl ParticleBackend {
             for (k, x) in ra.clone().zip(&ba) {
                 let i = self.parts[k] as usize;
                 self.x[i] -= n * (self.w[i] * x * lambda);
-                moved -= (self.x[i] - self.x_prev[i]) * *x;
+                let exact = (1.0 - s) * self.beta_e[0][k] + s * self.beta_e[1][k];
+                moved -= (self.x[i] - self.x_prev[i]) * exact;
             }
             for (k, x) in rb.clone().zip(&bb) {
                 let i = self.parts[k] as usize;
                 self.x[i] += n * (self.w[i] * x * lambda);
-                moved += (self.x[i] - self.x_prev[i]) * *x;
+                let exact = (1.0 - t) * self.beta_e[0][k] + t * self.beta_e[1][k];
+                moved += (self.x[i] - self.x_prev[i]) * exact;
             }
             // `moved`: how far b's contact point slid relative to a's this substep.
             let slide = moved - n * moved.dot(n);
