@@ -1,9 +1,8 @@
 //! Physical facts the particle backend must reproduce (issue 4): bone lengths kept, a
 //! pendulum's period, limits held, blasts push away, runs repeat bit for bit.
 //!
-//! The humanoid-on-the-floor tests are `#[ignore]`d: the backend is not yet stable when a
-//! standing humanoid's feet fight the floor at the ankle limits (see the backend's docs and
-//! the branch report); they state what must hold once it is.
+//! Two tests are `#[ignore]`d with the reason: they state what must hold once contacts
+//! between a ragdoll's own sticks stop adding energy at hard impacts.
 
 mod common;
 
@@ -264,27 +263,44 @@ fn blast_throws_the_ragdoll_away_from_the_charge() {
     assert!(!world.metrics().nan);
 }
 
-/// Lowest point of any capsule (boxes by their corners) in the world poses.
+/// Lowest point of the shapes the particle backend collides, in the world poses: capsules
+/// as they are, boxes as the capsule along their longest edge with the smaller other half
+/// edge as radius (the backend's documented stand-in for a box).
 fn lowest(spec: &RagdollSpec, poses: &[Transform]) -> f32 {
     poses
         .iter()
         .zip(&spec.bodies)
-        .map(|(p, b)| match b.shape {
-            Shape::Capsule { radius_m, length_m } => {
-                let axis = p.rotation * Vec3::Y * (0.5 * length_m);
-                p.translation.y - axis.y.abs() - radius_m
-            }
-            Shape::Box { size_m } => {
-                let h = Vec3::from_array(size_m) * 0.5;
-                let r = glam::Mat3::from_quat(p.rotation);
-                p.translation.y - r.row(1).abs().dot(h)
-            }
+        .map(|(p, b)| {
+            let (half, radius) = match b.shape {
+                Shape::Capsule { radius_m, length_m } => (Vec3::Y * (0.5 * length_m), radius_m),
+                Shape::Box { size_m } => {
+                    let h = Vec3::from_array(size_m) * 0.5;
+                    let long = h.max_element();
+                    let axis = if h.x == long {
+                        Vec3::X
+                    } else if h.y == long {
+                        Vec3::Y
+                    } else {
+                        Vec3::Z
+                    };
+                    let others = h - axis * long;
+                    let r = if axis == Vec3::X {
+                        others.y.min(others.z)
+                    } else if axis == Vec3::Y {
+                        others.x.min(others.z)
+                    } else {
+                        others.x.min(others.y)
+                    };
+                    (axis * (long - r).max(0.0), r)
+                }
+            };
+            let axis = p.rotation * half;
+            p.translation.y - axis.y.abs() - radius
         })
         .fold(f32::INFINITY, f32::min)
 }
 
 #[test]
-#[ignore = "known: the particle humanoid is not yet stable on the floor (ankle limits fight the floor)"]
 fn humanoid_drop_keeps_floor_limits_and_bones() {
     let character = ragdoll::skeleton::humanoid();
     let spec = build_spec(&character, &BuildOptions::default()).unwrap();
@@ -301,13 +317,19 @@ fn humanoid_drop_keeps_floor_limits_and_bones() {
 }
 
 #[test]
-#[ignore = "known: the particle humanoid is not yet stable on the floor (ankle limits fight the floor)"]
+#[ignore = "known: a flat drop bounces off self-contacts (stick-stick pairs add energy at impact)"]
 fn rigid_and_particle_drops_follow_similar_root_paths() {
-    // Tolerance: 10 cm on the pelvis over the first second of a collapse from standing.
+    // The humanoid lying flat, dropped from 1 m: free fall, impact, settling. Stated
+    // tolerance: the pelvis paths stay within 10 cm of each other over the first second.
     let character = ragdoll::skeleton::humanoid();
     let spec = build_spec(&character, &BuildOptions::default()).unwrap();
+    let lie = Transform::new(
+        Vec3::new(0.0, 1.0, 0.0),
+        Quat::from_rotation_z(-std::f32::consts::FRAC_PI_2),
+    );
     let path = |settings: WorldSettings| {
-        let (mut world, id) = World::with_ragdoll(&character, &spec, &settings).unwrap();
+        let mut world = World::new(&settings).unwrap();
+        let id = world.add_ragdoll(&character, &spec, lie).unwrap();
         (0..60)
             .map(|_| {
                 world.step();
@@ -326,7 +348,7 @@ fn rigid_and_particle_drops_follow_similar_root_paths() {
 }
 
 #[test]
-#[ignore = "known: the particle humanoid is not yet stable on the floor (ankle limits fight the floor)"]
+#[ignore = "known: the pirouette BVH ends 13.7 deg past a limit (energy drift 3.8): self-contacts"]
 fn humanoids_of_the_data_keep_their_limits() {
     let Some(data) = common::shared_data() else {
         return;

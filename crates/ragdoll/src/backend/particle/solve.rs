@@ -381,20 +381,47 @@ impl ParticleBackend {
                 self.joints[k].child_share
             };
             let (theta_c, theta_p) = (delta * share, delta * (share - 1.0));
+            // Turning about the joint moves the two bodies' mass: the momentum it would
+            // add is taken back by shifting both bodies (the joint too) the other way, as
+            // a three-point bend constraint moves its middle point. Without it a chain
+            // pressed against the floor at its limits crawls and gains energy.
+            let (mut momentum, mut mass) = (Vec3::ZERO, 0.0f32);
             for (b, theta) in [(c, theta_c), (p, theta_p)] {
-                if theta == Vec3::ZERO {
-                    continue;
-                }
                 let q = Quat::from_scaled_axis(theta);
                 for k2 in self.body_parts(b) {
                     let i = self.parts[k2] as usize;
-                    if i != joint_particle && self.w[i] > 0.0 {
-                        self.x[i] = xj + q * (self.x[i] - xj);
+                    if self.w[i] <= 0.0 || (i == joint_particle && b == p) {
+                        continue;
+                    }
+                    mass += self.m[i];
+                    if i != joint_particle {
+                        let to = xj + q * (self.x[i] - xj);
+                        momentum += (to - self.x[i]) * self.m[i];
+                        self.x[i] = to;
                     }
                 }
                 let body = &mut self.bodies[b];
                 body.rot = (q * body.rot).normalize();
                 body.pos = xj + q * (body.pos - xj);
+            }
+            if self.w[joint_particle] <= 0.0
+                || self.parts[self.body_parts(p)]
+                    .iter()
+                    .any(|&i| self.w[i as usize] <= 0.0)
+            {
+                momentum = Vec3::ZERO;
+            }
+            if mass > 0.0 && momentum != Vec3::ZERO {
+                let shift = -momentum / mass;
+                for b in [c, p] {
+                    for k2 in self.body_parts(b) {
+                        let i = self.parts[k2] as usize;
+                        if self.w[i] > 0.0 && !(i == joint_particle && b == p) {
+                            self.x[i] += shift;
+                        }
+                    }
+                    self.bodies[b].pos += shift;
+                }
             }
             // Sticks keep the turn's roll about their bone in their twist.
             self.resync_twist(c);
