@@ -31,8 +31,9 @@
 //!
 //! # Note
 //!
-//! Only the rigid (rapier3d) backend exists so far; the particle backend, previews and the
-//! viewer come later. Powered mode (`world::Motors`) tracks legs within a few degrees but
+//! Two backends ([`world::BackendKind`]): rigid (rapier3d, the default) and particle (our
+//! XPBD particle ragdoll; self-contacts of hard impacts still add energy, see its docs).
+//! Previews and the viewer come later. Powered mode (`world::Motors`) tracks legs within a few degrees but
 //! lags on arms, spine and head during fast motion.
 //!
 //! Events ([`events`]): blasts, projectiles, pushes, fields, pins, and animation hand-over

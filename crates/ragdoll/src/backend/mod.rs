@@ -24,7 +24,22 @@ pub(crate) struct BodyState {
     pub angvel: Vec3,
 }
 
-/// Which engine moves the bodies.
+/// Which engine moves the bodies ([`WorldSettings::backend`](crate::world::WorldSettings)).
+///
+/// # Example
+///
+/// ```
+/// use ragdoll::world::{BackendKind, World, WorldSettings};
+///
+/// let kind = BackendKind::from_name("particle").unwrap();
+/// assert_eq!(kind.as_str(), "particle");
+/// let settings = WorldSettings { backend: kind, ..Default::default() };
+/// let character = ragdoll::skeleton::humanoid();
+/// let spec = ragdoll::spec::build_spec(&character, &Default::default()).unwrap();
+/// let (mut world, _) = World::with_ragdoll(&character, &spec, &settings).unwrap();
+/// world.run(0.1);
+/// assert!(!world.metrics().nan);
+/// ```
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum BackendKind {

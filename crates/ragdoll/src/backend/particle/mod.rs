@@ -40,6 +40,9 @@
 //!   cluster, through its particles (their inertia, not the box's exactly).
 //! - Kinematic bodies follow their targets linearly over the substeps; a velocity set on a
 //!   stick leaves its twist rate relative to the parent at zero.
+//! - Known weakness: contacts between a ragdoll's own sticks still add energy at hard
+//!   impacts (a humanoid dropped flat bounces; piles of ragdolls end past their limits).
+//!   Collapsing from standing, chains, pendulums and blasts in the air behave.
 //! - A point of a body off the line of a stick's particles (a foot's capsule end below the
 //!   ankle-toe line) is pushed through its projection on that line.
 
