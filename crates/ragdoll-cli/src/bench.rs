@@ -37,6 +37,8 @@ pub struct BenchArgs {
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    backend: crate::BackendArgs,
 }
 
 struct Row {
@@ -63,12 +65,13 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     }
     let character = skeleton::humanoid();
     let spec = spec::build_spec(&character, &BuildOptions::default())?;
+    let backend = a.backend.backend.kind();
     let mut rows = Vec::new();
     for &n in &a.ragdolls {
         for &t in &threads {
-            let row = run_pile(&character, &spec, n, t, a.steps)?;
+            let row = run_pile(&character, &spec, backend, n, t, a.steps)?;
             if !a.json {
-                print_row(&row, a.steps);
+                print_row(&row, backend.as_str(), a.steps);
             }
             rows.push(row);
         }
@@ -79,7 +82,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             .map(|r| {
                 json!({
                     "workload": "pile",
-                    "backend": "rigid",
+                    "backend": backend.as_str(),
                     "ragdolls": r.ragdolls,
                     "threads": r.threads,
                     "steps": a.steps,
@@ -102,10 +105,10 @@ fn stable(m: &Metrics) -> bool {
     !m.nan && m.max_joint_separation_m < 0.05 && m.max_penetration_m < 0.1
 }
 
-fn print_row(r: &Row, steps: usize) {
+fn print_row(r: &Row, backend: &str, steps: usize) {
     let m = &r.metrics;
     println!(
-        "pile  N={:<5} threads={:<2} {:>10.0} ragdoll-steps/s  ({:.2} s)  stable={}  limit {:.1}°  penetration {:.1} mm  separation {:.1} mm",
+        "pile  {backend:<8} N={:<5} threads={:<2} {:>10.0} ragdoll-steps/s  ({:.2} s)  stable={}  limit {:.1}°  penetration {:.1} mm  separation {:.1} mm",
         r.ragdolls,
         r.threads,
         (r.ragdolls * steps) as f64 / r.seconds,
@@ -138,6 +141,7 @@ fn placement(k: usize, n: usize) -> Transform {
 fn run_pile(
     character: &skeleton::Character,
     spec: &spec::RagdollSpec,
+    backend: ragdoll::world::BackendKind,
     n: usize,
     threads: usize,
     steps: usize,
@@ -149,7 +153,10 @@ fn run_pile(
     let mut worlds = Vec::new();
     let mut k = 0;
     while k < n {
-        let mut world = World::new(&WorldSettings::default())?;
+        let mut world = World::new(&WorldSettings {
+            backend,
+            ..Default::default()
+        })?;
         for i in k..(k + per_world).min(n) {
             world.add_ragdoll(character, spec, placement(i, n))?;
         }
@@ -178,6 +185,7 @@ fn run_pile(
         metrics.max_joint_separation_m =
             metrics.max_joint_separation_m.max(m.max_joint_separation_m);
         metrics.energy_drift = metrics.energy_drift.max(m.energy_drift);
+        metrics.max_bone_stretch = metrics.max_bone_stretch.max(m.max_bone_stretch);
         metrics.nan |= m.nan;
     }
     Ok(Row {

@@ -68,6 +68,7 @@ fn world_settings(a: &SimArgs) -> Result<WorldSettings> {
         bail!("--seconds: must be between 0 and 3600, not {}", a.seconds);
     }
     let settings = WorldSettings {
+        backend: a.backend.backend.kind(),
         fps: a.fps,
         start: if a.rest_pose {
             StartPose::Rest
@@ -196,6 +197,7 @@ fn simulate_character(
         sim.seconds,
         started.elapsed().as_secs_f64(),
     );
+    report.backend = settings.backend.as_str().into();
     report.blasts = blast_reports;
     report.projectiles = world_projectiles;
     Ok((track, report))

@@ -93,9 +93,39 @@ struct RagdollArgs {
     spec: Option<PathBuf>,
 }
 
+/// Which physics backend runs the simulation.
+#[derive(Clone, Copy, Debug, Default, ValueEnum)]
+pub enum BackendArg {
+    /// rapier3d rigid bodies and joints (accurate).
+    #[default]
+    Rigid,
+    /// Our position-based particle ragdoll (XPBD): cheaper, for crowds.
+    Particle,
+}
+
+impl BackendArg {
+    pub fn kind(self) -> ragdoll::world::BackendKind {
+        match self {
+            BackendArg::Rigid => ragdoll::world::BackendKind::Rigid,
+            BackendArg::Particle => ragdoll::world::BackendKind::Particle,
+        }
+    }
+}
+
+/// The backend flag, shared by every command that simulates.
+#[derive(Args, Debug, Clone)]
+pub struct BackendArgs {
+    /// Physics backend: `rigid` (rapier3d, accurate) or `particle` (our XPBD particle
+    /// ragdoll, cheaper).
+    #[arg(long, value_enum, default_value_t = BackendArg::Rigid)]
+    pub backend: BackendArg,
+}
+
 /// How long and how finely to simulate.
 #[derive(Args, Debug, Clone)]
 struct SimArgs {
+    #[command(flatten)]
+    backend: BackendArgs,
     /// Simulated seconds.
     #[arg(long, default_value_t = 3.0)]
     seconds: f32,

@@ -77,6 +77,10 @@ pub fn run(a: &SimulateArgs, matches: &ArgMatches) -> Result<()> {
     if a.sim.rest_pose {
         scene.settings.start = StartPose::Rest;
     }
+    // The flag overrides the scene's `backend` only when given.
+    if given(matches, "backend") {
+        scene.settings.backend = a.sim.backend.backend.kind();
+    }
     let mut progress: Option<Progress> = None;
     let result = scene.run_with_progress(|done, total| {
         progress

@@ -36,10 +36,11 @@
 //!
 //! # Note
 //!
-//! Only the rigid (rapier3d) backend exists so far; the particle backend and the viewer
-//! come later (preview pictures are drawn by the separate `ragdoll-preview` crate).
-//! Powered mode (`world::Motors`) tracks legs within a few degrees but lags on arms, spine
-//! and head during fast motion.
+//! Two backends ([`world::BackendKind`]): rigid (rapier3d, the default) and particle (our
+//! XPBD particle ragdoll; self-contacts of hard impacts still add energy and it is far
+//! slower than it should be, see its docs). Preview pictures are drawn by the separate
+//! `ragdoll-preview` crate, the interactive viewer is `ragdoll-view`. Powered mode
+//! (`world::Motors`) tracks mocap within 5° with the root on the clip.
 //!
 //! Events ([`events`]): blasts, projectiles, pushes, fields, pins, and animation hand-over
 //! ([`world::Activation`]); scene files ([`scene`]) put characters and events together.

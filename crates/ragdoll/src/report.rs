@@ -14,7 +14,8 @@ pub struct Report {
     pub character: String,
     /// Input file, or `built-in` for the default humanoid.
     pub input: String,
-    /// Backend that ran the simulation (`rigid`).
+    /// Backend that ran the simulation (`rigid` or `particle`; [`Report::new`] writes
+    /// `rigid`, callers that ran another set it).
     pub backend: String,
     /// Number of output frames.
     pub frames: usize,

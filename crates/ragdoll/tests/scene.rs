@@ -238,7 +238,7 @@ fn every_mistake_names_the_line_and_the_key() {
             &["ground", "none"],
         ),
         (
-            "backend = \"particle\"\n[[character]]\n".into(),
+            "backend = \"soft\"\n[[character]]\n".into(),
             1,
             &["backend", "rigid"],
         ),

@@ -1,9 +1,13 @@
 //! Physics backends behind one small interface, so the world, the metrics and the exporters
 //! never see which engine moved the bodies.
 //!
-//! - `rigid`: rapier3d rigid bodies and impulse joints (the accurate default).
+//! - `rigid`: rapier3d rigid bodies and impulse joints (the accurate default);
+//! - `particle`: our own position-based particle ragdoll (XPBD), for crowds.
 
+pub(crate) mod particle;
 pub(crate) mod rigid;
+
+use serde::{Deserialize, Serialize};
 
 use glam::Vec3;
 
@@ -20,8 +24,67 @@ pub(crate) struct BodyState {
     pub angvel: Vec3,
 }
 
+/// Which engine moves the bodies ([`WorldSettings::backend`](crate::world::WorldSettings)).
+///
+/// # Example
+///
+/// ```
+/// use ragdoll::world::{BackendKind, World, WorldSettings};
+///
+/// let kind = BackendKind::from_name("particle").unwrap();
+/// assert_eq!(kind.as_str(), "particle");
+/// let settings = WorldSettings { backend: kind, ..Default::default() };
+/// let character = ragdoll::skeleton::humanoid();
+/// let spec = ragdoll::spec::build_spec(&character, &Default::default()).unwrap();
+/// let (mut world, _) = World::with_ragdoll(&character, &spec, &settings).unwrap();
+/// world.run(0.1);
+/// assert!(!world.metrics().nan);
+/// ```
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BackendKind {
+    /// rapier3d rigid bodies and impulse joints: the accurate default.
+    #[default]
+    Rigid,
+    /// Our position-based particle ragdoll (XPBD with substeps): cheaper, for crowds and
+    /// creatures; bones may stretch by a fraction of a percent.
+    Particle,
+}
+
+impl BackendKind {
+    /// The name used in files, reports and on the command line (`rigid`, `particle`).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            BackendKind::Rigid => "rigid",
+            BackendKind::Particle => "particle",
+        }
+    }
+
+    /// The backend named `name`, if there is one.
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "rigid" => Some(BackendKind::Rigid),
+            "particle" => Some(BackendKind::Particle),
+            _ => None,
+        }
+    }
+}
+
 /// What every backend does for the world.
 pub(crate) trait Backend {
+    /// Adds one ragdoll's bodies (world poses), joints (between its bodies) and pairs that
+    /// never collide (indices into `bodies`); returns the global index of its first body.
+    fn add_ragdoll(
+        &mut self,
+        bodies: &[BodyDesc],
+        joints: &[JointDesc],
+        disabled_pairs: &[(usize, usize)],
+    ) -> usize;
+    /// Whether the backend keeps joints inside their limits on positions itself (the
+    /// world's limit projection is then skipped).
+    fn enforces_limits(&self) -> bool {
+        false
+    }
     /// Advances the simulation by `dt` seconds, detecting collisions once.
     fn step(&mut self, dt: f32);
     /// Adds `impulse` (N·s, world) at the world `point` of body `index` (global), waking it.
@@ -53,7 +116,7 @@ pub(crate) trait Backend {
     /// Sets how many solver substeps each step takes where the backend has them: powered
     /// ragdolls need stiffer drives than a limp one, and a drive must stay well below the
     /// substep rate to be stable. Backends without solver substeps ignore it.
-    fn set_solver_substeps(&mut self, _substeps: usize) {}
+    fn set_solver_substeps(&mut self, substeps: usize);
     /// Replaces the limits of joint `index` (global) with those of `kind` (same kind).
     fn set_joint_limits(&mut self, index: usize, kind: &crate::spec::JointKind);
     /// Sets the gravity acting on every body, m/s².
@@ -91,14 +154,12 @@ pub(crate) trait Backend {
     /// carries, and the arms and head lagged the clip by tens of degrees that way.
     fn drive_joint(
         &mut self,
-        _index: usize,
-        _target: glam::Quat,
-        _target_angvel: Vec3,
-        _stiffness: f32,
-        _damping: f32,
-    ) -> bool {
-        false
-    }
+        index: usize,
+        target: glam::Quat,
+        target_angvel: Vec3,
+        stiffness: f32,
+        damping: f32,
+    ) -> bool;
 }
 
 /// A body to create, in world space.
@@ -130,4 +191,69 @@ pub(crate) struct JointDesc {
     pub frame_child: Transform,
     /// Kind and limits.
     pub kind: crate::spec::JointKind,
+}
+
+/// One of the backends, chosen at run time ([`BackendKind`]).
+///
+/// An enum rather than a `Box<dyn Backend>`: calls dispatch with a match the optimiser can
+/// see through, the world stays `Send` without a bound to repeat, and the event code keeps
+/// calling the [`Backend`] trait as it does for a concrete backend.
+pub(crate) enum AnyBackend {
+    /// rapier3d.
+    Rigid(Box<rigid::RigidBackend>),
+    /// Our particles.
+    Particle(Box<particle::ParticleBackend>),
+}
+
+/// Forwards each listed trait method to the backend inside (`ref` methods take `&self`,
+/// `mut` ones `&mut self`).
+macro_rules! forward {
+    ($( $kind:ident fn $name:ident($($arg:ident : $ty:ty),*) $(-> $ret:ty)?; )*) => {
+        $( forward!(@one $kind $name ($($arg : $ty),*) $(-> $ret)?); )*
+    };
+    (@one ref $name:ident ($($arg:ident : $ty:ty),*) $(-> $ret:ty)?) => {
+        fn $name(&self $(, $arg: $ty)*) $(-> $ret)? {
+            match self {
+                AnyBackend::Rigid(b) => b.$name($($arg),*),
+                AnyBackend::Particle(b) => b.$name($($arg),*),
+            }
+        }
+    };
+    (@one mut $name:ident ($($arg:ident : $ty:ty),*) $(-> $ret:ty)?) => {
+        fn $name(&mut self $(, $arg: $ty)*) $(-> $ret)? {
+            match self {
+                AnyBackend::Rigid(b) => b.$name($($arg),*),
+                AnyBackend::Particle(b) => b.$name($($arg),*),
+            }
+        }
+    };
+}
+
+impl Backend for AnyBackend {
+    forward! {
+        mut fn add_ragdoll(bodies: &[BodyDesc], joints: &[JointDesc], disabled_pairs: &[(usize, usize)]) -> usize;
+        ref fn enforces_limits() -> bool;
+        mut fn step(dt: f32);
+        mut fn apply_impulse_at_point(index: usize, impulse: Vec3, point: Vec3);
+        mut fn apply_torque_impulse(index: usize, impulse: Vec3);
+        ref fn body_states(out: &mut Vec<BodyState>);
+        ref fn max_penetration() -> f32;
+        ref fn kinetic_energy() -> f64;
+        ref fn cast_ray(origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(usize, f32)>;
+        mut fn set_kinematic(index: usize, kinematic: bool);
+        mut fn set_kinematic_target(index: usize, pose: &Transform);
+        mut fn set_body_velocity(index: usize, linvel: Vec3, angvel: Vec3);
+        mut fn set_joint_parent_frame(index: usize, frame: &Transform);
+        mut fn set_joint_child_frame(index: usize, frame: &Transform);
+        mut fn set_solver_substeps(substeps: usize);
+        mut fn drive_joint(index: usize, target: glam::Quat, target_angvel: Vec3, stiffness: f32, damping: f32) -> bool;
+        mut fn set_joint_limits(index: usize, kind: &crate::spec::JointKind);
+        mut fn set_gravity(gravity: Vec3);
+        mut fn add_pin(index: usize, local: Vec3, target: Vec3, soft: Option<(f32, f32)>) -> usize;
+        mut fn move_pin(pin: usize, target: Vec3);
+        mut fn release_pin(pin: usize);
+        ref fn touches_another_ragdoll(first: usize, count: usize) -> bool;
+        mut fn disable_pair(a: usize, b: usize);
+        mut fn set_body_pose(index: usize, pose: &Transform);
+    }
 }

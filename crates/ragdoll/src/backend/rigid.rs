@@ -98,7 +98,7 @@ impl RigidBackend {
     }
 
     /// Adds one ragdoll; returns the global index of its first body.
-    pub(crate) fn add_ragdoll(
+    fn add_ragdoll_impl(
         &mut self,
         bodies: &[BodyDesc],
         joints: &[JointDesc],
@@ -186,6 +186,15 @@ fn make_joint(j: &JointDesc) -> GenericJoint {
 }
 
 impl Backend for RigidBackend {
+    fn add_ragdoll(
+        &mut self,
+        bodies: &[BodyDesc],
+        joints: &[JointDesc],
+        disabled_pairs: &[(usize, usize)],
+    ) -> usize {
+        self.add_ragdoll_impl(bodies, joints, disabled_pairs)
+    }
+
     fn step(&mut self, dt: f32) {
         {
             self.world.integration_parameters.dt = dt;

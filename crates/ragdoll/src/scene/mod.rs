@@ -10,7 +10,7 @@
 //! fps = 30                          # output frame rate
 //! gravity = [0.0, -9.80665, 0.0]    # m/s²
 //! ground = 0.0                      # ground height in metres, or "none"
-//! backend = "rigid"                 # the only backend so far
+//! backend = "rigid"                 # or "particle" (our XPBD particle ragdoll)
 //! start_pose = "first_frame"        # or "rest"
 //!
 //! [output]                          # file names inside the output folder; false skips one
@@ -251,7 +251,7 @@ impl Scene {
             .collect();
         let report = SceneReport {
             scene: self.path.display().to_string(),
-            backend: "rigid".into(),
+            backend: self.settings.backend.as_str().into(),
             frames: tracks.first().map_or(0, |t| t.frames.len()),
             fps: self.settings.fps,
             seconds: self.duration_s,

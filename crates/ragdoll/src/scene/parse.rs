@@ -516,17 +516,17 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Scene> {
             GroundValue::None => None,
         };
     }
-    if let Some(b) = &raw.backend
-        && b.get_ref() != "rigid"
-    {
-        return Err(top.err(
-            &b.span(),
-            "backend",
-            format!(
-                "\"{}\" is not available; the only backend so far is \"rigid\"",
-                b.get_ref()
-            ),
-        ));
+    if let Some(b) = &raw.backend {
+        settings.backend = crate::world::BackendKind::from_name(b.get_ref()).ok_or_else(|| {
+            top.err(
+                &b.span(),
+                "backend",
+                format!(
+                    "\"{}\" is not a backend; use \"rigid\" or \"particle\"",
+                    b.get_ref()
+                ),
+            )
+        })?;
     }
     if let Some(s) = &raw.start_pose {
         settings.start = match s.get_ref() {

@@ -37,6 +37,11 @@ pub struct Metrics {
     /// relative to the energy at the start; 0 when it never rises. A passive ragdoll must
     /// not gain energy.
     pub energy_drift: f32,
+    /// Largest relative change of any bone's length (skeleton joint to its parent, in the
+    /// recorded track) over the run, from the first frame physics drove; about 0 for the
+    /// rigid backend, whose bones only move apart as far as its joints separate.
+    #[serde(default)]
+    pub max_bone_stretch: f32,
     /// Whether any non-finite value appeared.
     pub nan: bool,
 }

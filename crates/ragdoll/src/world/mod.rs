@@ -13,12 +13,14 @@ mod forces;
 mod motors;
 mod playback;
 
+pub use crate::backend::BackendKind;
 pub use forces::DragId;
 pub use motors::Motors;
 pub use playback::Activation;
 
+use crate::backend::particle::{ParticleBackend, ParticleSettings};
 use crate::backend::rigid::{RigidBackend, RigidSettings};
-use crate::backend::{Backend, BodyDesc, BodyState, JointDesc};
+use crate::backend::{AnyBackend, Backend, BodyDesc, BodyState, JointDesc};
 use crate::error::{Error, Result};
 use crate::events::{Projectile, ProjectileReport};
 use crate::math::Transform;
@@ -85,6 +87,11 @@ pub struct WorldSettings {
     /// clamps each joint's swing and twist back into range, turning the child's whole
     /// subtree about the joint anchor, parents first, as position-based solvers do.
     pub project_limits: bool,
+    /// Which engine moves the bodies (default [`BackendKind::Rigid`]). The particle
+    /// backend reads `substeps` as its XPBD substeps per physics step and `iterations` as
+    /// its projection passes per substep, and keeps limits itself (`project_limits` is
+    /// then not needed).
+    pub backend: BackendKind,
 }
 
 impl Default for WorldSettings {
@@ -99,6 +106,7 @@ impl Default for WorldSettings {
             ground: Some(0.0),
             start: StartPose::FirstFrame,
             project_limits: true,
+            backend: BackendKind::Rigid,
         }
     }
 }
@@ -172,12 +180,17 @@ struct Instance {
     activated_at: Option<f64>,
     /// Joint motors tracking the clip (powered mode), if any.
     motors: Option<motors::MotorState>,
+    /// Each skeleton joint's parent joint.
+    joint_parents: Vec<Option<usize>>,
+    /// Each bone's length (joint to parent joint) in the first frame physics recorded,
+    /// metres; empty until then.
+    bone_lengths: Vec<f32>,
 }
 
 /// A simulated world: ragdolls, ground, gravity, a backend, and the tracks being recorded.
 pub struct World {
     settings: WorldSettings,
-    backend: RigidBackend,
+    backend: AnyBackend,
     instances: Vec<Instance>,
     time: f64,
     frames_recorded: usize,
@@ -197,15 +210,25 @@ impl World {
     /// An empty world.
     pub fn new(settings: &WorldSettings) -> Result<Self> {
         settings.validate()?;
-        let backend = RigidBackend::new(
-            RigidSettings {
-                gravity: settings.gravity,
-                ground: settings.ground,
-                substeps: settings.substeps,
-                iterations: settings.iterations,
-            },
-            settings.dt,
-        );
+        let backend = match settings.backend {
+            BackendKind::Rigid => AnyBackend::Rigid(Box::new(RigidBackend::new(
+                RigidSettings {
+                    gravity: settings.gravity,
+                    ground: settings.ground,
+                    substeps: settings.substeps,
+                    iterations: settings.iterations,
+                },
+                settings.dt,
+            ))),
+            BackendKind::Particle => {
+                AnyBackend::Particle(Box::new(ParticleBackend::new(ParticleSettings {
+                    gravity: settings.gravity,
+                    ground: settings.ground,
+                    substeps: settings.substeps,
+                    iterations: settings.iterations,
+                })))
+            }
+        };
         Ok(World {
             settings: settings.clone(),
             backend,
@@ -358,6 +381,8 @@ impl World {
                 .map(|i| skeleton.joint_label(i))
                 .collect(),
             first_joint,
+            joint_parents: (0..skeleton.len()).map(|j| skeleton.parent(j)).collect(),
+            bone_lengths: Vec::new(),
             playback,
             activation: Activation::Immediately,
             active: true,
@@ -524,7 +549,7 @@ impl World {
         self.time += self.settings.dt as f64;
         self.backend.body_states(&mut self.states);
         self.blast_after_step();
-        if self.settings.project_limits {
+        if self.settings.project_limits && !self.backend.enforces_limits() {
             self.project_limits();
         }
         self.measure_step();
@@ -593,6 +618,7 @@ impl World {
             } else {
                 (((ft - (t - dt)) / dt).clamp(0.0, 1.0)) as f32
             };
+            let mut stretch = 0.0f32;
             for inst in &mut self.instances {
                 if !inst.active
                     && let Some(play) = &inst.playback
@@ -615,7 +641,16 @@ impl World {
                         pose.mul(&r.offset)
                     })
                     .collect();
+                stretch = stretch.max(bone_stretch(
+                    &inst.joint_parents,
+                    &mut inst.bone_lengths,
+                    &frame,
+                ));
                 inst.track.frames.push(frame);
+            }
+            self.metrics.max_bone_stretch = self.metrics.max_bone_stretch.max(stretch);
+            if !stretch.is_finite() {
+                self.metrics.nan = true;
             }
             self.frames_recorded += 1;
             self.measure_frame_energy();
@@ -844,6 +879,32 @@ fn joint_tree(joints: &[ResolvedJoint], bodies: usize) -> (Vec<usize>, Vec<Vec<u
         })
         .collect();
     (order, subtrees)
+}
+
+/// Bones shorter than this are left out of the stretch, metres: a zero-length bone (two
+/// joints at one place) has no relative change.
+const MIN_BONE_M: f32 = 1.0e-3;
+
+/// Largest relative change of a bone's length in `frame` from `lengths` (taken from this
+/// frame when empty): what [`Metrics::max_bone_stretch`] records. Backend-independent, so
+/// it measures both backends alike.
+fn bone_stretch(parents: &[Option<usize>], lengths: &mut Vec<f32>, frame: &[Transform]) -> f32 {
+    let length = |j: usize| {
+        parents[j].map_or(0.0, |p| {
+            (frame[j].translation - frame[p].translation).length()
+        })
+    };
+    if lengths.is_empty() {
+        lengths.extend((0..frame.len()).map(length));
+        return 0.0;
+    }
+    let mut worst = 0.0f32;
+    for (j, &l0) in lengths.iter().enumerate() {
+        if l0 > MIN_BONE_M {
+            worst = worst.max((length(j) - l0).abs() / l0);
+        }
+    }
+    worst
 }
 
 /// Lowest world height of a shape at `pose`.

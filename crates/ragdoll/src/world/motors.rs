@@ -26,6 +26,11 @@ use crate::spec::{JointKind, Shape};
 /// 90 Hz 5.1°, 120 Hz 4.5°; with the solver substeps below ω·h ≈ 0.2, far from unstable.
 const MOTOR_FREQUENCY_HZ: f32 = 120.0;
 
+/// Natural frequency of the motors where the backend has no drives in its solver and the
+/// world applies them as torques (the particle backend), Hz: the value the torques were
+/// measured stable at (a torque reaches only its two bodies within a substep).
+const TORQUE_MOTOR_FREQUENCY_HZ: f32 = 15.0;
+
 /// Solver substeps once a ragdoll is powered (a limp one needs 4).
 ///
 /// Measured on the mocap files with the root on the clip: 4 substeps with 15 Hz drives
@@ -299,6 +304,9 @@ impl World {
             if driven || s <= 0.0 {
                 continue;
             }
+            let omega = std::f32::consts::TAU * TORQUE_MOTOR_FREQUENCY_HZ;
+            let kp = s * omega * omega;
+            let kd = s * 2.0 * MOTOR_DAMPING_RATIO * omega;
             let states = &self.states[base..base + inst.shapes.len()];
             let own: Vec<Vec3> = inst
                 .shapes

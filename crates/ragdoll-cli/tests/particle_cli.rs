@@ -1,0 +1,78 @@
+//! `--backend particle` on the commands that simulate, and `backend = "particle"` in scene
+//! files: the run uses the particle backend and its report says so, with the bone stretch.
+
+mod common;
+
+use common::{data_dir, ragdoll, read_json, stderr};
+use serde_json::Value;
+
+/// The report names the backend and carries a finite, non-negative bone stretch.
+fn assert_particle_report(report: &Value, what: &str) {
+    assert_eq!(report["backend"], "particle", "{what}: {report}");
+    let stretch = report["max_bone_stretch"]
+        .as_f64()
+        .unwrap_or_else(|| panic!("{what}: no max_bone_stretch in {report}"));
+    assert!(stretch.is_finite() && stretch >= 0.0, "{what}: {stretch}");
+}
+
+#[test]
+fn demo_and_simulate_run_on_the_particle_backend() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = ragdoll(
+        tmp.path(),
+        &["demo", "--backend", "particle", "--seconds", "0.5"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_particle_report(&read_json(&tmp.path().join("out/report.json")), "demo");
+    // The default stays rigid, and says so.
+    let o = ragdoll(tmp.path(), &["demo", "--seconds", "0.2"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report = read_json(&tmp.path().join("out/report.json"));
+    assert_eq!(report["backend"], "rigid");
+    assert!(
+        report["max_bone_stretch"].as_f64().unwrap() < 0.05,
+        "{report}"
+    );
+    let Some(data) = data_dir() else {
+        return;
+    };
+    let bvh = data.join("bvh/cmu_pirouette_threejs.bvh");
+    let o = ragdoll(
+        tmp.path(),
+        &[
+            "simulate",
+            bvh.to_str().unwrap(),
+            "--backend",
+            "particle",
+            "--seconds",
+            "0.5",
+            "-o",
+            "out.glb",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_particle_report(&read_json(&tmp.path().join("out.report.json")), "simulate");
+}
+
+#[test]
+fn a_scene_can_ask_for_the_particle_backend_and_nothing_else() {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(
+        tmp.path().join("s.toml"),
+        "duration_s = 0.5\nbackend = \"particle\"\n[[character]]\nname = \"solo\"\n",
+    )
+    .unwrap();
+    let o = ragdoll(tmp.path(), &["simulate", "s.toml", "-o", "out"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_particle_report(&read_json(&tmp.path().join("out/report.json")), "scene");
+    std::fs::write(
+        tmp.path().join("bad.toml"),
+        "backend = \"soft\"\n[[character]]\nname = \"solo\"\n",
+    )
+    .unwrap();
+    let o = ragdoll(tmp.path(), &["simulate", "bad.toml", "-o", "out2"]);
+    assert!(!o.status.success());
+    let err = stderr(&o);
+    assert!(err.contains("backend") && err.contains("particle"), "{err}");
+    assert!(!tmp.path().join("out2").exists());
+}

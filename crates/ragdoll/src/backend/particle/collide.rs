@@ -1,0 +1,424 @@
+//! Capsule collision for the particle backend: a uniform hash grid for candidate pairs,
+//! contacts against the ground and between capsules solved on the particles, ray casts.
+
+use glam::{IVec3, Vec3};
+
+use super::{FRICTION, ParticleBackend};
+
+/// Closer than this counts as touching another ragdoll, metres (as the rigid backend).
+const TOUCH_M: f32 = 0.005;
+/// Extra room around every box of the broad phase, metres.
+const BROAD_MARGIN_M: f32 = 0.01;
+/// Largest grid cell, metres: a very large body spans several cells rather than making
+/// every cell huge.
+const MAX_CELL_M: f32 = 2.0;
+
+/// Reusable buffers of the broad phase.
+#[derive(Default)]
+pub(super) struct Grid {
+    lo: Vec<Vec3>,
+    hi: Vec<Vec3>,
+    /// (cell, body) per occupied cell of each body, bucketed by hashed cell.
+    entries: Vec<(IVec3, u32)>,
+    sorted: Vec<(IVec3, u32)>,
+    starts: Vec<u32>,
+}
+
+fn hash(c: IVec3, mask: usize) -> usize {
+    let h = (c.x as u32).wrapping_mul(73_856_093)
+        ^ (c.y as u32).wrapping_mul(19_349_663)
+        ^ (c.z as u32).wrapping_mul(83_492_791);
+    h as usize & mask
+}
+
+/// Parameters `(s, t)` of the closest points of segments `p0 p1` and `q0 q1` (Ericson,
+/// Real-Time Collision Detection, 5.1.9).
+fn closest_params(p0: Vec3, p1: Vec3, q0: Vec3, q1: Vec3) -> (f32, f32) {
+    let d1 = p1 - p0;
+    let d2 = q1 - q0;
+    let r = p0 - q0;
+    let a = d1.dot(d1);
+    let e = d2.dot(d2);
+    let f = d2.dot(r);
+    if a <= 1e-12 && e <= 1e-12 {
+        return (0.0, 0.0);
+    }
+    if a <= 1e-12 {
+        return (0.0, (f / e).clamp(0.0, 1.0));
+    }
+    let c = d1.dot(r);
+    if e <= 1e-12 {
+        return ((-c / a).clamp(0.0, 1.0), 0.0);
+    }
+    let b = d1.dot(d2);
+    let denom = a * e - b * b;
+    let mut s = if denom > 1e-12 {
+        ((b * f - c * e) / denom).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let mut t = (b * s + f) / e;
+    if t < 0.0 {
+        t = 0.0;
+        s = (-c / a).clamp(0.0, 1.0);
+    } else if t > 1.0 {
+        t = 1.0;
+        s = ((b - c) / a).clamp(0.0, 1.0);
+    }
+    (s, t)
+}
+
+/// Distance along the unit ray `origin + t·dir`, `t ≥ 0`, to the capsule `a b` of radius `r`.
+fn ray_capsule(origin: Vec3, dir: Vec3, a: Vec3, b: Vec3, r: f32) -> Option<f32> {
+    let mut best: Option<f32> = None;
+    let mut consider = |t: f32| {
+        if t >= 0.0 && best.is_none_or(|b| t < b) {
+            best = Some(t);
+        }
+    };
+    for c in [a, b] {
+        let oc = origin - c;
+        let bq = oc.dot(dir);
+        let cq = oc.length_squared() - r * r;
+        let disc = bq * bq - cq;
+        if disc >= 0.0 {
+            consider(-bq - disc.sqrt());
+        }
+    }
+    let ba = b - a;
+    let oa = origin - a;
+    let baba = ba.dot(ba);
+    let bard = ba.dot(dir);
+    let baoa = ba.dot(oa);
+    let k2 = baba - bard * bard;
+    if baba > 1e-12 && k2 > 1e-12 {
+        let k1 = baba * oa.dot(dir) - baoa * bard;
+        let k0 = baba * oa.length_squared() - baoa * baoa - r * r * baba;
+        let disc = k1 * k1 - k2 * k0;
+        if disc >= 0.0 {
+            let t = (-k1 - disc.sqrt()) / k2;
+            let y = baoa + t * bard;
+            if y > 0.0 && y < baba {
+                consider(t);
+            }
+        }
+    }
+    best
+}
+
+impl ParticleBackend {
+    /// World ends of body `b`'s capsule from its current frame.
+    pub(super) fn capsule_world(&self, b: usize) -> (Vec3, Vec3) {
+        let body = &self.bodies[b];
+        (
+            body.pos + body.rot * body.e[0],
+            body.pos + body.rot * body.e[1],
+        )
+    }
+
+    /// World ends of body `b`'s capsule through its particles (so they follow the
+    /// corrections made since the frames were last updated).
+    fn capsule_from_particles(&self, b: usize) -> (Vec3, Vec3) {
+        let range = self.body_parts(b);
+        let resid = &self.resid_e[b];
+        (
+            self.point_world(b, &self.beta_e[0][range.clone()], resid[0]),
+            self.point_world(b, &self.beta_e[1][range], resid[1]),
+        )
+    }
+
+    /// Candidate pairs for this step: bodies whose boxes, grown by how far they can move in
+    /// `dt`, share a grid cell.
+    pub(super) fn find_pairs(&mut self, dt: f32) {
+        self.pairs.clear();
+        let n = self.bodies.len();
+        if n < 2 {
+            return;
+        }
+        let mut grid = std::mem::take(&mut self.grid);
+        grid.lo.clear();
+        grid.hi.clear();
+        let mut cell = 0.0f32;
+        for b in 0..n {
+            let (e0, e1) = self.capsule_world(b);
+            let speed = self.parts[self.body_parts(b)]
+                .iter()
+                .map(|&i| self.v[i as usize].length_squared())
+                .fold(0.0f32, f32::max)
+                .sqrt();
+            let margin = self.bodies[b].radius + speed * dt + BROAD_MARGIN_M;
+            let (lo, hi) = (e0.min(e1) - margin, e0.max(e1) + margin);
+            cell = cell.max((hi - lo).max_element());
+            grid.lo.push(lo);
+            grid.hi.push(hi);
+        }
+        let cell = cell.clamp(0.05, MAX_CELL_M);
+        let inv = 1.0 / cell;
+        let to_cell = |p: Vec3| (p * inv).floor().as_ivec3();
+        grid.entries.clear();
+        for b in 0..n {
+            let (lo, hi) = (to_cell(grid.lo[b]), to_cell(grid.hi[b]));
+            for x in lo.x..=hi.x {
+                for y in lo.y..=hi.y {
+                    for z in lo.z..=hi.z {
+                        grid.entries.push((IVec3::new(x, y, z), b as u32));
+                    }
+                }
+            }
+        }
+        // Counting sort of the entries by hashed cell.
+        let buckets = (grid.entries.len() * 2).next_power_of_two();
+        let mask = buckets - 1;
+        grid.starts.clear();
+        grid.starts.resize(buckets + 1, 0);
+        for &(c, _) in &grid.entries {
+            grid.starts[hash(c, mask) + 1] += 1;
+        }
+        for i in 0..buckets {
+            grid.starts[i + 1] += grid.starts[i];
+        }
+        grid.sorted.clear();
+        grid.sorted
+            .resize(grid.entries.len(), (IVec3::ZERO, u32::MAX));
+        for &(c, b) in &grid.entries {
+            let slot = &mut grid.starts[hash(c, mask)];
+            grid.sorted[*slot as usize] = (c, b);
+            *slot += 1;
+        }
+        // `starts[h]` now holds the end of bucket h; bucket h begins at `starts[h - 1]`.
+        let mut begin = 0usize;
+        for hb in 0..buckets {
+            let end = grid.starts[hb] as usize;
+            for i in begin..end {
+                let (ci, bi) = grid.sorted[i];
+                for &(cj, bj) in &grid.sorted[i + 1..end] {
+                    if ci != cj || bi == bj {
+                        continue;
+                    }
+                    let (a, b) = (bi.min(bj) as usize, bi.max(bj) as usize);
+                    let (lo, hi) = (grid.lo[a].max(grid.lo[b]), grid.hi[a].min(grid.hi[b]));
+                    if lo.cmpgt(hi).any() || to_cell(lo) != ci {
+                        continue;
+                    }
+                    if self.bodies[a].kinematic && self.bodies[b].kinematic {
+                        continue;
+                    }
+                    if self.may_collide(a, b) {
+                        self.pairs.push((a as u32, b as u32));
+                    }
+                }
+            }
+            begin = end;
+        }
+        self.grid = grid;
+    }
+
+    /// Capsule ends against the ground plane, with positional friction.
+    pub(super) fn solve_ground(&mut self) {
+        let Some(ground) = self.settings.ground else {
+            return;
+        };
+        for b in 0..self.bodies.len() {
+            if self.bodies[b].kinematic {
+                continue;
+            }
+            let range = self.body_parts(b);
+            let radius = self.bodies[b].radius;
+            for s in 0..2 {
+                let exact = &self.beta_e[s][range.clone()];
+                let end = self.point_world(b, exact, self.resid_e[b][s]);
+                let beta = &self.push_e[s][range.clone()];
+                let depth = ground + radius - end.y;
+                if depth <= 0.0 {
+                    continue;
+                }
+                // Pushed along the spread weights, the end moves by Σ exactᵢ·pushᵢ·wᵢ per
+                // unit: dividing by that lifts it out exactly.
+                let (mut wsum, mut gain) = (0.0, 0.0);
+                for (k, &i) in self.parts[range.clone()].iter().enumerate() {
+                    wsum += beta[k] * beta[k] * self.w[i as usize];
+                    gain += exact[k] * beta[k] * self.w[i as usize];
+                }
+                if wsum <= 1e-12 || gain <= 1e-12 {
+                    continue;
+                }
+                let lambda = depth / gain;
+                let mut moved = Vec3::ZERO;
+                for (k, &i) in self.parts[range.clone()].iter().enumerate() {
+                    let i = i as usize;
+                    self.x[i].y += self.w[i] * beta[k] * lambda;
+                    moved += (self.x[i] - self.x_prev[i]) * exact[k];
+                }
+                let slide = Vec3::new(moved.x, 0.0, moved.z);
+                let len = slide.length();
+                if len > 1e-9 {
+                    let limit = FRICTION * depth;
+                    let corr = if len <= limit {
+                        -slide
+                    } else {
+                        -slide * (limit / len)
+                    };
+                    for (k, &i) in self.parts[range.clone()].iter().enumerate() {
+                        let i = i as usize;
+                        self.x[i] += corr * (self.w[i] * beta[k] / gain);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Capsule against capsule for the candidate pairs, with positional friction.
+    pub(super) fn solve_pairs(&mut self) {
+        let mut ba = std::mem::take(&mut self.scratch);
+        let mut bb = std::mem::take(&mut self.scratch_b);
+        for idx in 0..self.pairs.len() {
+            let (a, b) = (self.pairs[idx].0 as usize, self.pairs[idx].1 as usize);
+            let (a0, a1) = self.capsule_from_particles(a);
+            let (b0, b1) = self.capsule_from_particles(b);
+            let (s, t) = closest_params(a0, a1, b0, b1);
+            let (pa, pb) = (a0.lerp(a1, s), b0.lerp(b1, t));
+            let d = pb - pa;
+            let dist = d.length();
+            let reach = self.bodies[a].radius + self.bodies[b].radius;
+            if self.bodies[a].ragdoll != self.bodies[b].ragdoll && dist < reach + TOUCH_M {
+                self.touched[a] = true;
+                self.touched[b] = true;
+            }
+            if dist >= reach {
+                continue;
+            }
+            let n = if dist > 1e-9 { d / dist } else { Vec3::Y };
+            let depth = reach - dist;
+            let (ra, rb) = (self.body_parts(a), self.body_parts(b));
+            ba.clear();
+            ba.extend(
+                ra.clone()
+                    .map(|k| (1.0 - s) * self.push_e[0][k] + s * self.push_e[1][k]),
+            );
+            bb.clear();
+            bb.extend(
+                rb.clone()
+                    .map(|k| (1.0 - t) * self.push_e[0][k] + t * self.push_e[1][k]),
+            );
+            // Per unit push along the spread weights, each contact point moves by
+            // Σ exactᵢ·pushᵢ·wᵢ (its gain); dividing by the sum separates them exactly.
+            let gain = |range: std::ops::Range<usize>, push: &[f32], t: f32| -> f32 {
+                range
+                    .zip(push)
+                    .map(|(k, x)| {
+                        let exact = (1.0 - t) * self.beta_e[0][k] + t * self.beta_e[1][k];
+                        exact * x * self.w[self.parts[k] as usize]
+                    })
+                    .sum()
+            };
+            let wsum = gain(ra.clone(), &ba, s) + gain(rb.clone(), &bb, t);
+            if wsum <= 1e-12 {
+                continue;
+            }
+            let lambda = depth / wsum;
+            let mut moved = Vec3::ZERO;
+            for (k, x) in ra.clone().zip(&ba) {
+                let i = self.parts[k] as usize;
+                self.x[i] -= n * (self.w[i] * x * lambda);
+                let exact = (1.0 - s) * self.beta_e[0][k] + s * self.beta_e[1][k];
+                moved -= (self.x[i] - self.x_prev[i]) * exact;
+            }
+            for (k, x) in rb.clone().zip(&bb) {
+                let i = self.parts[k] as usize;
+                self.x[i] += n * (self.w[i] * x * lambda);
+                let exact = (1.0 - t) * self.beta_e[0][k] + t * self.beta_e[1][k];
+                moved += (self.x[i] - self.x_prev[i]) * exact;
+            }
+            // `moved`: how far b's contact point slid relative to a's this substep.
+            let slide = moved - n * moved.dot(n);
+            let len = slide.length();
+            if len > 1e-9 {
+                let limit = FRICTION * depth;
+                let corr = if len <= limit {
+                    slide
+                } else {
+                    slide * (limit / len)
+                };
+                for (k, x) in ra.zip(&ba) {
+                    let i = self.parts[k] as usize;
+                    self.x[i] += corr * (self.w[i] * x / wsum);
+                }
+                for (k, x) in rb.zip(&bb) {
+                    let i = self.parts[k] as usize;
+                    self.x[i] -= corr * (self.w[i] * x / wsum);
+                }
+            }
+        }
+        self.scratch = ba;
+        self.scratch_b = bb;
+    }
+
+    /// Deepest penetration now (ground, and candidate pairs), from the body frames.
+    pub(super) fn measure_penetration(&self) -> f32 {
+        let mut deepest = 0.0f32;
+        for b in 0..self.bodies.len() {
+            if self.bodies[b].kinematic {
+                continue;
+            }
+            if let Some(g) = self.settings.ground {
+                let (e0, e1) = self.capsule_world(b);
+                deepest = deepest.max(g - (e0.y.min(e1.y) - self.bodies[b].radius));
+            }
+        }
+        for &(a, b) in &self.pairs {
+            let (a, b) = (a as usize, b as usize);
+            let (a0, a1) = self.capsule_world(a);
+            let (b0, b1) = self.capsule_world(b);
+            let (s, t) = closest_params(a0, a1, b0, b1);
+            let dist = (b0.lerp(b1, t) - a0.lerp(a1, s)).length();
+            deepest = deepest.max(self.bodies[a].radius + self.bodies[b].radius - dist);
+        }
+        deepest
+    }
+
+    /// The first capsule a ray meets (every body is tested: projectiles are rare).
+    pub(super) fn cast_ray_impl(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        max_dist: f32,
+    ) -> Option<(usize, f32)> {
+        let mut best: Option<(usize, f32)> = None;
+        for b in 0..self.bodies.len() {
+            let (e0, e1) = self.capsule_world(b);
+            if let Some(t) = ray_capsule(origin, dir, e0, e1, self.bodies[b].radius)
+                && t <= max_dist
+                && best.is_none_or(|(_, bt)| t < bt)
+            {
+                best = Some((b, t));
+            }
+        }
+        best
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn closest_points_of_crossing_segments() {
+        let (s, t) = closest_params(
+            Vec3::new(-1.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.5, 1.0, -1.0),
+            Vec3::new(0.5, 1.0, 1.0),
+        );
+        assert!((s - 0.75).abs() < 1e-6 && (t - 0.5).abs() < 1e-6, "{s} {t}");
+    }
+
+    #[test]
+    fn ray_meets_capsule_side_and_cap() {
+        let (a, b) = (Vec3::new(0.0, -1.0, 0.0), Vec3::new(0.0, 1.0, 0.0));
+        let side = ray_capsule(Vec3::new(-5.0, 0.0, 0.0), Vec3::X, a, b, 0.5).unwrap();
+        assert!((side - 4.5).abs() < 1e-5, "{side}");
+        let cap = ray_capsule(Vec3::new(0.0, 5.0, 0.0), -Vec3::Y, a, b, 0.5).unwrap();
+        assert!((cap - 3.5).abs() < 1e-5, "{cap}");
+        assert!(ray_capsule(Vec3::new(-5.0, 0.0, 2.0), Vec3::X, a, b, 0.5).is_none());
+    }
+}

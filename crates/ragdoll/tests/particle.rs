@@ -1,0 +1,370 @@
+//! Physical facts the particle backend must reproduce (issue 4): bone lengths kept, a
+//! pendulum's period, limits held, blasts push away, runs repeat bit for bit.
+//!
+//! Two tests are `#[ignore]`d with the reason: they state what must hold once contacts
+//! between a ragdoll's own sticks stop adding energy at hard impacts.
+
+mod common;
+
+use glam::{Quat, Vec3};
+use ragdoll::events::{Blast, Pin};
+use ragdoll::math::Transform;
+use ragdoll::skeleton::{Character, Joint, Skeleton, Source};
+use ragdoll::spec::{
+    BodySpec, BuildOptions, JointKind, JointSpec, RagdollSpec, SPEC_FORMAT_VERSION, Shape,
+    build_spec,
+};
+use ragdoll::world::{BackendKind, STANDARD_GRAVITY, World, WorldSettings};
+
+fn particle() -> WorldSettings {
+    WorldSettings {
+        backend: BackendKind::Particle,
+        ..Default::default()
+    }
+}
+
+/// A chain of `links` capsules hanging from "j0" along `dir` (unit), each `len` metres,
+/// joined by swing-twist joints with a `swing_deg` cone.
+fn chain(links: usize, len: f32, dir: Vec3, swing_deg: f32) -> (Character, RagdollSpec) {
+    let mut joints = Vec::new();
+    for i in 0..=links {
+        joints.push(Joint {
+            name: format!("j{i}"),
+            parent: (i > 0).then(|| i - 1),
+            rest: Transform::from_translation(if i == 0 {
+                Vec3::new(0.0, 2.0, 0.0)
+            } else {
+                dir * len
+            }),
+            tip: None,
+        });
+    }
+    let character = Character {
+        name: "chain".into(),
+        skeleton: Skeleton::new(joints).unwrap(),
+        meshes: vec![],
+        clips: vec![],
+        source: Source::BuiltIn,
+    };
+    // Each capsule lies along its bone: its local Y turned onto `dir`.
+    let rotation = Quat::from_rotation_arc(Vec3::Y, dir).to_array();
+    let bodies = (0..links)
+        .map(|i| BodySpec {
+            name: format!("link{i}"),
+            bone: format!("j{i}"),
+            role: None,
+            shape: Shape::Capsule {
+                radius_m: 0.02,
+                length_m: len,
+            },
+            center_m: (dir * (0.5 * len)).to_array(),
+            rotation,
+            mass_kg: 1.0,
+        })
+        .collect();
+    let frame = Quat::from_rotation_arc(Vec3::X, dir).to_array();
+    let joints = (1..links)
+        .map(|i| JointSpec {
+            name: format!("link{i}"),
+            parent: format!("link{}", i - 1),
+            child: format!("link{i}"),
+            anchor_m: [0.0; 3],
+            frame,
+            kind: JointKind::SwingTwist {
+                swing_deg,
+                twist_deg: [-30.0, 30.0],
+                cone_tilt_deg: [0.0, 0.0],
+            },
+        })
+        .collect();
+    let spec = RagdollSpec {
+        format_version: SPEC_FORMAT_VERSION,
+        name: "chain".into(),
+        bodies,
+        joints,
+        collision: Default::default(),
+    };
+    spec.validate().unwrap();
+    (character, spec)
+}
+
+fn pin_at(target: &str, point: Vec3) -> Pin {
+    Pin {
+        target: target.into(),
+        keys: vec![(0.0, point)],
+        stiffness_hz: None,
+        damping_ratio: 0.0,
+        release_s: None,
+    }
+}
+
+#[test]
+fn free_body_falls_as_half_g_t_squared() {
+    let (character, spec) = common::one_capsule(0.05, 0.4, 2.0);
+    let settings = WorldSettings {
+        ground: None,
+        ..particle()
+    };
+    let (mut world, id) = World::with_ragdoll(&character, &spec, &settings).unwrap();
+    world.run(0.0);
+    let y0 = world.body_poses(id)[0].translation.y;
+    world.run(1.0);
+    let fallen = y0 - world.body_poses(id)[0].translation.y;
+    let want = 0.5 * STANDARD_GRAVITY;
+    // Symplectic Euler over n substeps falls g·h²·n(n+1)/2: 1/n = 0.1 % long at 960 Hz.
+    assert!(
+        ((fallen - want) / want).abs() < 2e-3,
+        "fell {fallen} m in 1 s, theory {want} m"
+    );
+}
+
+#[test]
+fn pinned_link_swings_with_the_pendulum_period_of_theory() {
+    // One capsule hanging from its upper end, released 5° from vertical.
+    let (len, radius, mass) = (0.5f32, 0.02f32, 1.0f32);
+    let tilt = 5f32.to_radians();
+    let dir = Vec3::new(tilt.sin(), -tilt.cos(), 0.0);
+    let (mut character, mut spec) = chain(1, len, dir, 45.0);
+    spec.bodies[0].shape = Shape::Capsule {
+        radius_m: radius,
+        length_m: len,
+    };
+    character.name = "pendulum".into();
+    let settings = WorldSettings {
+        ground: None,
+        ..particle()
+    };
+    let (mut world, id) = World::with_ragdoll(&character, &spec, &settings).unwrap();
+    world
+        .add_pin(id, pin_at("j0", Vec3::new(0.0, 2.0, 0.0)))
+        .unwrap();
+    // Zero crossings of the centre's x, going positive to negative.
+    world.run(0.0);
+    let dt = settings.dt as f64;
+    let mut last_x = world.body_poses(id)[0].translation.x;
+    let mut crossings = Vec::new();
+    for step in 1..=(8.0 / dt) as usize {
+        world.step();
+        let x = world.body_poses(id)[0].translation.x;
+        if last_x > 0.0 && x <= 0.0 {
+            let t = (step as f64 - 1.0 + (last_x / (last_x - x)) as f64) * dt;
+            crossings.push(t);
+        }
+        last_x = x;
+    }
+    assert!(crossings.len() >= 4, "{crossings:?}");
+    let period = (crossings[crossings.len() - 1] - crossings[0]) / (crossings.len() - 1) as f64;
+    // Solid capsule about its end: cylinder plus two hemispheres (parallel axis theorem).
+    let (r, l) = (radius as f64, len as f64);
+    let (v_cyl, v_sph) = (
+        std::f64::consts::PI * r * r * l,
+        4.0 / 3.0 * std::f64::consts::PI * r.powi(3),
+    );
+    let m = mass as f64;
+    let (mc, ms) = (m * v_cyl / (v_cyl + v_sph), m * v_sph / (v_cyl + v_sph));
+    let i_centre =
+        mc * (l * l / 12.0 + r * r / 4.0) + ms * (0.4 * r * r + l * l / 4.0 + 0.375 * l * r);
+    let d = l / 2.0;
+    let i_pivot = i_centre + m * d * d;
+    let theory = std::f64::consts::TAU * (i_pivot / (m * STANDARD_GRAVITY as f64 * d)).sqrt();
+    assert!(
+        ((period - theory) / theory).abs() < 0.02,
+        "period {period} s, theory {theory} s"
+    );
+}
+
+#[test]
+fn hanging_chain_keeps_bone_lengths_within_one_percent() {
+    // Five links released horizontal, pinned at the top: they whip down and swing.
+    let (character, spec) = chain(5, 0.3, Vec3::X, 60.0);
+    let settings = WorldSettings {
+        ground: None,
+        ..particle()
+    };
+    let (mut world, id) = World::with_ragdoll(&character, &spec, &settings).unwrap();
+    world
+        .add_pin(id, pin_at("j0", Vec3::new(0.0, 2.0, 0.0)))
+        .unwrap();
+    world.run(3.0);
+    let m = world.metrics();
+    assert!(!m.nan);
+    assert!(m.max_bone_stretch < 0.01, "{m:?}");
+    // And it did swing down: the last joint hangs well below the pin.
+    let track = world.track(id);
+    let end = track.frames.last().unwrap()[5].translation;
+    assert!(end.y < 1.2, "chain end at {end}");
+    assert!(m.max_limit_violation_deg < 5.0, "{m:?}");
+}
+
+#[test]
+fn cone_limit_holds_while_a_double_pendulum_whips() {
+    // A two-link chain pinned at the top, released horizontal: the lower link whips past
+    // the upper one and must be stopped by its 30° cone (reach it, not pass it by > 5°).
+    let (character, spec) = chain(2, 0.4, Vec3::X, 30.0);
+    let settings = WorldSettings {
+        ground: None,
+        ..particle()
+    };
+    let (mut world, id) = World::with_ragdoll(&character, &spec, &settings).unwrap();
+    world
+        .add_pin(id, pin_at("j0", Vec3::new(0.0, 2.0, 0.0)))
+        .unwrap();
+    let (mut worst, mut most_bent) = (0.0f32, 0.0f32);
+    for _ in 0..120 {
+        world.step();
+        worst = worst.max(world.joint_errors(id)[0].1);
+        let poses = world.body_poses(id);
+        let (a, b) = (poses[0].rotation * Vec3::Y, poses[1].rotation * Vec3::Y);
+        most_bent = most_bent.max(a.angle_between(b).to_degrees());
+    }
+    assert!(worst < 5.0, "limit exceeded by {worst}°");
+    assert!(most_bent > 25.0, "the links bent at most {most_bent}°");
+}
+
+#[test]
+fn same_input_twice_gives_identical_tracks() {
+    let character = ragdoll::skeleton::humanoid();
+    let spec = build_spec(&character, &BuildOptions::default()).unwrap();
+    let settings = WorldSettings {
+        ground: None,
+        ..particle()
+    };
+    let run = || {
+        let (mut world, _) = World::with_ragdoll(&character, &spec, &settings).unwrap();
+        world
+            .add_blast(Blast::new(1.0, Vec3::new(1.0, 1.0, 0.5), 0.0))
+            .unwrap();
+        world.run(0.5);
+        world.into_track()
+    };
+    assert_eq!(run(), run());
+}
+
+#[test]
+fn blast_throws_the_ragdoll_away_from_the_charge() {
+    // In free air (no floor) the whole body must move away from the charge.
+    let character = ragdoll::skeleton::humanoid();
+    let spec = build_spec(&character, &BuildOptions::default()).unwrap();
+    let settings = WorldSettings {
+        ground: None,
+        gravity: Vec3::ZERO,
+        ..particle()
+    };
+    let (mut world, id) = World::with_ragdoll(&character, &spec, &settings).unwrap();
+    let charge = Vec3::new(2.0, 1.0, 0.0);
+    world.run(0.0);
+    let start = world.body_poses(id)[0].translation;
+    world.add_blast(Blast::new(2.0, charge, 0.0)).unwrap();
+    world.run(0.5);
+    let end = world.body_poses(id)[0].translation;
+    let away = (start - charge).normalize();
+    let moved = (end - start).dot(away);
+    assert!(moved > 0.05, "pelvis moved {moved} m away from the charge");
+    assert!(!world.metrics().nan);
+}
+
+/// Lowest point of the shapes the particle backend collides, in the world poses: capsules
+/// as they are, boxes as the capsule along their longest edge with the smaller other half
+/// edge as radius (the backend's documented stand-in for a box).
+fn lowest(spec: &RagdollSpec, poses: &[Transform]) -> f32 {
+    poses
+        .iter()
+        .zip(&spec.bodies)
+        .map(|(p, b)| {
+            let (half, radius) = match b.shape {
+                Shape::Capsule { radius_m, length_m } => (Vec3::Y * (0.5 * length_m), radius_m),
+                Shape::Box { size_m } => {
+                    let h = Vec3::from_array(size_m) * 0.5;
+                    let long = h.max_element();
+                    let axis = if h.x == long {
+                        Vec3::X
+                    } else if h.y == long {
+                        Vec3::Y
+                    } else {
+                        Vec3::Z
+                    };
+                    let others = h - axis * long;
+                    let r = if axis == Vec3::X {
+                        others.y.min(others.z)
+                    } else if axis == Vec3::Y {
+                        others.x.min(others.z)
+                    } else {
+                        others.x.min(others.y)
+                    };
+                    (axis * (long - r).max(0.0), r)
+                }
+            };
+            let axis = p.rotation * half;
+            p.translation.y - axis.y.abs() - radius
+        })
+        .fold(f32::INFINITY, f32::min)
+}
+
+#[test]
+fn humanoid_drop_keeps_floor_limits_and_bones() {
+    let character = ragdoll::skeleton::humanoid();
+    let spec = build_spec(&character, &BuildOptions::default()).unwrap();
+    let (mut world, id) = World::with_ragdoll(&character, &spec, &particle()).unwrap();
+    let mut floor = f32::INFINITY;
+    for _ in 0..(3 * 60) {
+        world.step();
+        floor = floor.min(lowest(&spec, &world.body_poses(id)));
+    }
+    let m = world.metrics();
+    assert!(floor > -0.01, "a body went {floor} m below the floor");
+    assert!(m.max_limit_violation_deg < 5.0, "{m:?}");
+    assert!(m.max_bone_stretch < 0.01, "{m:?}");
+}
+
+#[test]
+#[ignore = "known: a flat drop bounces off self-contacts (stick-stick pairs add energy at impact)"]
+fn rigid_and_particle_drops_follow_similar_root_paths() {
+    // The humanoid lying flat, dropped from 1 m: free fall, impact, settling. Stated
+    // tolerance: the pelvis paths stay within 10 cm of each other over the first second.
+    let character = ragdoll::skeleton::humanoid();
+    let spec = build_spec(&character, &BuildOptions::default()).unwrap();
+    let lie = Transform::new(
+        Vec3::new(0.0, 1.0, 0.0),
+        Quat::from_rotation_z(-std::f32::consts::FRAC_PI_2),
+    );
+    let path = |settings: WorldSettings| {
+        let mut world = World::new(&settings).unwrap();
+        let id = world.add_ragdoll(&character, &spec, lie).unwrap();
+        (0..60)
+            .map(|_| {
+                world.step();
+                world.body_poses(id)[0].translation
+            })
+            .collect::<Vec<_>>()
+    };
+    let rigid = path(WorldSettings::default());
+    let part = path(particle());
+    let worst = rigid
+        .iter()
+        .zip(&part)
+        .map(|(a, b)| (*a - *b).length())
+        .fold(0.0f32, f32::max);
+    assert!(worst < 0.1, "pelvis paths differ by up to {worst} m");
+}
+
+#[test]
+#[ignore = "known: the pirouette BVH ends 13.7 deg past a limit (energy drift 3.8): self-contacts"]
+fn humanoids_of_the_data_keep_their_limits() {
+    let Some(data) = common::shared_data() else {
+        return;
+    };
+    let mut files: Vec<_> = std::fs::read_dir(data.join("bvh"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    files.push(data.join("gltf/CesiumMan.glb"));
+    for file in files {
+        let character =
+            ragdoll::import::load(&file, &ragdoll::import::ImportOptions::default()).unwrap();
+        let spec = build_spec(&character, &BuildOptions::default()).unwrap();
+        let (mut world, _) = World::with_ragdoll(&character, &spec, &particle()).unwrap();
+        world.run(2.0);
+        let m = world.metrics();
+        assert!(m.max_limit_violation_deg < 5.0, "{}: {m:?}", file.display());
+    }
+}
