@@ -135,21 +135,17 @@ pub(crate) fn viewer_settings(settings: &WorldSettings) -> WorldSettings {
     }
 }
 
-/// The backend a page asks for, applied to the world's settings.
-///
-/// LEAD: WIRE THE PARTICLE BACKEND HERE. Once `WorldSettings::backend: BackendKind` is
-/// merged, set it from `kind` and return `Ok`; the session then rebuilds and replays the
-/// world on the new backend like any other change.
+/// The backend a page asks for, applied to the world's settings; the session then rebuilds
+/// and replays the world on the new backend like any other change.
 pub(crate) fn apply_backend(
-    _settings: &mut WorldSettings,
+    settings: &mut WorldSettings,
     kind: BackendChoice,
 ) -> Result<(), String> {
-    match kind {
-        BackendChoice::Rigid => Ok(()),
-        BackendChoice::Particle => {
-            Err("the particle backend is not available in this build".into())
-        }
-    }
+    settings.backend = match kind {
+        BackendChoice::Rigid => ragdoll::world::BackendKind::Rigid,
+        BackendChoice::Particle => ragdoll::world::BackendKind::Particle,
+    };
+    Ok(())
 }
 
 impl Session {
@@ -161,6 +157,10 @@ impl Session {
         out: Outlets,
     ) -> ragdoll::Result<Session> {
         scene.settings = viewer_settings(&scene.settings);
+        let backend = match scene.settings.backend {
+            ragdoll::world::BackendKind::Rigid => BackendChoice::Rigid,
+            ragdoll::world::BackendKind::Particle => BackendChoice::Particle,
+        };
         let (mut world, ids) = scene.build_world()?;
         world.run(0.0);
         let rest_inverse = scene
@@ -187,7 +187,7 @@ impl Session {
             history: Vec::new(),
             cursor: 0,
             playing: true,
-            backend: BackendChoice::Rigid,
+            backend,
             out,
         };
         s.record();

@@ -200,22 +200,26 @@ fn scrubbing_back_and_playing_replays_the_same_motion_with_its_events() {
     viewer.shutdown();
 }
 
+/// The page's backend switch rebuilds the world on the particle backend and replays it:
+/// the server reports the new backend and the simulation goes on running on it.
 #[test]
-fn the_particle_backend_is_refused_with_a_notice_until_it_is_merged() {
+fn the_backend_switch_moves_the_simulation_to_the_particle_backend() {
     let viewer = start();
     let addr = viewer.local_addr();
     let mut ws = connect(addr);
     read_until(&mut ws, |v| v["type"] == "specs");
     send(&mut ws, r#"{"type":"backend","kind":"particle"}"#);
-    let notice = read_until(&mut ws, |v| v["type"] == "notice");
-    assert_eq!(notice["level"], "error");
-    assert!(
-        notice["message"]
-            .as_str()
-            .unwrap()
-            .contains("not available")
-    );
-    assert_eq!(get_state(addr)["backend"], "rigid");
+    let deadline = Instant::now() + Duration::from_secs(10);
+    let mut state = get_state(addr);
+    while state["backend"] != "particle" && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(50));
+        state = get_state(addr);
+    }
+    assert_eq!(state["backend"], "particle", "{state}");
+    let t0 = state["time_s"].as_f64().unwrap();
+    std::thread::sleep(Duration::from_millis(300));
+    let t1 = get_state(addr)["time_s"].as_f64().unwrap();
+    assert!(t1 > t0, "the particle world does not run: {t0} → {t1}");
     viewer.shutdown();
 }
 
