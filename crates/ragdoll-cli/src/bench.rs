@@ -93,7 +93,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                 })
             })
             .collect();
-        println!(
+        outln!(
             "{}",
             serde_json::to_string_pretty(&json!({ "runs": runs }))?
         );
@@ -107,7 +107,7 @@ fn stable(m: &Metrics) -> bool {
 
 fn print_row(r: &Row, backend: &str, steps: usize) {
     let m = &r.metrics;
-    println!(
+    outln!(
         "pile  {backend:<8} N={:<5} threads={:<2} {:>10.0} ragdoll-steps/s  ({:.2} s)  stable={}  limit {:.1}°  penetration {:.1} mm  separation {:.1} mm",
         r.ragdolls,
         r.threads,

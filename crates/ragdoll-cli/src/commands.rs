@@ -351,7 +351,7 @@ fn print_summary<'a>(report: &Report, files: impl IntoIterator<Item = &'a Path>)
         if m.nan { ", NaN seen!" } else { "" }
     );
     for f in files {
-        println!("{}", f.display());
+        outln!("{}", f.display());
     }
 }
 
@@ -373,7 +373,7 @@ pub fn build(a: &BuildArgs) -> Result<()> {
         spec.joints.len(),
         spec.total_mass_kg()
     );
-    println!("{}", a.output.display());
+    outln!("{}", a.output.display());
     Ok(())
 }
 

@@ -3,6 +3,28 @@
 //! command lives in its own module. Errors print as one line and exit non-zero; outputs are
 //! written atomically, so a failed run leaves no partial file.
 
+/// `println!` that stops quietly when stdout is closed (`ragdoll inspect X | head`):
+/// `println!` panics on a broken pipe, and a closed reader is not an error of ours.
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        if writeln!(std::io::stdout(), $($arg)*).is_err() {
+            std::process::exit(0);
+        }
+    }};
+}
+
+/// `print!` that stops quietly when stdout is closed, as [`outln!`].
+#[allow(unused_macros)]
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        if write!(std::io::stdout(), $($arg)*).is_err() {
+            std::process::exit(0);
+        }
+    }};
+}
+
 mod bench;
 mod commands;
 mod preview_cmd;

@@ -44,7 +44,7 @@ impl PreviewArg {
         let bytes = ragdoll_preview::encode(path, actors, markers, &PreviewOptions::default())
             .map_err(flag("--preview"))?;
         write_atomic(path, &bytes)?;
-        println!("{}", path.display());
+        outln!("{}", path.display());
         Ok(())
     }
 }
@@ -103,7 +103,7 @@ pub fn write_obj_sequence(
         };
         write_atomic(&dir.join(obj::file_name(f, n)), text.as_bytes())?;
     }
-    println!("{} ({n} OBJ files)", dir.display());
+    outln!("{} ({n} OBJ files)", dir.display());
     Ok(())
 }
 
@@ -181,7 +181,7 @@ pub fn run(a: &PreviewArgs) -> Result<()> {
         track.frames.len(),
         track.fps
     );
-    println!("{}", a.output.display());
+    outln!("{}", a.output.display());
     Ok(())
 }
 

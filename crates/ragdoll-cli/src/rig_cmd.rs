@@ -132,7 +132,7 @@ pub fn run(a: &RigArgs) -> Result<()> {
     let vertices: usize = character.meshes.iter().map(|m| m.positions.len()).sum();
     let skeleton = &character.skeleton;
     let head = skeleton.rest_world()[skeleton.find("head").unwrap_or(0)].translation;
-    println!(
+    outln!(
         "rigged {} ({vertices} vertices): {} joints, head joint at ({:.3}, {:.3}, {:.3}) m",
         a.file.display(),
         skeleton.len(),
@@ -140,7 +140,7 @@ pub fn run(a: &RigArgs) -> Result<()> {
         head.y,
         head.z
     );
-    println!("wrote {}", a.output.display());
+    outln!("wrote {}", a.output.display());
     Ok(())
 }
 

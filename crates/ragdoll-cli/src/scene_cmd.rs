@@ -93,7 +93,7 @@ pub fn run(a: &SimulateArgs, matches: &ArgMatches) -> Result<()> {
     let written = scene.write(&result, &a.output)?;
     print_summary(&result.report);
     for path in written {
-        println!("{}", path.display());
+        outln!("{}", path.display());
     }
     let actors: Vec<_> = scene
         .characters

@@ -98,7 +98,7 @@ pub fn run(a: &ViewArgs) -> Result<()> {
     };
     let viewer = Viewer::start(scene, &options)?;
     let url = viewer.url();
-    println!("ragdoll view: open {url} (Ctrl-C stops the server)");
+    outln!("ragdoll view: open {url} (Ctrl-C stops the server)");
     if !a.no_open {
         open_browser(&url);
     }
