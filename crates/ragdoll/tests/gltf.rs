@@ -200,8 +200,18 @@ fn cesium_man_is_19_unnamed_joints_and_one_mesh_standing_up() {
             "joint at {p} outside {lo}..{hi}"
         );
     }
-    // One clip per animation (19 of them, each moving one joint), regular keys kept.
-    assert_eq!(c.clips.len(), 19);
+    // The file splits its walk into 19 unnamed animations, one per joint: they are read as
+    // the one clip they are, every joint moving.
+    assert_eq!(c.clips.len(), 1);
+    let clip = &c.clips[0];
+    let moving = (0..c.skeleton.len())
+        .filter(|&j| {
+            clip.frames
+                .iter()
+                .any(|f| f[j].rotation.angle_between(clip.frames[0][j].rotation) > 0.01)
+        })
+        .count();
+    assert!(moving >= 10, "only {moving} joints move in the walk");
 }
 
 #[test]

@@ -965,7 +965,7 @@ pub(crate) fn clip_frame_time(times: &[f32]) -> f32 {
 }
 
 fn read_clips(doc: &gltf::Document, rig: &Rig, reader: &AccessorReader) -> Result<Vec<Clip>> {
-    let mut clips = Vec::new();
+    let mut takes: Vec<(usize, String, Vec<Channel>)> = Vec::new();
     for anim in doc.animations() {
         let mut channels = Vec::new();
         for ch in anim.channels() {
@@ -1027,64 +1027,104 @@ fn read_clips(doc: &gltf::Document, rig: &Rig, reader: &AccessorReader) -> Resul
                 width,
             });
         }
-        if channels.is_empty() {
-            continue;
-        }
-        let t0 = channels
-            .iter()
-            .map(|c| c.times[0])
-            .fold(f32::INFINITY, f32::min);
-        let t1 = channels
-            .iter()
-            .map(|c| c.times[c.times.len() - 1])
-            .fold(f32::NEG_INFINITY, f32::max);
-        let all_times: Vec<f32> = channels
-            .iter()
-            .flat_map(|c| c.times.iter().copied())
-            .collect();
-        let frame_time = clip_frame_time(&all_times);
-        let steps = ((t1 - t0) / frame_time).round() as f64;
-        let max_frames = MAX_CLIP_SAMPLES / rig.joints.len().max(1);
-        if !(steps.is_finite() && steps < max_frames as f64) {
-            return Err(format_err(
-                reader.path,
-                format!("animation {}", anim.index()),
-                format!("runs from {t0} s to {t1} s, too long to sample"),
+        if !channels.is_empty() {
+            takes.push((
+                anim.index(),
+                anim.name().unwrap_or("").to_string(),
+                channels,
             ));
         }
-        let n = steps as usize + 1;
-        let mut frames = Vec::with_capacity(n);
-        for f in 0..n {
-            let t = if f + 1 == n {
-                t1
-            } else {
-                (t0 as f64 + f as f64 * frame_time as f64) as f32
-            };
-            let mut trs = rig.node_rest.clone();
-            for c in &channels {
-                let v = c.sample(t);
-                let x = &mut trs[c.joint];
-                match c.property {
-                    Property::Translation => x.translation = Vec3::new(v[0], v[1], v[2]),
-                    Property::Scale => x.scale = Vec3::new(v[0], v[1], v[2]),
-                    Property::Rotation => x.rotation = Quat::from_array(v),
-                    Property::MorphTargetWeights => {}
-                }
-            }
-            frames.push(
-                trs.iter()
-                    .enumerate()
-                    .map(|(j, t)| rig.local(j, t))
-                    .collect(),
-            );
-        }
-        clips.push(Clip {
-            name: anim.name().unwrap_or("").to_string(),
-            frame_time,
-            frames,
-        });
     }
-    Ok(clips)
+    // Some exporters write one take as one unnamed animation per node (this data's
+    // CesiumMan: 19 animations of 3 channels). Played alone, each moves one joint; the
+    // unnamed ones are one clip when there are several and no two animate the same joint
+    // property. Named animations stay clips of their own.
+    let unnamed: Vec<usize> = (0..takes.len())
+        .filter(|&k| takes[k].1.is_empty())
+        .collect();
+    let mut targets = std::collections::HashSet::new();
+    let split_take = unnamed.len() > 1
+        && unnamed
+            .iter()
+            .flat_map(|&k| takes[k].2.iter().map(|c| (c.joint, c.property as u8)))
+            .all(|t| targets.insert(t));
+    if split_take {
+        let first = unnamed[0];
+        let mut merged = Vec::new();
+        for &k in unnamed.iter().rev() {
+            if k != first {
+                merged.extend(takes.remove(k).2);
+            }
+        }
+        takes[first].2.extend(merged);
+    }
+    takes
+        .into_iter()
+        .map(|(index, name, channels)| sample_take(rig, reader, index, name, channels))
+        .collect()
+}
+
+/// Samples one animation's channels at a regular frame time into a [`Clip`].
+fn sample_take(
+    rig: &Rig,
+    reader: &AccessorReader,
+    index: usize,
+    name: String,
+    channels: Vec<Channel>,
+) -> Result<Clip> {
+    let t0 = channels
+        .iter()
+        .map(|c| c.times[0])
+        .fold(f32::INFINITY, f32::min);
+    let t1 = channels
+        .iter()
+        .map(|c| c.times[c.times.len() - 1])
+        .fold(f32::NEG_INFINITY, f32::max);
+    let all_times: Vec<f32> = channels
+        .iter()
+        .flat_map(|c| c.times.iter().copied())
+        .collect();
+    let frame_time = clip_frame_time(&all_times);
+    let steps = ((t1 - t0) / frame_time).round() as f64;
+    let max_frames = MAX_CLIP_SAMPLES / rig.joints.len().max(1);
+    if !(steps.is_finite() && steps < max_frames as f64) {
+        return Err(format_err(
+            reader.path,
+            format!("animation {index}"),
+            format!("runs from {t0} s to {t1} s, too long to sample"),
+        ));
+    }
+    let n = steps as usize + 1;
+    let mut frames = Vec::with_capacity(n);
+    for f in 0..n {
+        let t = if f + 1 == n {
+            t1
+        } else {
+            (t0 as f64 + f as f64 * frame_time as f64) as f32
+        };
+        let mut trs = rig.node_rest.clone();
+        for c in &channels {
+            let v = c.sample(t);
+            let x = &mut trs[c.joint];
+            match c.property {
+                Property::Translation => x.translation = Vec3::new(v[0], v[1], v[2]),
+                Property::Scale => x.scale = Vec3::new(v[0], v[1], v[2]),
+                Property::Rotation => x.rotation = Quat::from_array(v),
+                Property::MorphTargetWeights => {}
+            }
+        }
+        frames.push(
+            trs.iter()
+                .enumerate()
+                .map(|(j, t)| rig.local(j, t))
+                .collect(),
+        );
+    }
+    Ok(Clip {
+        name,
+        frame_time,
+        frames,
+    })
 }
 
 #[cfg(test)]
