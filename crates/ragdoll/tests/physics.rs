@@ -248,3 +248,20 @@ fn humanoid_released_standing_ends_lying_at_rest_above_the_ground() {
     assert!(m.max_joint_separation_m <= 0.005, "{m:?}");
     assert!(m.energy_drift < 0.01, "{m:?}");
 }
+
+/// A world can be asked where its bodies are before it has stepped: the start pose.
+#[test]
+fn body_poses_are_readable_before_the_first_step() {
+    let c = ragdoll::skeleton::humanoid();
+    let spec = ragdoll::spec::build_spec(&c, &ragdoll::spec::BuildOptions::default()).unwrap();
+    let (world, id) =
+        ragdoll::world::World::with_ragdoll(&c, &spec, &ragdoll::world::WorldSettings::default())
+            .unwrap();
+    let poses = world.body_poses(id);
+    assert_eq!(poses.len(), spec.bodies.len());
+    // Standing: the head is the highest body, well above the pelvis.
+    let head = spec.body_index("head").unwrap();
+    let pelvis = spec.body_index("pelvis").unwrap();
+    assert!(poses[head].translation.y > poses[pelvis].translation.y + 0.4);
+    assert_eq!(world.joint_errors(id).len(), spec.joints.len());
+}

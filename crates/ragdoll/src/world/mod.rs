@@ -402,6 +402,8 @@ impl World {
                 frames: Vec::new(),
             },
         });
+        // The bodies' states are readable (body_poses, joint_errors) before the first step.
+        self.backend.body_states(&mut self.states);
         Ok(RagdollId(self.instances.len() - 1))
     }
 
