@@ -335,8 +335,8 @@ impl ParticleBackend {
         }
     }
 
-    /// Joint limits: child and parent turn about the joint until the child is back inside
-    /// (see `Joint::child_share`); a stick's twist follows its turned frame.
+    /// Joint limits: child and parent turn until the child is back inside; a stick's twist
+    /// follows its turned frame.
     fn solve_limits(&mut self) {
         for k in 0..self.joints.len() {
             let (p, c) = (self.joints[k].rj.parent, self.joints[k].rj.child);
@@ -365,68 +365,88 @@ impl ParticleBackend {
             let Some(target) = j.clamp_child_rotation(&parent, &child) else {
                 continue;
             };
-            // The correction turns child and parent about the joint in opposite senses,
-            // θc − θp = δ, shared by the two sides' inertias (Ic·θc + Ip·θp = 0).
-            let joint_particle = self.joints[k].particle as usize;
-            let xj = self.x[joint_particle];
             let turn = (target * cr.conjugate()).normalize();
             let turn = if turn.w < 0.0 { -turn } else { turn };
             let delta = turn.to_scaled_axis();
-            let share = if self.parts[self.body_parts(p)]
-                .iter()
-                .any(|&i| self.w[i as usize] <= 0.0)
-            {
-                1.0
-            } else {
-                self.joints[k].child_share
+            let angle = delta.length();
+            if angle < 1.0e-7 {
+                continue;
+            }
+            let axis = delta / angle;
+            let joint_particle = self.joints[k].particle as usize;
+            let free = |b: usize| {
+                (self.w[joint_particle] > 0.0)
+                    .then(|| self.rotational_inertia(b))
+                    .flatten()
             };
-            let (theta_c, theta_p) = (delta * share, delta * (share - 1.0));
-            // Turning about the joint moves the two bodies' mass: the momentum it would
-            // add is taken back by shifting both bodies (the joint too) the other way, as
-            // a three-point bend constraint moves its middle point. Without it a chain
-            // pressed against the floor at its limits crawls and gains energy.
-            let (mut momentum, mut mass) = (Vec3::ZERO, 0.0f32);
-            for (b, theta) in [(c, theta_c), (p, theta_p)] {
-                let q = Quat::from_scaled_axis(theta);
-                for k2 in self.body_parts(b) {
-                    let i = self.parts[k2] as usize;
-                    if self.w[i] <= 0.0 || (i == joint_particle && b == p) {
-                        continue;
-                    }
-                    mass += self.m[i];
-                    if i != joint_particle {
-                        let to = xj + q * (self.x[i] - xj);
-                        momentum += (to - self.x[i]) * self.m[i];
-                        self.x[i] = to;
-                    }
+            match (free(c), free(p)) {
+                (Some((cc, ic)), Some((cp, ip))) => {
+                    // XPBD's angular correction between two rigid bodies: each turns
+                    // about its own centre of mass by its inverse inertia times the
+                    // impulse, so neither momentum changes and the projection cannot
+                    // pump energy against the floor; the sticks and clusters then close
+                    // the joint the turns opened.
+                    let (wc, wp) = (axis.dot(ic * axis), axis.dot(ip * axis));
+                    let lambda = angle / (wc + wp).max(1.0e-12);
+                    self.turn_body(c, cc, ic * axis * lambda);
+                    self.turn_body(p, cp, ip * axis * -lambda);
                 }
-                let body = &mut self.bodies[b];
-                body.rot = (q * body.rot).normalize();
-                body.pos = xj + q * (body.pos - xj);
-            }
-            if self.w[joint_particle] <= 0.0
-                || self.parts[self.body_parts(p)]
-                    .iter()
-                    .any(|&i| self.w[i as usize] <= 0.0)
-            {
-                momentum = Vec3::ZERO;
-            }
-            if mass > 0.0 && momentum != Vec3::ZERO {
-                let shift = -momentum / mass;
-                for b in [c, p] {
-                    for k2 in self.body_parts(b) {
-                        let i = self.parts[k2] as usize;
-                        if self.w[i] > 0.0 && !(i == joint_particle && b == p) {
-                            self.x[i] += shift;
-                        }
-                    }
-                    self.bodies[b].pos += shift;
+                _ => {
+                    // Held parent (or joint): the child alone turns about the joint.
+                    let xj = self.x[joint_particle];
+                    self.turn_body(c, xj, delta);
                 }
             }
             // Sticks keep the turn's roll about their bone in their twist.
             self.resync_twist(c);
             self.resync_twist(p);
         }
+    }
+
+    /// Centre of mass and inverse inertia tensor (world, about that centre) of body `b`'s
+    /// particles, or `None` when one of them is held; a stick's missing inertia about its
+    /// bone is its twist inertia.
+    fn rotational_inertia(&self, b: usize) -> Option<(Vec3, Mat3)> {
+        let parts = &self.parts[self.body_parts(b)];
+        let (mut c, mut mass) = (Vec3::ZERO, 0.0f32);
+        for &i in parts {
+            let i = i as usize;
+            if self.w[i] <= 0.0 {
+                return None;
+            }
+            c += self.x[i] * self.m[i];
+            mass += self.m[i];
+        }
+        c /= mass;
+        let mut inertia = Mat3::ZERO;
+        for &i in parts {
+            let (r, m) = (self.x[i as usize] - c, self.m[i as usize]);
+            inertia += (Mat3::IDENTITY * r.length_squared()
+                - Mat3::from_cols(r * r.x, r * r.y, r * r.z))
+                * m;
+        }
+        let body = &self.bodies[b];
+        if let Orient::Stick { .. } = body.orient {
+            let d = (self.x[body.tip as usize] - self.x[body.base as usize]).normalize_or(Vec3::Y);
+            inertia += Mat3::from_cols(d * d.x, d * d.y, d * d.z) * body.axial_inertia;
+        }
+        let trace = inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z;
+        inertia += Mat3::IDENTITY * (1.0e-6 * trace + 1.0e-12);
+        Some((c, inertia.inverse()))
+    }
+
+    /// Turns body `b`'s free particles and frame by the rotation vector `theta` about `centre`.
+    fn turn_body(&mut self, b: usize, centre: Vec3, theta: Vec3) {
+        let q = Quat::from_scaled_axis(theta);
+        for k in self.body_parts(b) {
+            let i = self.parts[k] as usize;
+            if self.w[i] > 0.0 {
+                self.x[i] = centre + q * (self.x[i] - centre);
+            }
+        }
+        let body = &mut self.bodies[b];
+        body.rot = (q * body.rot).normalize();
+        body.pos = centre + q * (body.pos - centre);
     }
 
     /// Sets stick `b`'s twist from its current rotation (after something turned it as a
