@@ -240,6 +240,10 @@ pub(crate) struct ParticleBackend {
     grid: collide::Grid,
     pairs: Vec<(u32, u32)>,
     touched: Vec<bool>,
+    /// Stick children of each body (global body indices).
+    children: Vec<Vec<u32>>,
+    /// Bodies whose frame a limit turn made stale during the current pass.
+    stale: Vec<bool>,
     penetration: f32,
     /// Length of the last step, seconds.
     last_dt: f32,
@@ -335,6 +339,8 @@ impl ParticleBackend {
             grid: collide::Grid::default(),
             pairs: Vec::new(),
             touched: Vec::new(),
+            children: Vec::new(),
+            stale: Vec::new(),
             penetration: 0.0,
             last_dt: 0.0,
             scratch: Vec::new(),
@@ -674,7 +680,15 @@ impl ParticleBackend {
             }
         }
         self.touched.resize(self.bodies.len(), false);
-        self.update_frames(1.0);
+        self.stale.resize(self.bodies.len(), false);
+        self.children.resize(self.bodies.len(), Vec::new());
+        for b in fb..fb + n {
+            if let Orient::Stick { joint: Some(k) } = self.bodies[b].orient {
+                let parent = self.joints[k as usize].rj.parent;
+                self.children[parent].push(b as u32);
+            }
+        }
+        self.update_frames(1.0, true);
         for b in fb..fb + n {
             self.bodies[b].rot_prev = self.bodies[b].rot;
         }

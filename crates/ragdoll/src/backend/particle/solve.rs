@@ -121,10 +121,12 @@ impl ParticleBackend {
         for s in 0..n {
             let frac = (s + 1) as f32 / n as f32;
             self.predict(h, frac);
-            self.update_frames(frac);
             for _ in 0..self.settings.iterations.max(1) {
                 self.solve_sticks();
                 self.solve_clusters();
+                // Fresh frames once per pass (clusters are fresh from their matching):
+                // the limits read them, and the turns they make keep them up to date.
+                self.update_frames(frac, false);
                 self.solve_limits();
                 self.solve_pins(h, frac);
                 self.solve_ground();
@@ -143,7 +145,7 @@ impl ParticleBackend {
                 }
             }
         }
-        self.update_frames(1.0);
+        self.update_frames(1.0, true);
         for body in &mut self.bodies {
             body.kin_from = body.kin_to;
         }
@@ -193,8 +195,8 @@ impl ParticleBackend {
     }
 
     /// Body frames from the particles (and twists), parents first; kinematic bodies at
-    /// `frac` of the way to their targets.
-    pub(super) fn update_frames(&mut self, frac: f32) {
+    /// `frac` of the way to their targets; clusters matched again only with `clusters`.
+    pub(super) fn update_frames(&mut self, frac: f32, clusters: bool) {
         for idx in 0..self.order.len() {
             let b = self.order[idx] as usize;
             if self.bodies[b].kinematic {
@@ -208,7 +210,7 @@ impl ParticleBackend {
             }
             match self.bodies[b].orient {
                 Orient::Cluster => {
-                    if !self.bodies[b].kinematic {
+                    if clusters && !self.bodies[b].kinematic {
                         self.match_cluster(b, false);
                     }
                 }
@@ -346,12 +348,13 @@ impl ParticleBackend {
             if matches!(self.joints[k].rj.kind, JointKind::Ball) {
                 continue;
             }
-            // Fresh frames: the projections since the last frame update moved particles.
+            // A turn earlier in this pass moved a stick's base or its parent's frame.
             for b in [p, c] {
-                match self.bodies[b].orient {
-                    Orient::Cluster => self.match_cluster(b, false),
-                    Orient::Stick { joint: Some(jk) } => self.stick_frame(b, jk as usize),
-                    Orient::Stick { joint: None } => {}
+                if self.stale[b] {
+                    self.stale[b] = false;
+                    if let Orient::Stick { joint: Some(jk) } = self.bodies[b].orient {
+                        self.stick_frame(b, jk as usize);
+                    }
                 }
             }
             let j = &self.joints[k].rj;
@@ -400,7 +403,16 @@ impl ParticleBackend {
             // Sticks keep the turn's roll about their bone in their twist.
             self.resync_twist(c);
             self.resync_twist(p);
+            for b in [c, p] {
+                for idx in 0..self.children[b].len() {
+                    let ch = self.children[b][idx] as usize;
+                    if ch != c {
+                        self.stale[ch] = true;
+                    }
+                }
+            }
         }
+        self.stale.fill(false);
     }
 
     /// Centre of mass and inverse inertia tensor (world, about that centre) of body `b`'s
