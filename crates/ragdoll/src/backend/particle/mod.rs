@@ -43,7 +43,9 @@
 //!   stick leaves its twist rate relative to the parent at zero.
 //! - Limit corrections turn whole bodies, so a joint held at its limit against the floor
 //!   converges over the iterations rather than at once: deep piles end a few degrees past
-//!   their limits and a few millimetres apart at the joints.
+//!   their limits and a few millimetres apart at the joints. A chain of short, fat sticks
+//!   between heavier ones (the auto-rigged dragon's spine) still flickers past its limits
+//!   for single frames once it lies on the floor.
 //! - A point of a body off the line of a stick's particles (a foot's capsule end below the
 //!   ankle-toe line) is pushed through its projection on that line.
 
