@@ -37,8 +37,7 @@
 //! # Note
 //!
 //! Two backends ([`world::BackendKind`]): rigid (rapier3d, the default) and particle (our
-//! XPBD particle ragdoll; self-contacts of hard impacts still add energy and it is far
-//! slower than it should be, see its docs). Preview pictures are drawn by the separate
+//! XPBD particle ragdoll; still far slower than it should be, see its docs). Preview pictures are drawn by the separate
 //! `ragdoll-preview` crate, the interactive viewer is `ragdoll-view`. Powered mode
 //! (`world::Motors`) tracks mocap within 5° with the root on the clip.
 //!

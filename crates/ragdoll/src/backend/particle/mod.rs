@@ -19,15 +19,16 @@
 //!   cluster held by shape matching (Müller et al. 2005), its orientation the matched
 //!   rotation (Müller et al. 2016's iterative extraction, warm started).
 //! - **Joint limits** (cone, twist, hinge range, fixed) are position projections: the
-//!   child's particles are turned about the joint back inside the limits that
+//!   child is turned back inside the limits that
 //!   [`ResolvedJoint::clamp_child_rotation`] gives, the same measure the world's metrics
-//!   use; child and parent turn about the joint in opposite senses, shared by the
-//!   moments of inertia of the ragdoll on either side of it.
+//!   use: child and parent turn about their own centres of mass in opposite senses, by
+//!   their inverse inertias (XPBD's angular correction), so a projection never changes
+//!   momentum; the sticks and clusters then close the joint the turns opened.
 //! - **Collision**: each body's capsule (boxes become the capsule along their longest edge,
-//!   the radius the smaller of the other two half edges, so nothing sinks into the floor) against the ground plane and against
-//!   every capsule not filtered out, of its own or another ragdoll: a uniform hash grid
-//!   found once per step gives the candidate pairs, the contacts are solved every substep
-//!   with positional friction (static up to μ times the penetration depth).
+//!   the radius the smaller of the other two half edges, so nothing sinks into the floor)
+//!   against the ground plane and against every capsule not filtered out, of its own or
+//!   another ragdoll: a uniform hash grid found once per step gives the candidate pairs,
+//!   the contacts are solved every substep with positional friction (static up to μ times the penetration depth).
 //! - Contacts, pins and limits act on points of a body; a point's correction is spread
 //!   over the body's particles with the weights of its affine (least-norm) combination of
 //!   them, so a push at a stick's end moves that end and a push at its middle moves both.
@@ -40,9 +41,11 @@
 //!   cluster, through its particles (their inertia, not the box's exactly).
 //! - Kinematic bodies follow their targets linearly over the substeps; a velocity set on a
 //!   stick leaves its twist rate relative to the parent at zero.
-//! - Known weakness: contacts between a ragdoll's own sticks still add energy at hard
-//!   impacts (a humanoid dropped flat bounces; piles of ragdolls end past their limits).
-//!   Collapsing from standing, chains, pendulums and blasts in the air behave.
+//! - Limit corrections turn whole bodies, so a joint held at its limit against the floor
+//!   converges over the iterations rather than at once: deep piles end a few degrees past
+//!   their limits and a few millimetres apart at the joints. A chain of short, fat sticks
+//!   between heavier ones (the auto-rigged dragon's spine) still flickers past its limits
+//!   for single frames once it lies on the floor.
 //! - A point of a body off the line of a stick's particles (a foot's capsule end below the
 //!   ankle-toe line) is pushed through its projection on that line.
 
@@ -166,11 +169,6 @@ struct Joint {
     /// Parent and child are global body indices.
     rj: ResolvedJoint,
     particle: u32,
-    /// Share of a limit correction the child side takes: the parent side's moment of
-    /// inertia about the joint over both sides' (each side the whole ragdoll on that side
-    /// of the joint, in the starting pose), so a light hand gives way to the arm and a
-    /// short spine between two heavy clusters is not whipped between them.
-    child_share: f32,
 }
 
 /// A point of a body held at a target.
@@ -244,6 +242,10 @@ pub(crate) struct ParticleBackend {
     grid: collide::Grid,
     pairs: Vec<(u32, u32)>,
     touched: Vec<bool>,
+    /// Stick children of each body (global body indices).
+    children: Vec<Vec<u32>>,
+    /// Bodies whose frame a limit turn made stale during the current pass.
+    stale: Vec<bool>,
     penetration: f32,
     /// Length of the last step, seconds.
     last_dt: f32,
@@ -339,6 +341,8 @@ impl ParticleBackend {
             grid: collide::Grid::default(),
             pairs: Vec::new(),
             touched: Vec::new(),
+            children: Vec::new(),
+            stale: Vec::new(),
             penetration: 0.0,
             last_dt: 0.0,
             scratch: Vec::new(),
@@ -619,40 +623,9 @@ impl ParticleBackend {
                     kind: j.kind,
                 },
                 particle: jp[k],
-                child_share: 1.0,
             });
         }
         let first_joint = self.joints.len() - joint_descs.len();
-        // Which bodies hang below each joint, for the sides' inertias.
-        let below = |k: usize, b: usize| {
-            let mut x = b;
-            for _ in 0..=n {
-                if x == joint_descs[k].child {
-                    return true;
-                }
-                match parent_joint[x] {
-                    Some(k2) => x = joint_descs[k2].parent,
-                    None => return false,
-                }
-            }
-            false
-        };
-        for (k, j) in joint_descs.iter().enumerate() {
-            let anchor = self.x[jp[k] as usize];
-            let (mut ic, mut ip) = (0.0f32, 0.0f32);
-            for (b, d) in descs.iter().enumerate() {
-                let inertia = inertia_of(&d.shape, d.mass);
-                let own = (inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z) / 3.0;
-                let i = own + d.mass * (d.pose.translation - anchor).length_squared();
-                if below(k, b) {
-                    ic += i;
-                } else {
-                    ip += i;
-                }
-            }
-            let _ = j;
-            self.joints[first_joint + k].child_share = ip / (ic + ip).max(1e-12);
-        }
         for b in fb..fb + n {
             if let Orient::Stick { joint: Some(k) } = self.bodies[b].orient {
                 let k = first_joint + k as usize;
@@ -709,7 +682,15 @@ impl ParticleBackend {
             }
         }
         self.touched.resize(self.bodies.len(), false);
-        self.update_frames(1.0);
+        self.stale.resize(self.bodies.len(), false);
+        self.children.resize(self.bodies.len(), Vec::new());
+        for b in fb..fb + n {
+            if let Orient::Stick { joint: Some(k) } = self.bodies[b].orient {
+                let parent = self.joints[k as usize].rj.parent;
+                self.children[parent].push(b as u32);
+            }
+        }
+        self.update_frames(1.0, true);
         for b in fb..fb + n {
             self.bodies[b].rot_prev = self.bodies[b].rot;
         }

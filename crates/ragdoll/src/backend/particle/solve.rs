@@ -121,10 +121,12 @@ impl ParticleBackend {
         for s in 0..n {
             let frac = (s + 1) as f32 / n as f32;
             self.predict(h, frac);
-            self.update_frames(frac);
             for _ in 0..self.settings.iterations.max(1) {
                 self.solve_sticks();
                 self.solve_clusters();
+                // Fresh frames once per pass (clusters are fresh from their matching):
+                // the limits read them, and the turns they make keep them up to date.
+                self.update_frames(frac, false);
                 self.solve_limits();
                 self.solve_pins(h, frac);
                 self.solve_ground();
@@ -143,7 +145,7 @@ impl ParticleBackend {
                 }
             }
         }
-        self.update_frames(1.0);
+        self.update_frames(1.0, true);
         for body in &mut self.bodies {
             body.kin_from = body.kin_to;
         }
@@ -193,8 +195,8 @@ impl ParticleBackend {
     }
 
     /// Body frames from the particles (and twists), parents first; kinematic bodies at
-    /// `frac` of the way to their targets.
-    pub(super) fn update_frames(&mut self, frac: f32) {
+    /// `frac` of the way to their targets; clusters matched again only with `clusters`.
+    pub(super) fn update_frames(&mut self, frac: f32, clusters: bool) {
         for idx in 0..self.order.len() {
             let b = self.order[idx] as usize;
             if self.bodies[b].kinematic {
@@ -208,7 +210,7 @@ impl ParticleBackend {
             }
             match self.bodies[b].orient {
                 Orient::Cluster => {
-                    if !self.bodies[b].kinematic {
+                    if clusters && !self.bodies[b].kinematic {
                         self.match_cluster(b, false);
                     }
                 }
@@ -335,8 +337,8 @@ impl ParticleBackend {
         }
     }
 
-    /// Joint limits: child and parent turn about the joint until the child is back inside
-    /// (see `Joint::child_share`); a stick's twist follows its turned frame.
+    /// Joint limits: child and parent turn until the child is back inside; a stick's twist
+    /// follows its turned frame.
     fn solve_limits(&mut self) {
         for k in 0..self.joints.len() {
             let (p, c) = (self.joints[k].rj.parent, self.joints[k].rj.child);
@@ -346,12 +348,13 @@ impl ParticleBackend {
             if matches!(self.joints[k].rj.kind, JointKind::Ball) {
                 continue;
             }
-            // Fresh frames: the projections since the last frame update moved particles.
+            // A turn earlier in this pass moved a stick's base or its parent's frame.
             for b in [p, c] {
-                match self.bodies[b].orient {
-                    Orient::Cluster => self.match_cluster(b, false),
-                    Orient::Stick { joint: Some(jk) } => self.stick_frame(b, jk as usize),
-                    Orient::Stick { joint: None } => {}
+                if self.stale[b] {
+                    self.stale[b] = false;
+                    if let Orient::Stick { joint: Some(jk) } = self.bodies[b].orient {
+                        self.stick_frame(b, jk as usize);
+                    }
                 }
             }
             let j = &self.joints[k].rj;
@@ -365,68 +368,97 @@ impl ParticleBackend {
             let Some(target) = j.clamp_child_rotation(&parent, &child) else {
                 continue;
             };
-            // The correction turns child and parent about the joint in opposite senses,
-            // θc − θp = δ, shared by the two sides' inertias (Ic·θc + Ip·θp = 0).
-            let joint_particle = self.joints[k].particle as usize;
-            let xj = self.x[joint_particle];
             let turn = (target * cr.conjugate()).normalize();
             let turn = if turn.w < 0.0 { -turn } else { turn };
             let delta = turn.to_scaled_axis();
-            let share = if self.parts[self.body_parts(p)]
-                .iter()
-                .any(|&i| self.w[i as usize] <= 0.0)
-            {
-                1.0
-            } else {
-                self.joints[k].child_share
+            let angle = delta.length();
+            if angle < 1.0e-7 {
+                continue;
+            }
+            let axis = delta / angle;
+            let joint_particle = self.joints[k].particle as usize;
+            let free = |b: usize| {
+                (self.w[joint_particle] > 0.0)
+                    .then(|| self.rotational_inertia(b))
+                    .flatten()
             };
-            let (theta_c, theta_p) = (delta * share, delta * (share - 1.0));
-            // Turning about the joint moves the two bodies' mass: the momentum it would
-            // add is taken back by shifting both bodies (the joint too) the other way, as
-            // a three-point bend constraint moves its middle point. Without it a chain
-            // pressed against the floor at its limits crawls and gains energy.
-            let (mut momentum, mut mass) = (Vec3::ZERO, 0.0f32);
-            for (b, theta) in [(c, theta_c), (p, theta_p)] {
-                let q = Quat::from_scaled_axis(theta);
-                for k2 in self.body_parts(b) {
-                    let i = self.parts[k2] as usize;
-                    if self.w[i] <= 0.0 || (i == joint_particle && b == p) {
-                        continue;
-                    }
-                    mass += self.m[i];
-                    if i != joint_particle {
-                        let to = xj + q * (self.x[i] - xj);
-                        momentum += (to - self.x[i]) * self.m[i];
-                        self.x[i] = to;
-                    }
+            match (free(c), free(p)) {
+                (Some((cc, ic)), Some((cp, ip))) => {
+                    // XPBD's angular correction between two rigid bodies: each turns
+                    // about its own centre of mass by its inverse inertia times the
+                    // impulse, so neither momentum changes and the projection cannot
+                    // pump energy against the floor; the sticks and clusters then close
+                    // the joint the turns opened.
+                    let (wc, wp) = (axis.dot(ic * axis), axis.dot(ip * axis));
+                    let lambda = angle / (wc + wp).max(1.0e-12);
+                    self.turn_body(c, cc, ic * axis * lambda);
+                    self.turn_body(p, cp, ip * axis * -lambda);
                 }
-                let body = &mut self.bodies[b];
-                body.rot = (q * body.rot).normalize();
-                body.pos = xj + q * (body.pos - xj);
-            }
-            if self.w[joint_particle] <= 0.0
-                || self.parts[self.body_parts(p)]
-                    .iter()
-                    .any(|&i| self.w[i as usize] <= 0.0)
-            {
-                momentum = Vec3::ZERO;
-            }
-            if mass > 0.0 && momentum != Vec3::ZERO {
-                let shift = -momentum / mass;
-                for b in [c, p] {
-                    for k2 in self.body_parts(b) {
-                        let i = self.parts[k2] as usize;
-                        if self.w[i] > 0.0 && !(i == joint_particle && b == p) {
-                            self.x[i] += shift;
-                        }
-                    }
-                    self.bodies[b].pos += shift;
+                _ => {
+                    // Held parent (or joint): the child alone turns about the joint.
+                    let xj = self.x[joint_particle];
+                    self.turn_body(c, xj, delta);
                 }
             }
             // Sticks keep the turn's roll about their bone in their twist.
             self.resync_twist(c);
             self.resync_twist(p);
+            for b in [c, p] {
+                for idx in 0..self.children[b].len() {
+                    let ch = self.children[b][idx] as usize;
+                    if ch != c {
+                        self.stale[ch] = true;
+                    }
+                }
+            }
         }
+        self.stale.fill(false);
+    }
+
+    /// Centre of mass and inverse inertia tensor (world, about that centre) of body `b`'s
+    /// particles, or `None` when one of them is held; a stick's missing inertia about its
+    /// bone is its twist inertia.
+    fn rotational_inertia(&self, b: usize) -> Option<(Vec3, Mat3)> {
+        let parts = &self.parts[self.body_parts(b)];
+        let (mut c, mut mass) = (Vec3::ZERO, 0.0f32);
+        for &i in parts {
+            let i = i as usize;
+            if self.w[i] <= 0.0 {
+                return None;
+            }
+            c += self.x[i] * self.m[i];
+            mass += self.m[i];
+        }
+        c /= mass;
+        let mut inertia = Mat3::ZERO;
+        for &i in parts {
+            let (r, m) = (self.x[i as usize] - c, self.m[i as usize]);
+            inertia += (Mat3::IDENTITY * r.length_squared()
+                - Mat3::from_cols(r * r.x, r * r.y, r * r.z))
+                * m;
+        }
+        let body = &self.bodies[b];
+        if let Orient::Stick { .. } = body.orient {
+            let d = (self.x[body.tip as usize] - self.x[body.base as usize]).normalize_or(Vec3::Y);
+            inertia += Mat3::from_cols(d * d.x, d * d.y, d * d.z) * body.axial_inertia;
+        }
+        let trace = inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z;
+        inertia += Mat3::IDENTITY * (1.0e-6 * trace + 1.0e-12);
+        Some((c, inertia.inverse()))
+    }
+
+    /// Turns body `b`'s free particles and frame by the rotation vector `theta` about `centre`.
+    fn turn_body(&mut self, b: usize, centre: Vec3, theta: Vec3) {
+        let q = Quat::from_scaled_axis(theta);
+        for k in self.body_parts(b) {
+            let i = self.parts[k] as usize;
+            if self.w[i] > 0.0 {
+                self.x[i] = centre + q * (self.x[i] - centre);
+            }
+        }
+        let body = &mut self.bodies[b];
+        body.rot = (q * body.rot).normalize();
+        body.pos = centre + q * (body.pos - centre);
     }
 
     /// Sets stick `b`'s twist from its current rotation (after something turned it as a
