@@ -264,8 +264,9 @@ fn report_markers(glb: &Path) -> Result<Vec<Marker>> {
     }
     for p in json["projectiles"].as_array().into_iter().flatten() {
         if let (Some(point), Some(time_s)) = (v3(&p["point"]), num(&p["time_s"])) {
+            // Reports older than the `origin` field draw the hit alone.
             out.push(Marker::Shot {
-                origin: point,
+                origin: v3(&p["origin"]).unwrap_or(point),
                 end: point,
                 time_s,
                 hit: true,

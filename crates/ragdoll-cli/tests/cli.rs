@@ -441,6 +441,12 @@ fn shoot_names_the_part_it_hit() {
     assert!(o.status.success(), "{}", stderr(&o));
     let report = read_json(&tmp.path().join("s.report.json"));
     assert_eq!(report["projectiles"][0]["body"], "head", "{report}");
+    // Where it came from, so a preview of the baked file can draw the tracer.
+    assert_eq!(
+        report["projectiles"][0]["origin"],
+        serde_json::json!([0.0, 1.66, 5.0]),
+        "{report}"
+    );
     assert!(
         (report["projectiles"][0]["impulse_ns"].as_f64().unwrap() - 0.008 * 360.0).abs() < 1e-3
     );

@@ -210,6 +210,8 @@ pub struct ProjectileReport {
     pub character: Option<usize>,
     /// The body part hit, or `null` for a miss.
     pub body: Option<String>,
+    /// Where it was fired from, world space, metres (so a report alone can draw the shot).
+    pub origin: [f32; 3],
     /// Where it hit, world space, metres.
     pub point: Option<[f32; 3]>,
     /// Momentum given to the part, N·s.

@@ -446,6 +446,7 @@ impl World {
             let momentum = p.mass_kg * p.speed_mps;
             let mut report = ProjectileReport {
                 time_s: p.time_s,
+                origin: p.origin.to_array(),
                 character: None,
                 body: None,
                 point: None,
