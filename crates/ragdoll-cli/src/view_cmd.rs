@@ -30,8 +30,7 @@ pub struct ViewArgs {
     /// Do not open a browser; just print the URL.
     #[arg(long)]
     no_open: bool,
-    /// Folder the page's "Save spec" writes into (default: the input's folder, or the
-    /// current folder for the built-in humanoid).
+    /// Folder the page's "Save spec" writes into (default: the current folder).
     #[arg(long, value_name = "DIR")]
     save_dir: Option<PathBuf>,
     /// Start from the rest pose instead of the first animation frame.
@@ -78,14 +77,9 @@ pub fn run(a: &ViewArgs) -> Result<()> {
             single_character_scene(character, spec, &input, settings)
         }
     };
-    let save_dir = match (&a.save_dir, &a.file) {
-        (Some(dir), _) => dir.clone(),
-        (None, Some(file)) => file
-            .parent()
-            .filter(|p| !p.as_os_str().is_empty())
-            .map_or_else(|| PathBuf::from("."), PathBuf::from),
-        (None, None) => PathBuf::from("."),
-    };
+    // The current folder, not the input's: inputs often sit in folders that are not ours
+    // to write into (shared data, a download).
+    let save_dir = a.save_dir.clone().unwrap_or_else(|| PathBuf::from("."));
     let save_stem = a.file.as_ref().and_then(|f| f.file_stem()).map_or_else(
         || "humanoid".to_string(),
         |s| s.to_string_lossy().into_owned(),

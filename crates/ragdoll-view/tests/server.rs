@@ -110,7 +110,7 @@ fn bad_messages_are_dropped_and_the_connection_and_simulation_go_on() {
     // The same connection still carries good messages both ways.
     send(&mut ws, r#"{"type":"pause"}"#);
     read_until(&mut ws, |v| v["type"] == "frame" && v["playing"] == false);
-    let paused = time(&get_state(addr));
+    let paused = time(&state_when_paused(addr));
     std::thread::sleep(Duration::from_millis(200));
     assert_eq!(time(&get_state(addr)), paused);
     send(&mut ws, r#"{"type":"play"}"#);
@@ -144,6 +144,31 @@ fn positions(v: &Value) -> String {
     v["ragdolls"][0]["bodies"].to_string()
 }
 
+/// The state once it shows the world paused (published just after the frame that says so).
+fn state_when_paused(addr: SocketAddr) -> Value {
+    let deadline = Instant::now() + Duration::from_secs(10);
+    let mut state = get_state(addr);
+    while state["playing"] != false && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(10));
+        state = get_state(addr);
+    }
+    assert_eq!(state["playing"], false, "{state}");
+    state
+}
+
+/// The state once it shows `step`: the server publishes it just after the frame, so a
+/// request right after the frame can still see the step before.
+fn state_at_step(addr: SocketAddr, step: u64) -> Value {
+    let deadline = Instant::now() + Duration::from_secs(10);
+    let mut state = get_state(addr);
+    while state["step"] != step && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(10));
+        state = get_state(addr);
+    }
+    assert_eq!(state["step"], step, "{state}");
+    state
+}
+
 #[test]
 fn scrubbing_back_and_playing_replays_the_same_motion_with_its_events() {
     let viewer = start();
@@ -163,13 +188,13 @@ fn scrubbing_back_and_playing_replays_the_same_motion_with_its_events() {
     }
     send(&mut ws, r#"{"type":"pause"}"#);
     read_until(&mut ws, |v| v["type"] == "frame" && v["playing"] == false);
-    let head = get_state(addr);
+    let head = state_when_paused(addr);
     let t_head = time(&head);
     assert_eq!(head["events"], 1);
     // Scrubbing shows the recorded past...
     send(&mut ws, r#"{"type":"scrub","time_s":1.0}"#);
     read_until(&mut ws, |v| v["type"] == "frame" && v["step"] == 60);
-    let recorded = get_state(addr);
+    let recorded = state_at_step(addr, 60);
     assert!((time(&recorded) - 1.0).abs() < 1e-6);
     assert_eq!(recorded["head_time_s"], head["time_s"]);
     // ...and playing from there re-simulates from 0 (the blast replayed at its step), so
@@ -183,13 +208,13 @@ fn scrubbing_back_and_playing_replays_the_same_motion_with_its_events() {
     send(&mut ws, &format!(r#"{{"type":"scrub","time_s":{t_head}}}"#));
     let step = head["step"].as_u64().unwrap();
     read_until(&mut ws, |v| v["type"] == "frame" && v["step"] == step);
-    let replayed = get_state(addr);
+    let replayed = state_at_step(addr, step);
     assert_eq!(replayed["events"], 1);
     assert_eq!(positions(&replayed), positions(&head));
     // The blast did move the character: the pelvis is far from where it started.
     send(&mut ws, r#"{"type":"scrub","time_s":0}"#);
     read_until(&mut ws, |v| v["type"] == "frame" && v["step"] == 0);
-    let start = get_state(addr);
+    let start = state_at_step(addr, 0);
     let x = |v: &Value| v["ragdolls"][0]["centre_of_mass"][0].as_f64().unwrap();
     assert!(
         (x(&head) - x(&start)).abs() > 0.3,
