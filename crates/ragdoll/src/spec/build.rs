@@ -1044,41 +1044,8 @@ pub(crate) fn shapes_overlap(
 /// Distance between segments `p1 → q1` and `p2 → q2` (Ericson, Real-Time Collision
 /// Detection, §5.1.9, with its degenerate-segment cases).
 pub(crate) fn segment_distance(p1: Vec3, q1: Vec3, p2: Vec3, q2: Vec3) -> f32 {
-    let d1 = q1 - p1;
-    let d2 = q2 - p2;
-    let r = p1 - p2;
-    let a = d1.dot(d1);
-    let e = d2.dot(d2);
-    let f = d2.dot(r);
-    let eps = 1e-12;
-    let (s, t) = if a <= eps && e <= eps {
-        (0.0, 0.0)
-    } else if a <= eps {
-        (0.0, (f / e).clamp(0.0, 1.0))
-    } else {
-        let c = d1.dot(r);
-        if e <= eps {
-            ((-c / a).clamp(0.0, 1.0), 0.0)
-        } else {
-            let b = d1.dot(d2);
-            let denom = a * e - b * b;
-            let mut s = if denom > eps {
-                ((b * f - c * e) / denom).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            let mut t = (b * s + f) / e;
-            if t < 0.0 {
-                t = 0.0;
-                s = (-c / a).clamp(0.0, 1.0);
-            } else if t > 1.0 {
-                t = 1.0;
-                s = ((b - c) / a).clamp(0.0, 1.0);
-            }
-            (s, t)
-        }
-    };
-    (p1 + d1 * s).distance(p2 + d2 * t)
+    let (s, t) = crate::math::closest_segment_params(p1, q1, p2, q2);
+    p1.lerp(q1, s).distance(p2.lerp(q2, t))
 }
 
 #[cfg(test)]

@@ -31,43 +31,6 @@ fn hash(c: IVec3, mask: usize) -> usize {
     h as usize & mask
 }
 
-/// Parameters `(s, t)` of the closest points of segments `p0 p1` and `q0 q1` (Ericson,
-/// Real-Time Collision Detection, 5.1.9).
-fn closest_params(p0: Vec3, p1: Vec3, q0: Vec3, q1: Vec3) -> (f32, f32) {
-    let d1 = p1 - p0;
-    let d2 = q1 - q0;
-    let r = p0 - q0;
-    let a = d1.dot(d1);
-    let e = d2.dot(d2);
-    let f = d2.dot(r);
-    if a <= 1e-12 && e <= 1e-12 {
-        return (0.0, 0.0);
-    }
-    if a <= 1e-12 {
-        return (0.0, (f / e).clamp(0.0, 1.0));
-    }
-    let c = d1.dot(r);
-    if e <= 1e-12 {
-        return ((-c / a).clamp(0.0, 1.0), 0.0);
-    }
-    let b = d1.dot(d2);
-    let denom = a * e - b * b;
-    let mut s = if denom > 1e-12 {
-        ((b * f - c * e) / denom).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    let mut t = (b * s + f) / e;
-    if t < 0.0 {
-        t = 0.0;
-        s = (-c / a).clamp(0.0, 1.0);
-    } else if t > 1.0 {
-        t = 1.0;
-        s = ((b - c) / a).clamp(0.0, 1.0);
-    }
-    (s, t)
-}
-
 /// Distance along the unit ray `origin + t·dir`, `t ≥ 0`, to the capsule `a b` of radius `r`.
 fn ray_capsule(origin: Vec3, dir: Vec3, a: Vec3, b: Vec3, r: f32) -> Option<f32> {
     let mut best: Option<f32> = None;
@@ -275,7 +238,7 @@ impl ParticleBackend {
             let (a, b) = (self.pairs[idx].0 as usize, self.pairs[idx].1 as usize);
             let (a0, a1) = self.capsule_from_particles(a);
             let (b0, b1) = self.capsule_from_particles(b);
-            let (s, t) = closest_params(a0, a1, b0, b1);
+            let (s, t) = crate::math::closest_segment_params(a0, a1, b0, b1);
             let (pa, pb) = (a0.lerp(a1, s), b0.lerp(b1, t));
             let d = pb - pa;
             let dist = d.length();
@@ -369,7 +332,7 @@ impl ParticleBackend {
             let (a, b) = (a as usize, b as usize);
             let (a0, a1) = self.capsule_world(a);
             let (b0, b1) = self.capsule_world(b);
-            let (s, t) = closest_params(a0, a1, b0, b1);
+            let (s, t) = crate::math::closest_segment_params(a0, a1, b0, b1);
             let dist = (b0.lerp(b1, t) - a0.lerp(a1, s)).length();
             deepest = deepest.max(self.bodies[a].radius + self.bodies[b].radius - dist);
         }
@@ -403,7 +366,7 @@ mod tests {
 
     #[test]
     fn closest_points_of_crossing_segments() {
-        let (s, t) = closest_params(
+        let (s, t) = crate::math::closest_segment_params(
             Vec3::new(-1.0, 0.0, 0.0),
             Vec3::new(1.0, 0.0, 0.0),
             Vec3::new(0.5, 1.0, -1.0),
