@@ -88,10 +88,17 @@ pub struct WorldSettings {
     /// subtree about the joint anchor, parents first, as position-based solvers do.
     pub project_limits: bool,
     /// Which engine moves the bodies (default [`BackendKind::Rigid`]). The particle
-    /// backend reads `substeps` as its XPBD substeps per physics step and `iterations` as
-    /// its projection passes per substep, and keeps limits itself (`project_limits` is
-    /// then not needed).
+    /// backend keeps limits itself (`project_limits` is then not needed) and reads
+    /// `particle_substeps` and `particle_iterations` instead of `substeps` and
+    /// `iterations`.
     pub backend: BackendKind,
+    /// Substeps per physics step of the particle backend (default 3: with the 4 collision
+    /// substeps, the particles move at 720 Hz). Two leave the built-in humanoid's bones
+    /// 1.4 % stretched after a fall and gain 3 % energy; four cost a third more for little.
+    pub particle_substeps: usize,
+    /// Projection passes per particle substep (default 1): substeps converge better than
+    /// passes for the same cost (Macklin et al. 2019, "Small Steps in Physics Simulation").
+    pub particle_iterations: usize,
 }
 
 impl Default for WorldSettings {
@@ -107,6 +114,8 @@ impl Default for WorldSettings {
             start: StartPose::FirstFrame,
             project_limits: true,
             backend: BackendKind::Rigid,
+            particle_substeps: 3,
+            particle_iterations: 1,
         }
     }
 }
@@ -130,6 +139,8 @@ impl WorldSettings {
             ("collision_substeps", self.collision_substeps),
             ("substeps", self.substeps),
             ("iterations", self.iterations),
+            ("particle_substeps", self.particle_substeps),
+            ("particle_iterations", self.particle_iterations),
         ] {
             if v == 0 || v > 100 {
                 return bad(name, "must be between 1 and 100");
@@ -224,8 +235,8 @@ impl World {
                 AnyBackend::Particle(Box::new(ParticleBackend::new(ParticleSettings {
                     gravity: settings.gravity,
                     ground: settings.ground,
-                    substeps: settings.substeps,
-                    iterations: settings.iterations,
+                    substeps: settings.particle_substeps,
+                    iterations: settings.particle_iterations,
                 })))
             }
         };

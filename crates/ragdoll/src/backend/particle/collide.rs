@@ -9,6 +9,9 @@ use super::{FRICTION, ParticleBackend};
 const TOUCH_M: f32 = 0.005;
 /// Extra room around every box of the broad phase, metres.
 const BROAD_MARGIN_M: f32 = 0.01;
+/// Mass scaling of a supported body under another, per metre of height between their
+/// contact points: 10 cm apart, the lower one answers 20 times heavier.
+const SHOCK_PER_M: f32 = 30.0;
 /// Largest grid cell, metres: a very large body spans several cells rather than making
 /// every cell huge.
 const MAX_CELL_M: f32 = 2.0;
@@ -81,17 +84,25 @@ impl ParticleBackend {
 
     /// World ends of body `b`'s capsule through its particles (so they follow the
     /// corrections made since the frames were last updated).
-    fn capsule_from_particles(&self, b: usize) -> (Vec3, Vec3) {
+    fn capsule_from_particles(&self, b: usize) -> [Vec3; 2] {
         let range = self.body_parts(b);
         let resid = &self.resid_e[b];
-        (
+        [
             self.point_world(b, &self.beta_e[0][range.clone()], resid[0]),
             self.point_world(b, &self.beta_e[1][range], resid[1]),
-        )
+        ]
     }
 
-    /// Candidate pairs for this step: bodies whose boxes, grown by how far they can move in
-    /// `dt`, share a grid cell.
+    /// Every body's capsule ends from its particles, for the contact passes.
+    pub(super) fn update_capsules(&mut self) {
+        let mut caps = std::mem::take(&mut self.caps);
+        caps.clear();
+        caps.extend((0..self.bodies.len()).map(|b| self.capsule_from_particles(b)));
+        self.caps = caps;
+    }
+
+    /// Candidate pairs for the next steps: bodies whose boxes, grown by how far they can
+    /// move in `dt`, share a grid cell.
     pub(super) fn find_pairs(&mut self, dt: f32) {
         self.pairs.clear();
         let n = self.bodies.len();
@@ -176,73 +187,109 @@ impl ParticleBackend {
         self.grid = grid;
     }
 
-    /// Capsule ends against the ground plane, with positional friction.
+    /// How body `b` answers a push along `n` (unit) at the world point `p` as one rigid
+    /// body: its inverse effective mass there, its centre, and the turn per unit push.
+    pub(super) fn rigid_response(&self, b: usize, p: Vec3, n: Vec3) -> (f32, Vec3, Vec3) {
+        let body = &self.bodies[b];
+        let c = body.pos + body.rot * body.com;
+        let rn = (p - c).cross(n);
+        let local = body.rot.conjugate() * rn;
+        let turn = body.rot * (body.inv_inertia * local);
+        (body.inv_mass + rn.dot(turn), c, turn)
+    }
+
+    /// Moves body `b`'s free particles rigidly: `lin` along, and turned by the small
+    /// rotation vector `ang` about `c`.
+    pub(super) fn rigid_move(&mut self, b: usize, c: Vec3, lin: Vec3, ang: Vec3) {
+        for k in self.body_parts(b) {
+            let i = self.parts[k] as usize;
+            if self.w[i] > 0.0 {
+                let r = self.x[i] - c;
+                self.x[i] += lin + ang.cross(r);
+            }
+        }
+    }
+
+    /// Capsule ends against the ground plane, each body answering as one rigid body, with
+    /// positional friction (static up to μ times the depth).
     pub(super) fn solve_ground(&mut self) {
         let Some(ground) = self.settings.ground else {
             return;
         };
         for b in 0..self.bodies.len() {
-            if self.bodies[b].kinematic {
+            let radius = self.bodies[b].radius;
+            let [e0, e1] = self.caps[b];
+            if e0.y.min(e1.y) - radius >= ground || self.bodies[b].kinematic {
                 continue;
             }
             let range = self.body_parts(b);
-            let radius = self.bodies[b].radius;
             for s in 0..2 {
-                let exact = &self.beta_e[s][range.clone()];
-                let end = self.point_world(b, exact, self.resid_e[b][s]);
-                let beta = &self.push_e[s][range.clone()];
+                let end = self.capsule_from_particles(b)[s];
                 let depth = ground + radius - end.y;
                 if depth <= 0.0 {
                     continue;
                 }
-                // Pushed along the spread weights, the end moves by Σ exactᵢ·pushᵢ·wᵢ per
-                // unit: dividing by that lifts it out exactly.
-                let (mut wsum, mut gain) = (0.0, 0.0);
-                for (k, &i) in self.parts[range.clone()].iter().enumerate() {
-                    wsum += beta[k] * beta[k] * self.w[i as usize];
-                    gain += exact[k] * beta[k] * self.w[i as usize];
-                }
-                if wsum <= 1e-12 || gain <= 1e-12 {
-                    continue;
-                }
-                let lambda = depth / gain;
+                self.supported[b] = true;
+                let p = end - Vec3::Y * radius;
+                let (w, c, turn) = self.rigid_response(b, p, Vec3::Y);
+                let lambda = depth / w;
+                let inv_mass = self.bodies[b].inv_mass;
+                self.rigid_move(b, c, Vec3::Y * (lambda * inv_mass), turn * lambda);
+                let exact = &self.beta_e[s][range.clone()];
                 let mut moved = Vec3::ZERO;
                 for (k, &i) in self.parts[range.clone()].iter().enumerate() {
                     let i = i as usize;
-                    self.x[i].y += self.w[i] * beta[k] * lambda;
                     moved += (self.x[i] - self.x_prev[i]) * exact[k];
                 }
                 let slide = Vec3::new(moved.x, 0.0, moved.z);
                 let len = slide.length();
                 if len > 1e-9 {
-                    let limit = FRICTION * depth;
-                    let corr = if len <= limit {
-                        -slide
-                    } else {
-                        -slide * (limit / len)
-                    };
-                    for (k, &i) in self.parts[range.clone()].iter().enumerate() {
-                        let i = i as usize;
-                        self.x[i] += corr * (self.w[i] * beta[k] / gain);
-                    }
+                    let t = -slide / len;
+                    let amount = len.min(FRICTION * depth);
+                    let (wt, c, turn) = self.rigid_response(b, p, t);
+                    let lambda = amount / wt;
+                    self.rigid_move(b, c, t * (lambda * inv_mass), turn * lambda);
                 }
             }
+            self.caps[b] = self.capsule_from_particles(b);
         }
     }
 
-    /// Capsule against capsule for the candidate pairs, with positional friction.
+    /// Displacement of body `b`'s axis point at `t` (0: first capsule end, 1: second) over
+    /// the substep so far.
+    fn axis_moved(&self, b: usize, t: f32) -> Vec3 {
+        let range = self.body_parts(b);
+        let mut moved = Vec3::ZERO;
+        for k in range {
+            let i = self.parts[k] as usize;
+            let exact = (1.0 - t) * self.beta_e[0][k] + t * self.beta_e[1][k];
+            moved += (self.x[i] - self.x_prev[i]) * exact;
+        }
+        moved
+    }
+
+    /// Capsule against capsule for the candidate pairs, each body answering as one rigid
+    /// body, with positional friction.
+    ///
+    /// A body resting on the floor (or on a body that rests on it) answers a body above it
+    /// as if heavier, by `exp(−SHOCK_PER_M·Δy)` in inverse mass (mass scaling, Macklin et
+    /// al. 2014 §5.2): one pass then carries a pile's weight down to the floor instead of
+    /// pushing the lowest limb into it. Bodies in the air keep their masses, so their
+    /// collisions keep momentum.
     pub(super) fn solve_pairs(&mut self) {
-        let mut ba = std::mem::take(&mut self.scratch);
-        let mut bb = std::mem::take(&mut self.scratch_b);
         for idx in 0..self.pairs.len() {
             let (a, b) = (self.pairs[idx].0 as usize, self.pairs[idx].1 as usize);
-            let (a0, a1) = self.capsule_from_particles(a);
-            let (b0, b1) = self.capsule_from_particles(b);
+            let ([a0, a1], [b0, b1]) = (self.caps[a], self.caps[b]);
+            let (ra, rb) = (self.bodies[a].radius, self.bodies[b].radius);
+            let reach = ra + rb;
+            let far = 0.5 * ((a1 - a0).length() + (b1 - b0).length()) + reach + TOUCH_M;
+            if (a0 + a1 - b0 - b1).length_squared() > 4.0 * far * far {
+                continue;
+            }
             let (s, t) = crate::math::closest_segment_params(a0, a1, b0, b1);
             let (pa, pb) = (a0.lerp(a1, s), b0.lerp(b1, t));
             let d = pb - pa;
             let dist = d.length();
-            let reach = self.bodies[a].radius + self.bodies[b].radius;
             if self.bodies[a].ragdoll != self.bodies[b].ragdoll && dist < reach + TOUCH_M {
                 self.touched[a] = true;
                 self.touched[b] = true;
@@ -252,68 +299,50 @@ impl ParticleBackend {
             }
             let n = if dist > 1e-9 { d / dist } else { Vec3::Y };
             let depth = reach - dist;
-            let (ra, rb) = (self.body_parts(a), self.body_parts(b));
-            ba.clear();
-            ba.extend(
-                ra.clone()
-                    .map(|k| (1.0 - s) * self.push_e[0][k] + s * self.push_e[1][k]),
-            );
-            bb.clear();
-            bb.extend(
-                rb.clone()
-                    .map(|k| (1.0 - t) * self.push_e[0][k] + t * self.push_e[1][k]),
-            );
-            // Per unit push along the spread weights, each contact point moves by
-            // Σ exactᵢ·pushᵢ·wᵢ (its gain); dividing by the sum separates them exactly.
-            let gain = |range: std::ops::Range<usize>, push: &[f32], t: f32| -> f32 {
-                range
-                    .zip(push)
-                    .map(|(k, x)| {
-                        let exact = (1.0 - t) * self.beta_e[0][k] + t * self.beta_e[1][k];
-                        exact * x * self.w[self.parts[k] as usize]
-                    })
-                    .sum()
-            };
-            let wsum = gain(ra.clone(), &ba, s) + gain(rb.clone(), &bb, t);
+            let (qa, qb) = (pa + n * ra, pb - n * rb);
+            let (mut sa, mut sb) = (1.0f32, 1.0f32);
+            let dy = pb.y - pa.y;
+            if dy > 0.0 && self.supported[a] {
+                sa = (-SHOCK_PER_M * dy).exp();
+                self.supported[b] = true;
+            } else if dy < 0.0 && self.supported[b] {
+                sb = (SHOCK_PER_M * dy).exp();
+                self.supported[a] = true;
+            }
+            if self.bodies[a].kinematic {
+                sa = 0.0;
+            }
+            if self.bodies[b].kinematic {
+                sb = 0.0;
+            }
+            let (wa, ca, ta) = self.rigid_response(a, qa, n);
+            let (wb, cb, tb) = self.rigid_response(b, qb, n);
+            let wsum = sa * wa + sb * wb;
             if wsum <= 1e-12 {
                 continue;
             }
             let lambda = depth / wsum;
-            let mut moved = Vec3::ZERO;
-            for (k, x) in ra.clone().zip(&ba) {
-                let i = self.parts[k] as usize;
-                self.x[i] -= n * (self.w[i] * x * lambda);
-                let exact = (1.0 - s) * self.beta_e[0][k] + s * self.beta_e[1][k];
-                moved -= (self.x[i] - self.x_prev[i]) * exact;
-            }
-            for (k, x) in rb.clone().zip(&bb) {
-                let i = self.parts[k] as usize;
-                self.x[i] += n * (self.w[i] * x * lambda);
-                let exact = (1.0 - t) * self.beta_e[0][k] + t * self.beta_e[1][k];
-                moved += (self.x[i] - self.x_prev[i]) * exact;
-            }
-            // `moved`: how far b's contact point slid relative to a's this substep.
+            let (ma, mb) = (self.bodies[a].inv_mass, self.bodies[b].inv_mass);
+            self.rigid_move(a, ca, n * (-lambda * sa * ma), ta * (-lambda * sa));
+            self.rigid_move(b, cb, n * (lambda * sb * mb), tb * (lambda * sb));
+            let moved = self.axis_moved(b, t) - self.axis_moved(a, s);
             let slide = moved - n * moved.dot(n);
             let len = slide.length();
             if len > 1e-9 {
-                let limit = FRICTION * depth;
-                let corr = if len <= limit {
-                    slide
-                } else {
-                    slide * (limit / len)
-                };
-                for (k, x) in ra.zip(&ba) {
-                    let i = self.parts[k] as usize;
-                    self.x[i] += corr * (self.w[i] * x / wsum);
-                }
-                for (k, x) in rb.zip(&bb) {
-                    let i = self.parts[k] as usize;
-                    self.x[i] -= corr * (self.w[i] * x / wsum);
+                let dir = slide / len;
+                let amount = len.min(FRICTION * depth);
+                let (wa, ca, ta) = self.rigid_response(a, qa, dir);
+                let (wb, cb, tb) = self.rigid_response(b, qb, dir);
+                let wsum = sa * wa + sb * wb;
+                if wsum > 1e-12 {
+                    let lambda = amount / wsum;
+                    self.rigid_move(a, ca, dir * (lambda * sa * ma), ta * (lambda * sa));
+                    self.rigid_move(b, cb, dir * (-lambda * sb * mb), tb * (-lambda * sb));
                 }
             }
+            self.caps[a] = self.capsule_from_particles(a);
+            self.caps[b] = self.capsule_from_particles(b);
         }
-        self.scratch = ba;
-        self.scratch_b = bb;
     }
 
     /// Deepest penetration now (ground, and candidate pairs), from the body frames.

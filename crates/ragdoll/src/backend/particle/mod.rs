@@ -1,53 +1,58 @@
-//! The particle backend: our own position-based ragdoll (XPBD with substeps, one iteration
-//! per substep by default), cheap enough for crowds.
+//! The particle backend: our own position-based ragdoll (XPBD-style projections with
+//! substeps), cheap enough for crowds.
 //!
 //! # Model
 //!
-//! - **Particles** sit at the joint anchors (shared by the two bodies a joint links), at the
-//!   far end of leaf bodies (a tip), and inside each body (at its centre of mass), so that
-//!   every body's mass, centre of mass and (for sticks) moment of inertia across its axis
-//!   are those of the spec: a stick's masses follow the three-point rule (ends
-//!   `I/(p(p+q))`, `I/(q(p+q))`, the rest at the centre), which for a thin rod is Simpson's
-//!   m/6, 2m/3, m/6.
-//! - **Sticks**: a body with two anchors (or one anchor and a tip) keeps its length with a
-//!   distance constraint and its centre particle on the segment. Its orientation is the
-//!   bone direction plus a frame carried along from the parent body by minimal rotation,
-//!   turned by a **twist** angle about the bone: the one degree of freedom particles on a
-//!   line cannot carry, kept as a scalar state with its own inertia (the capsule's, about
-//!   its axis). A hinge child has no twist: its roll follows from the hinge angle.
-//! - **Clusters**: a body with three or more anchors (pelvis, chest) is a rigid particle
-//!   cluster held by shape matching (Müller et al. 2005), its orientation the matched
-//!   rotation (Müller et al. 2016's iterative extraction, warm started).
+//! Every body is a small rigid set of particles whose frame is read straight off their
+//! positions, so no orientation is carried as state and a pass over a ragdoll is a few
+//! dozen distance projections plus the limits that are out of range.
+//!
+//! - **Particles** sit at the joint anchors (shared by the two bodies a joint links) and
+//!   at the far end of leaf bodies (a tip). Each body adds two private particles: a
+//!   **side** particle off its anchors (beside the bone of a stick, off the plane of a
+//!   cluster's anchors), which makes the particles span 3-D so the frame, twist included,
+//!   follows from positions; and a **centre** particle carrying the rest of the mass,
+//!   placed so the body's centre of mass is the spec's. A stick's anchors take the
+//!   three-point rule (ends `I/(p(p+q))`, `I/(q(p+q))`: Simpson's m/6, 2m/3, m/6 for a thin
+//!   rod), so its moment of inertia across the bone is the spec's; the side particle's mass
+//!   times its distance squared is the moment about the bone.
+//! - **Rigidity**: distance constraints between every pair of a body's anchors, tip and
+//!   side particle (three for a stick), and an affine constraint that keeps the centre at
+//!   its fixed combination of the frame particles (linear, so one projection is exact).
+//! - **Frames**: a body's rotation is the orthonormal frame of three of its particles
+//!   (Gram-Schmidt) times that frame's inverse at rest.
 //! - **Joint limits** (cone, twist, hinge range, fixed) are position projections: the
-//!   child is turned back inside the limits that
-//!   [`ResolvedJoint::clamp_child_rotation`] gives, the same measure the world's metrics
-//!   use: child and parent turn about their own centres of mass in opposite senses, by
-//!   their inverse inertias (XPBD's angular correction), so a projection never changes
-//!   momentum; the sticks and clusters then close the joint the turns opened.
+//!   child is turned back inside the limits that [`ResolvedJoint::clamp_child_rotation`]
+//!   gives, the same measure the world's metrics use. Child and parent turn about their
+//!   own centres of mass in opposite senses, by their inverse inertias (XPBD's angular
+//!   correction), so a projection never changes momentum; the distance constraints then
+//!   close the joint the turns opened. A body with a held particle cannot turn freely: the
+//!   other side turns about the joint alone. After the substeps, what is still past a
+//!   limit by more than a degree (a hard landing on a straight knee) is turned back
+//!   positions-only, subtree about the joint, as the world does for the rigid backend.
 //! - **Collision**: each body's capsule (boxes become the capsule along their longest edge,
 //!   the radius the smaller of the other two half edges, so nothing sinks into the floor)
 //!   against the ground plane and against every capsule not filtered out, of its own or
-//!   another ragdoll: a uniform hash grid found once per step gives the candidate pairs,
-//!   the contacts are solved every substep with positional friction (static up to μ times the penetration depth).
-//! - Contacts, pins and limits act on points of a body; a point's correction is spread
-//!   over the body's particles with the weights of its affine (least-norm) combination of
-//!   them, so a push at a stick's end moves that end and a push at its middle moves both.
+//!   another ragdoll: a uniform hash grid, run every few steps with a margin for the motion
+//!   in between, gives the candidate pairs. A contact moves each body as one rigid body
+//!   (its particles' mass and inertia at the contact point), with positional friction
+//!   (static up to μ times the depth); a body resting on the floor answers one above it as
+//!   if heavier (mass scaling), so a pile's weight reaches the floor in one pass.
+//! - Pins and impulses act on points of a body: a pin's correction is spread over the
+//!   body's anchors and centre with the weights of its affine (least-norm) combination of
+//!   them; an impulse changes the body's particles' velocities as a rigid body's.
 //!
 //! # Approximations
 //!
-//! - A stick's twist velocity is relative to its parent; when the parent spins about the
-//!   child's axis, the child spins along (no inertial lag about the bone).
-//! - An impulse's moment about a stick's axis spins it through the twist state; about a
-//!   cluster, through its particles (their inertia, not the box's exactly).
-//! - Kinematic bodies follow their targets linearly over the substeps; a velocity set on a
-//!   stick leaves its twist rate relative to the parent at zero.
-//! - Limit corrections turn whole bodies, so a joint held at its limit against the floor
-//!   converges over the iterations rather than at once: deep piles end a few degrees past
-//!   their limits and a few millimetres apart at the joints. A chain of short, fat sticks
-//!   between heavier ones (the auto-rigged dragon's spine) still flickers past its limits
-//!   for single frames once it lies on the floor.
-//! - A point of a body off the line of a stick's particles (a foot's capsule end below the
-//!   ankle-toe line) is pushed through its projection on that line.
+//! - The side particle's mass moves the moment of inertia about one axis across the bone by
+//!   the moment about the bone (a few per cent of the across moment for a limb).
+//! - A cluster (pelvis, chest) holds half its mass on its anchors and the rest at its
+//!   centre: its inertia is the particles', not the box's.
+//! - A contact or a limit turn moves a body rigidly, anchors included, so its neighbours
+//!   bend until the distances close them again: joints open by millimetres in a pile.
+//! - Mass scaling does not keep momentum: a body landing on a resting pile is pushed back
+//!   more than the pile is pushed down.
+//! - Kinematic bodies follow their targets linearly over the substeps.
 
 mod collide;
 mod solve;
@@ -66,14 +71,15 @@ const MERGE_M: f32 = 1.0e-3;
 /// Shortest stick, metres: a leaf whose capsule barely reaches past its anchor gets a tip
 /// this far away, so its direction stays well defined.
 const MIN_STICK_M: f32 = 0.02;
-/// Velocity damping of the particles, 1/s: none, as rapier's bodies have none (a free
-/// fall must follow g·t²/2).
-const LINEAR_DAMPING: f32 = 0.0;
-/// Damping of the twist rate, 1/s: nothing else resists a stick's roll between its limits.
-const TWIST_DAMPING: f32 = 1.0;
-/// Smallest share of a stick's mass kept on its centre particle, so it never goes to zero
+/// Smallest share of a body's mass kept on its centre particle, so it never goes to zero
 /// (a short, fat body such as a head has more inertia than its ends can carry).
 const MIN_CENTRE_SHARE: f32 = 0.05;
+/// Bounds of the side particle's share of its body's mass. Its share times its distance
+/// squared is the moment about the bone; a very light one would let a twist limit throw it
+/// around, a heavy one would swamp the moment across the bone.
+const SIDE_SHARE: (f32, f32) = (0.005, 0.15);
+/// A cluster's side particle's share of its mass.
+const CLUSTER_SIDE_SHARE: f32 = 0.05;
 
 /// Settings the particle backend takes from the world.
 #[derive(Clone, Copy, Debug)]
@@ -82,20 +88,10 @@ pub(crate) struct ParticleSettings {
     pub gravity: Vec3,
     /// Height of the ground plane, or `None` for no ground.
     pub ground: Option<f32>,
-    /// XPBD substeps per step (each with its own contact solve).
+    /// Substeps per step (each predicts, projects and updates velocities).
     pub substeps: usize,
-    /// Constraint iterations per substep.
+    /// Projection passes per substep.
     pub iterations: usize,
-}
-
-/// How a body gets its orientation.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Orient {
-    /// Shape-matched rotation of three or more particles.
-    Cluster,
-    /// Bone direction plus twist, carried from the parent through joint `joint` (global),
-    /// or along time for a root stick.
-    Stick { joint: Option<u32> },
 }
 
 /// One body: a set of particles and what is needed to get its frame back from them.
@@ -106,47 +102,32 @@ struct Body {
     /// Its particles: `parts[first..first + count]`.
     first: u32,
     count: u32,
-    orient: Orient,
-    /// For sticks: the anchor particle (joint to the parent, or the first end) and the tip.
-    base: u32,
-    tip: u32,
-    /// Rest position of the base and tip particles in the body frame.
-    r_base: Vec3,
-    r_tip: Vec3,
-    /// For sticks with a parent: the bone direction in the joint's child frame, and the
-    /// rotation taking it to the frame's X (see `solve::stick_rotation`).
-    a: Vec3,
-    g: Quat,
+    /// The three particles whose orthonormal frame gives the body's rotation.
+    triad: [u32; 3],
+    /// Inverse of that frame at rest, in the body frame, and the first one's rest offset.
+    tri_inv: Quat,
+    tri_origin: Vec3,
     /// Capsule segment ends in the body frame and radius.
     e: [Vec3; 2],
     radius: f32,
     /// Mean of the particles' rest offsets (the affine weights are centred on it).
     rbar: Vec3,
-    /// Mass-weighted mean rest offset (shape matching).
-    rcm: Vec3,
     mass: f32,
-    /// Moment of inertia about the stick's axis, kg·m².
-    axial_inertia: f32,
-    /// Twist about the bone, radians (relative to the parent), and its rate, rad/s; for a
-    /// root stick only the rate is used (absolute roll rate).
-    twist: f32,
-    twist_vel: f32,
-    /// Twist at the start of the substep.
-    twist_prev: f32,
+    /// Centre of mass of its particles (their full masses, shared ones included) and the
+    /// inverse of their moment of inertia about it, body frame: what a limit turn uses.
+    com: Vec3,
+    inv_inertia: Mat3,
+    /// Inverse of the sum of those masses.
+    inv_mass: f32,
     /// Current frame.
     rot: Quat,
     pos: Vec3,
     /// Rotation at the start of the last step (for the angular velocity).
     rot_prev: Quat,
     kinematic: bool,
-    kin_from: Transform,
-    kin_to: Transform,
-    /// The twist must be recomputed from `rot` at the next frame update (after a pose was
-    /// set from outside).
-    sync_twist: bool,
 }
 
-/// A stick's length.
+/// A distance between two particles.
 #[derive(Clone, Copy, Debug)]
 struct Distance {
     a: u32,
@@ -154,21 +135,12 @@ struct Distance {
     len: f32,
 }
 
-/// A stick's centre particle `c` stays at `(1 − t)·a + t·b`.
+/// Particle `c` stays at `Σ alpha[k] · x[refs[k]]` (the weights sum to one).
 #[derive(Clone, Copy, Debug)]
-struct Middle {
+struct Affine {
     c: u32,
-    a: u32,
-    b: u32,
-    t: f32,
-}
-
-/// A joint: the spec's frames and limits plus its shared particle.
-#[derive(Clone, Debug)]
-struct Joint {
-    /// Parent and child are global body indices.
-    rj: ResolvedJoint,
-    particle: u32,
+    refs: [u32; 4],
+    alpha: [f32; 4],
 }
 
 /// A point of a body held at a target.
@@ -217,22 +189,26 @@ pub(crate) struct ParticleBackend {
     rest: Vec<Vec3>,
     /// Affine rows: a body-frame point `q` is `Σ βᵢ xᵢ` with `βᵢ = rowᵢ.xyz·(q − rbar) + rowᵢ.w`.
     affine: Vec<Vec4>,
-    /// Weights of the two capsule ends and of the body origin.
+    /// Weights of the two capsule ends.
     beta_e: [Vec<f32>; 2],
-    /// How a push at a capsule end is spread: its weights with the negative ones dropped
-    /// and the rest scaled to sum to one. Exact weights of a point past a stick's particles
-    /// are negative at the far end (a lever): a floor pushing a toe up would push the ankle
-    /// down into the limit that turns the toe back down, a fight that pumps energy.
-    push_e: [Vec<f32>; 2],
+    /// Weights of the body origin (its velocity).
     beta_o: Vec<f32>,
     /// The capsule ends' offsets from their affine reconstruction, body frame.
     resid_e: Vec<[Vec3; 2]>,
-    /// Bodies ordered parents first.
-    order: Vec<u32>,
     // Constraints.
     distances: Vec<Distance>,
-    middles: Vec<Middle>,
-    joints: Vec<Joint>,
+    affines: Vec<Affine>,
+    joints: Vec<ResolvedJoint>,
+    /// Each joint's limits as the inside test reads them.
+    bounds: Vec<solve::Bounds>,
+    /// Each joint's child and every body below it (global indices).
+    subtrees: Vec<Vec<u32>>,
+    /// Every joint, parents before children.
+    joint_order: Vec<u32>,
+    /// Marks of the last pass that touched each particle and body (see `project_limits`).
+    stamp: Vec<u32>,
+    body_stamp: Vec<u32>,
+    epoch: u32,
     pins: Vec<Pin>,
     filters: Vec<Filter>,
     filter_bits: Vec<u64>,
@@ -241,17 +217,18 @@ pub(crate) struct ParticleBackend {
     // Per-step scratch and results.
     grid: collide::Grid,
     pairs: Vec<(u32, u32)>,
+    /// Each body's capsule ends during a contact pass.
+    caps: Vec<[Vec3; 2]>,
+    /// Steps the candidate pairs are still good for (0: find them again).
+    pairs_left: u32,
     touched: Vec<bool>,
-    /// Stick children of each body (global body indices).
-    children: Vec<Vec<u32>>,
-    /// Bodies whose frame a limit turn made stale during the current pass.
-    stale: Vec<bool>,
+    /// Bodies on the floor, or on a body on the floor, in this step (see `solve_pairs`).
+    supported: Vec<bool>,
     penetration: f32,
     /// Length of the last step, seconds.
     last_dt: f32,
     /// Weight buffers for pins and contacts.
     scratch: Vec<f32>,
-    scratch_b: Vec<f32>,
 }
 
 /// Body-frame capsule of a shape: segment ends and radius.
@@ -309,6 +286,52 @@ fn inertia_of(shape: &Shape, mass: f32) -> Mat3 {
     }
 }
 
+/// The orthonormal frame of three points: X along `x1 − x0`, Y toward `x2` in their plane.
+fn triad_frame(x0: Vec3, x1: Vec3, x2: Vec3) -> Quat {
+    let u = (x1 - x0).normalize_or(Vec3::X);
+    let v0 = x2 - x0;
+    let v = (v0 - u * v0.dot(u)).normalize_or(u.any_orthonormal_vector());
+    Quat::from_mat3(&Mat3::from_cols(u, v, u.cross(v)))
+}
+
+/// Least-norm affine weights of `q` over `points` (they sum to one and reproduce `q`
+/// exactly when the points span it), through the rows `(AAᵀ)⁻¹ cᵢ` of the centred points.
+fn affine_rows(points: &[Vec3]) -> (Vec3, Vec<Vec4>) {
+    let rbar = points.iter().copied().sum::<Vec3>() / points.len() as f32;
+    let mut aat = Mat4::ZERO;
+    for r in points {
+        let c = (*r - rbar).extend(1.0);
+        aat += Mat4::from_cols(c * c.x, c * c.y, c * c.z, c * c.w);
+    }
+    let trace = aat.x_axis.x + aat.y_axis.y + aat.z_axis.z;
+    let eps = 1.0e-4 * trace + 1.0e-9;
+    aat += Mat4::from_diagonal(Vec4::new(eps, eps, eps, 0.0));
+    let inv = aat.inverse();
+    (
+        rbar,
+        points
+            .iter()
+            .map(|r| inv * (*r - rbar).extend(1.0))
+            .collect(),
+    )
+}
+
+/// The tip of a leaf body with one anchor at `lb` (body frame): the capsule end farther
+/// from the anchor, or a point past the centre when the capsule barely reaches past it.
+fn leaf_tip(lb: Vec3, e: [Vec3; 2], radius: f32) -> Vec3 {
+    let far = if (e[0] - lb).length() > (e[1] - lb).length() {
+        e[0]
+    } else {
+        e[1]
+    };
+    if (far - lb).length() >= MIN_STICK_M {
+        far
+    } else {
+        let dir = (-lb).normalize_or(Vec3::Y);
+        lb + dir * radius.max(MIN_STICK_M)
+    }
+}
+
 impl ParticleBackend {
     pub(crate) fn new(settings: ParticleSettings) -> Self {
         ParticleBackend {
@@ -327,26 +350,30 @@ impl ParticleBackend {
             rest: Vec::new(),
             affine: Vec::new(),
             beta_e: [Vec::new(), Vec::new()],
-            push_e: [Vec::new(), Vec::new()],
             beta_o: Vec::new(),
             resid_e: Vec::new(),
-            order: Vec::new(),
             distances: Vec::new(),
-            middles: Vec::new(),
+            affines: Vec::new(),
             joints: Vec::new(),
+            bounds: Vec::new(),
+            subtrees: Vec::new(),
+            joint_order: Vec::new(),
+            stamp: Vec::new(),
+            body_stamp: Vec::new(),
+            epoch: 0,
             pins: Vec::new(),
             filters: Vec::new(),
             filter_bits: Vec::new(),
             cross_disabled: Vec::new(),
             grid: collide::Grid::default(),
             pairs: Vec::new(),
+            caps: Vec::new(),
+            pairs_left: 0,
             touched: Vec::new(),
-            children: Vec::new(),
-            stale: Vec::new(),
+            supported: Vec::new(),
             penetration: 0.0,
             last_dt: 0.0,
             scratch: Vec::new(),
-            scratch_b: Vec::new(),
         }
     }
 
@@ -386,6 +413,7 @@ impl ParticleBackend {
         disabled: &[(usize, usize)],
     ) -> usize {
         let fb = self.bodies.len();
+        let fp = self.x.len();
         let ragdoll = self.filters.len() as u32;
         let n = descs.len();
         // 1. A particle per joint anchor (anchors of one parent that coincide share one).
@@ -410,252 +438,99 @@ impl ParticleBackend {
                 parent_joint[j.child] = Some(k);
             }
         }
-        // 2. Each body's particles and masses.
+        // 2. Each body's particles, masses and rigidity.
         for (b, desc) in descs.iter().enumerate() {
-            let pose = desc.pose;
-            let inv = pose.inverse();
-            let (e, radius) = capsule_of(&desc.shape);
-            let mut list: Vec<u32> = Vec::new();
-            if let Some(k) = parent_joint[b] {
-                list.push(jp[k]);
-            }
-            for (k, j) in joint_descs.iter().enumerate() {
-                if (j.parent == b || j.child == b) && !list.contains(&jp[k]) {
-                    list.push(jp[k]);
-                }
-            }
-            if list.is_empty() {
-                let (mut a, mut c) = (e[0], e[1]);
-                if (c - a).length() < MIN_STICK_M {
-                    let h = Vec3::Y * (0.5 * MIN_STICK_M).max(radius);
-                    (a, c) = (-h, h);
-                }
-                list.push(self.new_particle(pose.transform_point(a)));
-                list.push(self.new_particle(pose.transform_point(c)));
-            } else if list.len() == 1 {
-                let lb = inv.transform_point(self.x[list[0] as usize]);
-                let far = if (e[0] - lb).length() > (e[1] - lb).length() {
-                    e[0]
-                } else {
-                    e[1]
-                };
-                let tip = if (far - lb).length() >= MIN_STICK_M {
-                    far
-                } else {
-                    let dir = (-lb).normalize_or(Vec3::Y);
-                    lb + dir * radius.max(MIN_STICK_M)
-                };
-                list.push(self.new_particle(pose.transform_point(tip)));
-            }
-            let stick = list.len() == 2;
-            let mut orient = Orient::Cluster;
-            let (base, tip) = (list[0], list[1]);
-            let inertia = inertia_of(&desc.shape, desc.mass);
-            let mut axial_inertia = 0.0;
-            let mut shares: Vec<f32>;
-            if stick {
-                orient = Orient::Stick {
-                    joint: parent_joint[b].map(|k| k as u32),
-                };
-                let (ra, rb) = (
-                    inv.transform_point(self.x[base as usize]),
-                    inv.transform_point(self.x[tip as usize]),
-                );
-                let len = (rb - ra).length().max(1e-6);
-                let u = (rb - ra) / len;
-                let t = ((-ra).dot(u) / len).clamp(0.05, 0.95);
-                let (p, q) = (t * len, (1.0 - t) * len);
-                let across = 0.5
-                    * (inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z - u.dot(inertia * u));
-                axial_inertia = u.dot(inertia * u).max(1e-6);
-                let m = desc.mass;
-                let (mut ma, mut mb) = (across / (p * (p + q)), across / (q * (p + q)));
-                if ma + mb > (1.0 - MIN_CENTRE_SHARE) * m {
-                    let rest = (1.0 - MIN_CENTRE_SHARE) * m;
-                    ma = rest * q / (p + q);
-                    mb = rest * p / (p + q);
-                }
-                let mid = self.new_particle(pose.transform_point(ra + u * p));
-                list.push(mid);
-                shares = vec![ma, mb, m - ma - mb];
-                self.distances.push(Distance {
-                    a: base,
-                    b: tip,
-                    len,
-                });
-                self.middles.push(Middle {
-                    c: mid,
-                    a: base,
-                    b: tip,
-                    t,
-                });
-            } else {
-                // A cluster must span a plane: add a particle off the line if it does not.
-                let p0 = self.x[list[0] as usize];
-                let far = list
-                    .iter()
-                    .map(|&i| self.x[i as usize])
-                    .max_by(|a, b| (*a - p0).length().total_cmp(&(*b - p0).length()))
-                    .unwrap_or(p0);
-                let dir = (far - p0).normalize_or(Vec3::Y);
-                let off = list
-                    .iter()
-                    .map(|&i| (self.x[i as usize] - p0).reject_from(dir).length())
-                    .fold(0.0f32, f32::max);
-                if off < 1.0e-3 {
-                    let perp = dir.any_orthonormal_vector();
-                    let p = pose.translation + perp * radius.max(MIN_STICK_M);
-                    list.push(self.new_particle(p));
-                }
-                let centre = pose.translation;
-                if list
-                    .iter()
-                    .all(|&i| (self.x[i as usize] - centre).length() > MERGE_M)
-                {
-                    list.push(self.new_particle(centre));
-                    let k = (list.len() - 1) as f32;
-                    shares = vec![0.5 * desc.mass / k; list.len() - 1];
-                    shares.push(0.5 * desc.mass);
-                } else {
-                    shares = vec![desc.mass / list.len() as f32; list.len()];
-                }
-            }
-            for (&i, &s) in list.iter().zip(&shares) {
-                self.m[i as usize] += s;
-            }
-            // Rest offsets, affine rows.
-            let first = self.parts.len() as u32;
-            let rest: Vec<Vec3> = list
-                .iter()
-                .map(|&i| inv.transform_point(self.x[i as usize]))
-                .collect();
-            let rbar = rest.iter().copied().sum::<Vec3>() / rest.len() as f32;
-            let mut aat = Mat4::ZERO;
-            for r in &rest {
-                let c = (*r - rbar).extend(1.0);
-                aat += Mat4::from_cols(c * c.x, c * c.y, c * c.z, c * c.w);
-            }
-            let trace = aat.x_axis.x + aat.y_axis.y + aat.z_axis.z;
-            let eps = 1.0e-4 * trace + 1.0e-9;
-            aat += Mat4::from_diagonal(Vec4::new(eps, eps, eps, 0.0));
-            let inv_aat = aat.inverse();
-            for (&i, r) in list.iter().zip(&rest) {
-                self.parts.push(i);
-                self.rest.push(*r);
-                // βᵢ = cᵢᵀ (AAᵀ)⁻¹ [q − r̄; 1]: the row is (AAᵀ)⁻¹ cᵢ (symmetric).
-                self.affine.push(inv_aat * (*r - rbar).extend(1.0));
-            }
-            let body = Body {
+            self.build_body(
+                fb + b,
                 ragdoll,
-                first,
-                count: list.len() as u32,
-                orient,
-                base,
-                tip,
-                r_base: rest[0],
-                r_tip: rest[1],
-                a: Vec3::X,
-                g: Quat::IDENTITY,
-                e,
-                radius,
-                rbar,
-                rcm: rbar,
-                mass: desc.mass,
-                axial_inertia,
-                twist: 0.0,
-                twist_vel: 0.0,
-                twist_prev: 0.0,
-                rot: pose.rotation,
-                pos: pose.translation,
-                rot_prev: pose.rotation,
-                kinematic: false,
-                kin_from: pose,
-                kin_to: pose,
-                sync_twist: false,
-            };
-            self.bodies.push(body);
-            let bi = fb + b;
-            let count = list.len();
-            let mut be = vec![vec![0.0f32; count]; 3];
-            for (s, q) in [e[0], e[1], Vec3::ZERO].into_iter().enumerate() {
-                self.weights(bi, q, &mut be[s]);
-            }
-            let resid = [0, 1].map(|s| {
-                let recon: Vec3 = rest.iter().zip(&be[s]).map(|(r, b)| *r * *b).sum();
-                e[s] - recon
-            });
-            self.resid_e.push(resid);
-            self.beta_e[0].extend_from_slice(&be[0]);
-            self.beta_e[1].extend_from_slice(&be[1]);
-            for (push, exact) in self.push_e.iter_mut().zip(&be) {
-                let total: f32 = exact.iter().map(|b| b.max(0.0)).sum();
-                push.extend(exact.iter().map(|b| b.max(0.0) / total.max(1e-9)));
-            }
-            self.beta_o.extend_from_slice(&be[2]);
+                desc,
+                parent_joint[b].map(|k| jp[k]),
+                joint_descs
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, j)| j.parent == b || j.child == b)
+                    .map(|(k, _)| jp[k]),
+            );
         }
-        for (i, m) in self.m.iter().enumerate() {
-            self.w[i] = if self.kin[i] > 0 || *m <= 0.0 {
+        for i in fp..self.x.len() {
+            self.w[i] = if self.kin[i] > 0 || self.m[i] <= 0.0 {
                 0.0
             } else {
-                1.0 / m
+                1.0 / self.m[i]
             };
         }
-        // Shape matching weighs the particles with their full masses (shared particles
-        // carry both bodies' shares), so the matched centre is taken the same way.
+        // 3. What a limit turn needs: each body's particles' centre and inertia, with the
+        // full masses of the particles it shares (only now summed over its neighbours).
         for b in fb..fb + n {
             let range = self.body_parts(b);
-            let (mut sum, mut msum) = (Vec3::ZERO, 0.0f32);
+            let (mut c, mut msum) = (Vec3::ZERO, 0.0f32);
+            for k in range.clone() {
+                let m = self.m[self.parts[k] as usize];
+                c += self.rest[k] * m;
+                msum += m;
+            }
+            c /= msum.max(1e-12);
+            let mut inertia = Mat3::ZERO;
             for k in range {
-                let i = self.parts[k] as usize;
-                sum += self.rest[k] * self.m[i];
-                msum += self.m[i];
+                let (r, m) = (self.rest[k] - c, self.m[self.parts[k] as usize]);
+                inertia += (Mat3::IDENTITY * r.length_squared()
+                    - Mat3::from_cols(r * r.x, r * r.y, r * r.z))
+                    * m;
             }
-            self.bodies[b].rcm = sum / msum.max(1e-12);
+            let trace = inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z;
+            inertia += Mat3::IDENTITY * (1.0e-6 * trace + 1.0e-12);
+            let body = &mut self.bodies[b];
+            body.com = c;
+            body.inv_inertia = inertia.inverse();
+            body.inv_mass = 1.0 / msum.max(1e-12);
         }
-        // 3. Joints (global body indices) and each stick's twist reference.
-        for (k, j) in joint_descs.iter().enumerate() {
-            self.joints.push(Joint {
-                rj: ResolvedJoint {
-                    parent: fb + j.parent,
-                    child: fb + j.child,
-                    frame_parent: j.frame_parent,
-                    frame_child: j.frame_child,
-                    kind: j.kind,
-                },
-                particle: jp[k],
-            });
-        }
+        // 4. Joints, with global body indices.
+        self.joints
+            .extend(joint_descs.iter().map(|j| ResolvedJoint {
+                parent: fb + j.parent,
+                child: fb + j.child,
+                frame_parent: j.frame_parent,
+                frame_child: j.frame_child,
+                kind: j.kind,
+            }));
+        self.bounds
+            .extend(joint_descs.iter().map(|j| solve::Bounds::of(&j.kind)));
+        // Subtrees and a parents-first order of the joints, for the final projection.
         let first_joint = self.joints.len() - joint_descs.len();
-        for b in fb..fb + n {
-            if let Orient::Stick { joint: Some(k) } = self.bodies[b].orient {
-                let k = first_joint + k as usize;
-                self.bodies[b].orient = Orient::Stick {
-                    joint: Some(k as u32),
-                };
-                let fc = self.joints[k].rj.frame_child.rotation;
-                let body = &self.bodies[b];
-                let a = fc.conjugate() * (body.r_tip - body.r_base).normalize_or(Vec3::X);
-                let body = &mut self.bodies[b];
-                body.a = a;
-                body.g = Quat::from_rotation_arc(a, Vec3::X);
-                body.sync_twist = true;
-            }
+        let mut children: Vec<Vec<usize>> = vec![Vec::new(); n];
+        for j in joint_descs {
+            children[j.parent].push(j.child);
         }
-        // 4. Parents first.
-        let mut depth = vec![0usize; n];
-        for (b, d) in depth.iter_mut().enumerate() {
-            let mut x = b;
-            while let Some(k) = parent_joint[x] {
-                x = joint_descs[k].parent;
-                *d += 1;
-                if *d > n {
+        let mut depth = vec![0usize; joint_descs.len()];
+        for (k, j) in joint_descs.iter().enumerate() {
+            let mut sub = vec![j.child];
+            let mut next = 0;
+            while next < sub.len() && sub.len() <= n {
+                let b = sub[next];
+                for &ch in &children[b] {
+                    if !sub.contains(&ch) {
+                        sub.push(ch);
+                    }
+                }
+                next += 1;
+            }
+            self.subtrees
+                .push(sub.iter().map(|&b| (fb + b) as u32).collect());
+            let mut b = j.parent;
+            while let Some(up) = joint_descs.iter().find(|u| u.child == b) {
+                depth[k] += 1;
+                b = up.parent;
+                if depth[k] > n {
                     break;
                 }
             }
         }
-        let mut local: Vec<usize> = (0..n).collect();
-        local.sort_by_key(|&b| depth[b]);
-        self.order.extend(local.iter().map(|&b| (fb + b) as u32));
+        let mut order: Vec<usize> = (0..joint_descs.len()).collect();
+        order.sort_by_key(|&k| depth[k]);
+        self.joint_order
+            .extend(order.iter().map(|&k| (first_joint + k) as u32));
+        self.stamp.resize(self.x.len(), 0);
+        self.body_stamp.resize(self.bodies.len(), 0);
         // 5. Collision filter: jointed pairs and the spec's pairs.
         let offset = self.filter_bits.len();
         self.filter_bits.resize(offset + (n * n).div_ceil(64), 0);
@@ -682,19 +557,220 @@ impl ParticleBackend {
             }
         }
         self.touched.resize(self.bodies.len(), false);
-        self.stale.resize(self.bodies.len(), false);
-        self.children.resize(self.bodies.len(), Vec::new());
-        for b in fb..fb + n {
-            if let Orient::Stick { joint: Some(k) } = self.bodies[b].orient {
-                let parent = self.joints[k as usize].rj.parent;
-                self.children[parent].push(b as u32);
-            }
-        }
-        self.update_frames(1.0, true);
+        self.supported.resize(self.bodies.len(), false);
+        self.update_frames();
         for b in fb..fb + n {
             self.bodies[b].rot_prev = self.bodies[b].rot;
         }
+        self.pairs_left = 0;
         fb
+    }
+
+    /// Body `bi`'s particles: its anchors (the parent joint's first), a tip or two ends
+    /// where it has fewer than two apart, a side particle and a centre; their masses, the
+    /// distances that keep them rigid, and the weights of its capsule ends.
+    fn build_body(
+        &mut self,
+        bi: usize,
+        ragdoll: u32,
+        desc: &BodyDesc,
+        parent_anchor: Option<u32>,
+        anchors: impl Iterator<Item = u32>,
+    ) {
+        let pose = desc.pose;
+        let inv = pose.inverse();
+        let (e, radius) = capsule_of(&desc.shape);
+        let mass = desc.mass;
+        let mut list: Vec<u32> = parent_anchor.into_iter().collect();
+        for p in anchors {
+            if !list.contains(&p) {
+                list.push(p);
+            }
+        }
+        let rest_of = |s: &Self, i: u32| inv.transform_point(s.x[i as usize]);
+        if list.is_empty() {
+            let (mut a, mut c) = (e[0], e[1]);
+            if (c - a).length() < MIN_STICK_M {
+                let h = Vec3::Y * (0.5 * MIN_STICK_M).max(radius);
+                (a, c) = (-h, h);
+            }
+            list.push(self.new_particle(pose.transform_point(a)));
+            list.push(self.new_particle(pose.transform_point(c)));
+        }
+        // The anchors' extent: a tip where they are (nearly) one point.
+        let r0 = rest_of(self, list[0]);
+        let extent = list
+            .iter()
+            .map(|&i| (rest_of(self, i) - r0).length())
+            .fold(0.0f32, f32::max);
+        if extent < MIN_STICK_M {
+            let tip = leaf_tip(r0, e, radius);
+            list.push(self.new_particle(pose.transform_point(tip)));
+        }
+        let rest: Vec<Vec3> = list.iter().map(|&i| rest_of(self, i)).collect();
+        let (ifar, extent) = rest
+            .iter()
+            .enumerate()
+            .map(|(k, r)| (k, (*r - rest[0]).length()))
+            .fold((0, 0.0f32), |a, b| if b.1 > a.1 { b } else { a });
+        let dir = (rest[ifar] - rest[0]) / extent.max(1e-9);
+        let (ioff, off) = rest
+            .iter()
+            .enumerate()
+            .map(|(k, r)| (k, (*r - rest[0]).reject_from_normalized(dir).length()))
+            .fold((0, 0.0f32), |a, b| if b.1 > a.1 { b } else { a });
+        let line = off < 1.0e-2 * extent;
+        let inertia = inertia_of(&desc.shape, mass);
+        // Masses of the anchors and the side particle; the centre takes the rest.
+        let mut shares = vec![0.0f32; list.len()];
+        let (side_rest, side_share);
+        if line {
+            // A stick: the three-point rule about the centre's foot on the bone.
+            let t = ((-rest[0]).dot(dir) / extent).clamp(0.05, 0.95);
+            let (p, q) = (t * extent, (1.0 - t) * extent);
+            let axial = dir.dot(inertia * dir).max(1e-9);
+            let across = 0.5 * (inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z - axial);
+            let (mut ma, mut mb) = (across / (p * (p + q)), across / (q * (p + q)));
+            let room = (1.0 - MIN_CENTRE_SHARE - SIDE_SHARE.1) * mass;
+            if ma + mb > room {
+                ma = room * q / (p + q);
+                mb = room * p / (p + q);
+            }
+            shares[0] = ma;
+            shares[ifar] = mb;
+            let perp = Vec3::X
+                .reject_from_normalized(dir)
+                .try_normalize()
+                .unwrap_or_else(|| dir.any_orthonormal_vector());
+            let d = (0.5 * extent).max(radius).max(MIN_STICK_M);
+            side_rest = rest[0] + dir * p + perp * d;
+            side_share = (axial / (d * d)).clamp(SIDE_SHARE.0 * mass, SIDE_SHARE.1 * mass);
+        } else {
+            let normal = dir.cross(rest[ioff] - rest[0]).normalize();
+            let d = (0.5 * extent).max(radius).max(MIN_STICK_M);
+            side_rest = normal * d;
+            side_share = CLUSTER_SIDE_SHARE * mass;
+            let each = 0.5 * mass / list.len() as f32;
+            shares.fill(each);
+        }
+        let side = self.new_particle(pose.transform_point(side_rest));
+        let centre_share = mass - shares.iter().sum::<f32>() - side_share;
+        // The centre goes where the body's centre of mass (its origin) comes out right.
+        let moment: Vec3 =
+            rest.iter().zip(&shares).map(|(r, s)| *r * *s).sum::<Vec3>() + side_rest * side_share;
+        let want_centre = -moment / centre_share.max(1e-9);
+        // Rigidity: every pair of anchors and the side particle.
+        let mut frame_pts = list.clone();
+        frame_pts.push(side);
+        let mut frame_rest = rest.clone();
+        frame_rest.push(side_rest);
+        for a in 0..frame_pts.len() {
+            for b in a + 1..frame_pts.len() {
+                self.distances.push(Distance {
+                    a: frame_pts[a],
+                    b: frame_pts[b],
+                    len: (frame_rest[b] - frame_rest[a]).length(),
+                });
+            }
+        }
+        // The centre as an affine combination of the triad and the side particle.
+        let triad = if line {
+            [0, ifar, list.len()]
+        } else {
+            [0, ifar, ioff]
+        };
+        let mut refs_k: Vec<usize> = triad.to_vec();
+        if !line {
+            refs_k.push(list.len());
+        }
+        let ref_rest: Vec<Vec3> = refs_k.iter().map(|&k| frame_rest[k]).collect();
+        let (rb, rows) = affine_rows(&ref_rest);
+        let dq = (want_centre - rb).extend(1.0);
+        let mut alpha = [0.0f32; 4];
+        let mut refs = [frame_pts[refs_k[0]]; 4];
+        for (s, (&k, row)) in refs_k.iter().zip(&rows).enumerate() {
+            alpha[s] = row.dot(dq);
+            refs[s] = frame_pts[k];
+        }
+        let centre_rest: Vec3 = ref_rest.iter().zip(alpha).map(|(r, a)| *r * a).sum();
+        let centre = self.new_particle(pose.transform_point(centre_rest));
+        self.affines.push(Affine {
+            c: centre,
+            refs,
+            alpha,
+        });
+        // Masses.
+        for (&i, &s) in list.iter().zip(&shares) {
+            self.m[i as usize] += s;
+        }
+        self.m[side as usize] += side_share;
+        self.m[centre as usize] += centre_share;
+        // Rest offsets, affine rows of all its particles.
+        let mut all = frame_pts.clone();
+        all.push(centre);
+        let mut all_rest = frame_rest.clone();
+        all_rest.push(centre_rest);
+        let first = self.parts.len() as u32;
+        // Points of the body (contacts, pins) are combinations of its anchors and centre,
+        // not of the light side particle: a push there would twist the body.
+        let side_k = frame_pts.len() - 1;
+        let spanning: Vec<Vec3> = all_rest
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| *k != side_k)
+            .map(|(_, r)| *r)
+            .collect();
+        let (rbar, mut rows) = affine_rows(&spanning);
+        rows.insert(side_k, Vec4::ZERO);
+        self.parts.extend_from_slice(&all);
+        self.rest.extend_from_slice(&all_rest);
+        self.affine.extend_from_slice(&rows);
+        let tri = [
+            frame_rest[triad[0]],
+            frame_rest[triad[1]],
+            frame_rest[triad[2]],
+        ];
+        self.bodies.push(Body {
+            ragdoll,
+            first,
+            count: all.len() as u32,
+            triad: [
+                frame_pts[triad[0]],
+                frame_pts[triad[1]],
+                frame_pts[triad[2]],
+            ],
+            tri_inv: triad_frame(tri[0], tri[1], tri[2]).conjugate(),
+            tri_origin: tri[0],
+            e,
+            radius,
+            rbar,
+            mass,
+            com: Vec3::ZERO,
+            inv_inertia: Mat3::IDENTITY,
+            inv_mass: 0.0,
+            rot: pose.rotation,
+            pos: pose.translation,
+            rot_prev: pose.rotation,
+            kinematic: false,
+        });
+        let count = all.len();
+        let mut be = vec![vec![0.0f32; count]; 3];
+        for (s, q) in [e[0], e[1], Vec3::ZERO].into_iter().enumerate() {
+            self.weights(bi, q, &mut be[s]);
+        }
+        let resid = [0, 1].map(|s| {
+            let recon: Vec3 = all_rest.iter().zip(&be[s]).map(|(r, b)| *r * *b).sum();
+            let off = e[s] - recon;
+            if off.length() < 1.0e-6 {
+                Vec3::ZERO
+            } else {
+                off
+            }
+        });
+        self.resid_e.push(resid);
+        self.beta_e[0].extend_from_slice(&be[0]);
+        self.beta_e[1].extend_from_slice(&be[1]);
+        self.beta_o.extend_from_slice(&be[2]);
     }
 
     /// Whether bodies `a` and `b` (global) may collide.
@@ -711,18 +787,31 @@ impl ParticleBackend {
         }
     }
 
-    /// Body-frame point `q` of body `b` in world space, through its particles.
+    /// Body-frame point of body `b` in world space through its particles, from its affine
+    /// weights `beta` and its offset `resid` from their reconstruction.
     fn point_world(&self, b: usize, beta: &[f32], resid: Vec3) -> Vec3 {
-        let mut p = self.bodies[b].rot * resid;
+        // Points a body's particles span (every capsule end) have no offset.
+        let mut p = if resid == Vec3::ZERO {
+            Vec3::ZERO
+        } else {
+            self.bodies[b].rot * resid
+        };
         for (k, &i) in self.parts[self.body_parts(b)].iter().enumerate() {
             p += self.x[i as usize] * beta[k];
         }
         p
     }
 
-    /// Rigid velocity change of body `b` for a linear impulse `j` and an angular impulse
-    /// `l` about its particles' centre of mass: spread over its free particles with their
-    /// masses and inertia; the moment about a stick's axis goes to its twist.
+    /// Whether none of body `b`'s particles is held.
+    fn body_free(&self, b: usize) -> bool {
+        self.parts[self.body_parts(b)]
+            .iter()
+            .all(|&i| self.w[i as usize] > 0.0)
+    }
+
+    /// Rigid velocity change of body `b` for a linear impulse `j` (at `point`, or at its
+    /// centre) and an angular impulse `l`, spread over its free particles so that their
+    /// momentum changes by exactly those impulses.
     fn apply_impulse(&mut self, b: usize, j: Vec3, point: Option<Vec3>, l: Vec3) {
         let range = self.body_parts(b);
         let mut mass = 0.0f32;
@@ -749,20 +838,9 @@ impl ParticleBackend {
                     * self.m[i];
             }
         }
-        let mut l_rest = l;
-        if let Orient::Stick { .. } = self.bodies[b].orient {
-            let d = (self.x[self.bodies[b].tip as usize] - self.x[self.bodies[b].base as usize])
-                .normalize_or(Vec3::Y);
-            let axial = l.dot(d);
-            let body = &mut self.bodies[b];
-            body.twist_vel += axial / body.axial_inertia;
-            l_rest = l - d * axial;
-            // Regularise the missing axial inertia of particles on a line.
-            inertia += Mat3::from_cols(d * d.x, d * d.y, d * d.z) * body.axial_inertia;
-        }
         let trace = inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z;
         inertia += Mat3::IDENTITY * (1.0e-6 * trace + 1.0e-12);
-        let dw = inertia.inverse() * l_rest;
+        let dw = inertia.inverse() * l;
         let dv = j / mass;
         for &i in &self.parts[range] {
             let i = i as usize;
@@ -770,9 +848,11 @@ impl ParticleBackend {
                 self.v[i] += dv + dw.cross(self.x[i] - c);
             }
         }
+        // Faster bodies need a wider margin than the candidate pairs were found with.
+        self.pairs_left = 0;
     }
 
-    /// Marks the bodies whose particle `p` is held kinematic.
+    /// Marks particle `p` as held by one more (or one fewer) kinematic body.
     fn set_particle_kinematic(&mut self, p: usize, on: bool) {
         if on {
             self.kin[p] += 1;
@@ -851,21 +931,13 @@ impl Backend for ParticleBackend {
     }
 
     fn kinetic_energy(&self) -> f64 {
-        let particles: f64 = self
-            .v
+        self.v
             .iter()
             .zip(&self.m)
             .zip(&self.w)
             .filter(|(_, w)| **w > 0.0)
             .map(|((v, m), _)| 0.5 * (*m as f64) * v.length_squared() as f64)
-            .sum();
-        let twist: f64 = self
-            .bodies
-            .iter()
-            .filter(|b| matches!(b.orient, Orient::Stick { .. }) && !b.kinematic)
-            .map(|b| 0.5 * (b.axial_inertia as f64) * (b.twist_vel as f64).powi(2))
-            .sum();
-        particles + twist
+            .sum()
     }
 
     fn cast_ray(&self, origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(usize, f32)> {
@@ -877,21 +949,13 @@ impl Backend for ParticleBackend {
             return;
         }
         self.bodies[index].kinematic = kinematic;
-        let pose = Transform::new(self.bodies[index].pos, self.bodies[index].rot);
-        self.bodies[index].kin_from = pose;
-        self.bodies[index].kin_to = pose;
         for k in self.body_parts(index) {
             let p = self.parts[k] as usize;
             self.set_particle_kinematic(p, kinematic);
         }
-        if !kinematic {
-            self.bodies[index].sync_twist = true;
-        }
     }
 
     fn set_kinematic_target(&mut self, index: usize, pose: &Transform) {
-        let body = &mut self.bodies[index];
-        body.kin_to = Transform::new(pose.translation, pose.rotation);
         for k in self.body_parts(index) {
             let p = self.parts[k] as usize;
             if self.kin[p] > 0 {
@@ -906,26 +970,15 @@ impl Backend for ParticleBackend {
             let p = self.parts[k] as usize;
             self.v[p] = linvel + angvel.cross(self.x[p] - origin);
         }
-        let body = &mut self.bodies[index];
-        if let Orient::Stick { joint } = body.orient {
-            body.twist_vel = if joint.is_none() {
-                angvel.dot(body.rot * (body.r_tip - body.r_base).normalize_or(Vec3::Y))
-            } else {
-                0.0
-            };
-        }
+        self.pairs_left = 0;
     }
 
     fn set_joint_parent_frame(&mut self, index: usize, frame: &Transform) {
-        self.joints[index].rj.frame_parent = *frame;
-        let child = self.joints[index].rj.child;
-        self.bodies[child].sync_twist = true;
+        self.joints[index].frame_parent = *frame;
     }
 
     fn set_joint_child_frame(&mut self, index: usize, frame: &Transform) {
-        self.joints[index].rj.frame_child = *frame;
-        let child = self.joints[index].rj.child;
-        self.bodies[child].sync_twist = true;
+        self.joints[index].frame_child = *frame;
     }
 
     /// The particle solver's substeps come from the world's settings; powered mode's
@@ -945,7 +998,8 @@ impl Backend for ParticleBackend {
     }
 
     fn set_joint_limits(&mut self, index: usize, kind: &JointKind) {
-        self.joints[index].rj.kind = *kind;
+        self.joints[index].kind = *kind;
+        self.bounds[index] = solve::Bounds::of(kind);
     }
 
     fn set_gravity(&mut self, gravity: Vec3) {
@@ -997,6 +1051,7 @@ impl Backend for ParticleBackend {
                 self.cross_disabled.insert(pos, key);
             }
         }
+        self.pairs_left = 0;
     }
 
     fn set_body_pose(&mut self, index: usize, pose: &Transform) {
@@ -1014,8 +1069,6 @@ impl Backend for ParticleBackend {
         body.rot = pose.rotation;
         body.pos = pose.translation;
         body.rot_prev = pose.rotation;
-        body.kin_from = Transform::new(pose.translation, pose.rotation);
-        body.kin_to = body.kin_from;
-        body.sync_twist = true;
+        self.pairs_left = 0;
     }
 }

@@ -1,114 +1,129 @@
-//! Stepping the particles: prediction, one projection pass per iteration (sticks, clusters,
-//! joint limits, pins, contacts), velocities from positions, and body frames from particles.
+//! Stepping the particles: prediction, projection passes (rigidity, joint limits, pins,
+//! contacts), velocities from positions, and body frames from particles.
 
-use glam::{Mat3, Quat, Vec3};
+use glam::{Quat, Vec3};
 
-use super::{LINEAR_DAMPING, Orient, ParticleBackend, TWIST_DAMPING};
-use crate::math::{Transform, twist_angle_x};
-use crate::spec::{JointKind, ResolvedJoint};
-
-/// Iterations of the rotation extraction per frame update; warm started from the last
-/// rotation, two are plenty for clusters that stay rigid.
-const ROTATION_ITERATIONS: usize = 2;
+use super::{ParticleBackend, triad_frame};
+use crate::spec::JointKind;
 
 /// A hinge counts as on its axis within this angle: below it the limit projection does not
 /// run (its off-axis error is numerical), radians.
 const HINGE_SLACK: f32 = 1.0e-3;
 
-/// The orientation of a stick child: the parent's joint frame, turned by the minimal
-/// rotation taking the child's rest bone direction to `d` (world, unit), then by `twist`
-/// about it; a hinge's roll instead follows from its angle, so it stays in its plane.
-///
-/// In the joint frame, `rel = arc(X, v) · Rx(twist) · g` with `g = arc(a, X)`: `rel·a = v`
-/// exactly, and its twist (the world's measure, `2·atan2(qx, qw)`) is `twist` whenever the
-/// bone lies along the frame's X, as it does for every swing-twist joint of our specs.
-pub(super) fn stick_rotation(
-    parent_rot: Quat,
-    joint: &ResolvedJoint,
-    a: Vec3,
-    g: Quat,
-    twist: f32,
-    d: Vec3,
-) -> Quat {
-    let f = parent_rot * joint.frame_parent.rotation;
-    let v = (f.conjugate() * d).normalize_or(Vec3::X);
-    let rel = match joint.kind {
-        JointKind::Hinge { .. } => {
-            let theta = hinge_angle(a, v);
-            let r = Quat::from_rotation_x(theta);
-            Quat::from_rotation_arc((r * a).normalize(), v) * r
+/// Violations the final projection leaves alone, radians: the solver's own turns keep
+/// most joints inside, and a fraction of a degree is not worth a pass.
+const PROJECT_TOLERANCE: f32 = 1.0 * std::f32::consts::PI / 180.0;
+/// How far a projection may push a body below the ground before the ragdoll is lifted,
+/// metres (as the world's projection for the rigid backend).
+const PROJECT_GROUND_SLACK_M: f32 = 0.005;
+
+/// Steps one search for candidate pairs serves: the search's margin covers the motion of
+/// that many steps, and an impulse or a teleport starts a new search at once.
+const PAIR_REUSE: u32 = 4;
+
+/// A joint's limits in the form the inside test reads, worked out once per change.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Bounds {
+    /// Smallest cosine of the angle between the two frames' X axes.
+    min_cos: f32,
+    /// Sine and cosine of half the lower and upper twist bounds; `None`: any twist.
+    twist: Option<[(f32, f32); 2]>,
+    /// Whether no rotation at all is allowed.
+    fixed: bool,
+}
+
+impl Bounds {
+    pub(super) fn of(kind: &JointKind) -> Self {
+        let half = |lo: f32, hi: f32| Some([(0.5 * lo).sin_cos(), (0.5 * hi).sin_cos()]);
+        match *kind {
+            JointKind::Hinge { min_deg, max_deg } => Bounds {
+                min_cos: HINGE_SLACK.cos(),
+                twist: half(min_deg.to_radians(), max_deg.to_radians()),
+                fixed: false,
+            },
+            JointKind::SwingTwist {
+                swing_deg,
+                twist_deg,
+                ..
+            } => Bounds {
+                min_cos: swing_deg.to_radians().cos() - 1e-7,
+                twist: half(twist_deg[0].to_radians(), twist_deg[1].to_radians()),
+                fixed: false,
+            },
+            JointKind::Ball => Bounds {
+                min_cos: -2.0,
+                twist: None,
+                fixed: false,
+            },
+            JointKind::Fixed => Bounds {
+                min_cos: 1.0,
+                twist: None,
+                fixed: true,
+            },
         }
-        _ => Quat::from_rotation_arc(Vec3::X, v) * Quat::from_rotation_x(twist) * g,
-    };
-    (f * rel * joint.frame_child.rotation.conjugate()).normalize()
-}
-
-/// Signed angle about X from `a` to `v`, both projected on the YZ plane, radians.
-fn hinge_angle(a: Vec3, v: Vec3) -> f32 {
-    let (ap, vp) = (Vec3::new(0.0, a.y, a.z), Vec3::new(0.0, v.y, v.z));
-    if ap.length_squared() < 1e-12 || vp.length_squared() < 1e-12 {
-        return 0.0;
     }
-    ap.cross(vp).x.atan2(ap.dot(vp))
-}
 
-/// The twist state that makes [`stick_rotation`] give the body rotation `rot`.
-fn twist_of(parent_rot: Quat, joint: &ResolvedJoint, a: Vec3, g: Quat, rot: Quat) -> f32 {
-    let f = parent_rot * joint.frame_parent.rotation;
-    let rel = (f.conjugate() * rot * joint.frame_child.rotation).normalize();
-    let v = (rel * a).normalize_or(Vec3::X);
-    twist_angle_x(Quat::from_rotation_arc(Vec3::X, v).conjugate() * rel * g.conjugate())
-}
-
-/// Rotation part of `a` (Müller, Bender, Chentanez, Macklin 2016, "A Robust Method to
-/// Extract the Rotational Part of Deformations"), improving the guess `q`.
-fn extract_rotation(a: &Mat3, mut q: Quat) -> Quat {
-    for _ in 0..ROTATION_ITERATIONS {
-        let r = Mat3::from_quat(q);
-        let num = r.x_axis.cross(a.x_axis) + r.y_axis.cross(a.y_axis) + r.z_axis.cross(a.z_axis);
-        let den = (r.x_axis.dot(a.x_axis) + r.y_axis.dot(a.y_axis) + r.z_axis.dot(a.z_axis)).abs()
-            + 1.0e-9;
-        let omega = num / den;
-        let angle = omega.length();
-        if angle < 1.0e-9 {
-            break;
+    /// Whether a joint's relative rotation `rel` (parent joint frame to child joint frame)
+    /// is inside: no trigonometry, so that the exact clamp runs only for joints that need
+    /// it.
+    fn inside(&self, rel: Quat) -> bool {
+        let q = if rel.w < 0.0 { -rel } else { rel };
+        if self.fixed {
+            return q.xyz().length_squared() < 1e-8;
         }
-        q = (Quat::from_axis_angle(omega / angle, angle) * q).normalize();
+        // The X axis turned by q: its x component is 1 − 2(y² + z²).
+        if 1.0 - 2.0 * (q.y * q.y + q.z * q.z) < self.min_cos {
+            return false;
+        }
+        // 2·atan2(qx, qw) ∈ [lo, hi] with qw ≥ 0.
+        self.twist.is_none_or(|[(s_lo, c_lo), (s_hi, c_hi)]| {
+            q.x * c_hi <= q.w * s_hi + 1e-7 && q.x * c_lo >= q.w * s_lo - 1e-7
+        })
     }
-    q
 }
 
-/// Whether a joint's relative rotation `rel` (parent joint frame to child joint frame) is
-/// inside its limits: a cheap test with no trigonometry, so that the exact clamp runs only
-/// for joints that need it.
-fn inside(kind: &JointKind, rel: Quat) -> bool {
+/// The relative rotation inside the limits of `kind` nearest to `rel` by swing and twist,
+/// as [`crate::spec::ResolvedJoint::clamp_child_rotation`] finds it, but worked on the
+/// relative rotation the caller already has: swing and twist about X, each clamped to its
+/// range (a hinge also loses its swing).
+fn clamp_rel(kind: &JointKind, rel: Quat) -> Quat {
     let q = if rel.w < 0.0 { -rel } else { rel };
-    let x2 = q * Vec3::X;
-    // 2·atan2(qx, qw) ∈ [lo, hi] with qw ≥ 0.
-    let twist_in = |lo: f32, hi: f32| {
-        let (s_lo, c_lo) = (0.5 * lo).sin_cos();
-        let (s_hi, c_hi) = (0.5 * hi).sin_cos();
-        q.x * c_hi <= q.w * s_hi + 1e-7 && q.x * c_lo >= q.w * s_lo - 1e-7
+    let tw = Quat::from_xyzw(q.x, 0.0, 0.0, q.w);
+    let tw = if tw.length_squared() < 1e-12 {
+        Quat::IDENTITY
+    } else {
+        tw.normalize()
     };
+    let twist = 2.0 * q.x.atan2(q.w);
     match *kind {
         JointKind::Hinge { min_deg, max_deg } => {
-            x2.x >= HINGE_SLACK.cos() && twist_in(min_deg.to_radians(), max_deg.to_radians())
+            Quat::from_rotation_x(twist.clamp(min_deg.to_radians(), max_deg.to_radians()))
         }
         JointKind::SwingTwist {
             swing_deg,
             twist_deg,
             ..
         } => {
-            x2.x >= swing_deg.to_radians().cos() - 1e-7
-                && twist_in(twist_deg[0].to_radians(), twist_deg[1].to_radians())
+            let swing = q * tw.conjugate();
+            let max = swing_deg.to_radians();
+            let angle = 2.0 * swing.w.clamp(-1.0, 1.0).acos();
+            let swing = if angle > max {
+                let axis = swing.xyz().normalize_or(Vec3::Y);
+                Quat::from_axis_angle(axis, max)
+            } else {
+                swing
+            };
+            let t = twist.clamp(twist_deg[0].to_radians(), twist_deg[1].to_radians());
+            swing * Quat::from_rotation_x(t)
         }
-        JointKind::Ball => true,
-        JointKind::Fixed => q.xyz().length_squared() < 1e-8,
+        JointKind::Ball => q,
+        JointKind::Fixed => Quat::IDENTITY,
     }
 }
 
 impl ParticleBackend {
-    /// One step of `dt` seconds: candidate pairs once, then the substeps.
+    /// One step of `dt` seconds: candidate pairs when the last ones ran out, then the
+    /// substeps.
     pub(super) fn step_impl(&mut self, dt: f32) {
         let n = self.settings.substeps.max(1);
         let h = dt / n as f32;
@@ -117,186 +132,77 @@ impl ParticleBackend {
             b.rot_prev = b.rot;
         }
         self.touched.fill(false);
-        self.find_pairs(dt);
+        self.supported.fill(false);
+        if self.pairs_left == 0 {
+            self.find_pairs(dt * PAIR_REUSE as f32);
+            self.pairs_left = PAIR_REUSE;
+        }
+        self.pairs_left -= 1;
         for s in 0..n {
             let frac = (s + 1) as f32 / n as f32;
             self.predict(h, frac);
             for _ in 0..self.settings.iterations.max(1) {
-                self.solve_sticks();
-                self.solve_clusters();
-                // Fresh frames once per pass (clusters are fresh from their matching):
-                // the limits read them, and the turns they make keep them up to date.
-                self.update_frames(frac, false);
+                self.solve_distances();
+                self.solve_affines();
+                self.update_frames();
                 self.solve_limits();
                 self.solve_pins(h, frac);
+                self.update_capsules();
                 self.solve_ground();
                 self.solve_pairs();
+                // Contacts move bodies as rigid wholes, which drags the anchors they
+                // share with their neighbours: one more sweep closes the joints again.
+                self.solve_distances();
+                self.solve_affines();
             }
             for i in 0..self.x.len() {
                 self.v[i] += (self.x[i] - self.x_pred[i]) / h;
             }
-            // The twist is a position-based coordinate too: its rate is what the
-            // projections left of its change.
-            for body in &mut self.bodies {
-                if let Orient::Stick { joint: Some(_) } = body.orient
-                    && !body.kinematic
-                {
-                    body.twist_vel = (body.twist - body.twist_prev) / h;
-                }
-            }
         }
-        self.update_frames(1.0, true);
-        for body in &mut self.bodies {
-            body.kin_from = body.kin_to;
-        }
+        // Contacts as the solver left them (as rapier's are measured), before the
+        // projection, whose overlaps the next step's contacts take up.
+        self.update_frames();
+        self.penetration = self.measure_penetration();
+        self.project_limits();
         for i in 0..self.x.len() {
             self.kin_from[i] = self.kin_to[i];
         }
         for p in &mut self.pins {
             p.from = p.target;
         }
-        self.penetration = self.measure_penetration();
     }
 
-    /// Gravity and velocities move the free particles; kinematic ones go to their targets.
+    /// Gravity and velocities move the free particles (exactly, for a constant
+    /// acceleration); kinematic ones go to their targets.
     fn predict(&mut self, h: f32, frac: f32) {
-        let g = self.settings.gravity * h;
-        let damp = (1.0 - LINEAR_DAMPING * h).max(0.0);
+        let g = self.settings.gravity;
+        let fall = g * (0.5 * h * h);
         for i in 0..self.x.len() {
             self.x_prev[i] = self.x[i];
             if self.w[i] > 0.0 {
-                self.v[i] = (self.v[i] + g) * damp;
-                self.x[i] += self.v[i] * h;
+                self.x[i] += self.v[i] * h + fall;
+                self.v[i] += g * h;
             } else if self.kin[i] > 0 {
                 self.x[i] = self.kin_from[i].lerp(self.kin_to[i], frac);
                 self.v[i] = (self.x[i] - self.x_prev[i]) / h;
             }
             self.x_pred[i] = self.x[i];
         }
-        let twist_damp = (1.0 - TWIST_DAMPING * h).max(0.0);
+    }
+
+    /// Every body's frame from its three frame particles.
+    pub(super) fn update_frames(&mut self) {
         for body in &mut self.bodies {
-            if body.kinematic {
-                continue;
-            }
-            if let Orient::Stick { joint } = body.orient {
-                body.twist_vel *= twist_damp;
-                body.twist_prev = body.twist;
-                match joint {
-                    Some(_) => body.twist += body.twist_vel * h,
-                    None => {
-                        let d = (self.x[body.tip as usize] - self.x[body.base as usize])
-                            .normalize_or(Vec3::Y);
-                        body.rot =
-                            (Quat::from_axis_angle(d, body.twist_vel * h) * body.rot).normalize();
-                    }
-                }
-            }
+            let [i0, i1, i2] = body.triad.map(|i| self.x[i as usize]);
+            let rot = (triad_frame(i0, i1, i2) * body.tri_inv).normalize();
+            body.pos = i0 - rot * body.tri_origin;
+            body.rot = rot;
         }
     }
 
-    /// Body frames from the particles (and twists), parents first; kinematic bodies at
-    /// `frac` of the way to their targets; clusters matched again only with `clusters`.
-    pub(super) fn update_frames(&mut self, frac: f32, clusters: bool) {
-        for idx in 0..self.order.len() {
-            let b = self.order[idx] as usize;
-            if self.bodies[b].kinematic {
-                let body = &mut self.bodies[b];
-                body.pos = body
-                    .kin_from
-                    .translation
-                    .lerp(body.kin_to.translation, frac);
-                body.rot = body.kin_from.rotation.slerp(body.kin_to.rotation, frac);
-                body.sync_twist = true;
-            }
-            match self.bodies[b].orient {
-                Orient::Cluster => {
-                    if clusters && !self.bodies[b].kinematic {
-                        self.match_cluster(b, false);
-                    }
-                }
-                Orient::Stick { joint: Some(k) } => {
-                    let k = k as usize;
-                    if self.bodies[b].sync_twist {
-                        let parent_rot = self.bodies[self.joints[k].rj.parent].rot;
-                        let body = &self.bodies[b];
-                        let t = twist_of(parent_rot, &self.joints[k].rj, body.a, body.g, body.rot);
-                        let body = &mut self.bodies[b];
-                        body.twist = t;
-                        body.twist_prev = t;
-                        body.sync_twist = body.kinematic;
-                    }
-                    if !self.bodies[b].kinematic {
-                        self.stick_frame(b, k);
-                    }
-                }
-                Orient::Stick { joint: None } => {
-                    if !self.bodies[b].kinematic {
-                        let body = &self.bodies[b];
-                        let d = (self.x[body.tip as usize] - self.x[body.base as usize])
-                            .normalize_or(Vec3::Y);
-                        let cur = (body.rot * (body.r_tip - body.r_base)).normalize_or(d);
-                        let rot = (Quat::from_rotation_arc(cur, d) * body.rot).normalize();
-                        let pos = self.x[body.base as usize] - rot * body.r_base;
-                        let body = &mut self.bodies[b];
-                        body.rot = rot;
-                        body.pos = pos;
-                        body.sync_twist = false;
-                    }
-                }
-            }
-        }
-    }
-
-    /// A stick's frame from its particles, its parent's rotation and its twist.
-    fn stick_frame(&mut self, b: usize, k: usize) {
-        let j = &self.joints[k].rj;
-        let body = &self.bodies[b];
-        let d = (self.x[body.tip as usize] - self.x[body.base as usize]).normalize_or(Vec3::Y);
-        let rot = stick_rotation(self.bodies[j.parent].rot, j, body.a, body.g, body.twist, d);
-        let pos = self.x[body.base as usize] - rot * body.r_base;
-        let body = &mut self.bodies[b];
-        body.rot = rot;
-        body.pos = pos;
-    }
-
-    /// Shape matching of cluster `b`: its best-fit rotation and position; with `project`,
-    /// its free particles also move onto the matched rigid shape.
-    fn match_cluster(&mut self, b: usize, project: bool) {
-        let range = self.body_parts(b);
-        let mut c = Vec3::ZERO;
-        let mut msum = 0.0f32;
-        for &i in &self.parts[range.clone()] {
-            let i = i as usize;
-            c += self.x[i] * self.m[i];
-            msum += self.m[i];
-        }
-        c /= msum.max(1e-12);
-        let rcm = self.bodies[b].rcm;
-        let mut a = Mat3::ZERO;
-        for k in range.clone() {
-            let i = self.parts[k] as usize;
-            let p = (self.x[i] - c) * self.m[i];
-            let q = self.rest[k] - rcm;
-            a += Mat3::from_cols(p * q.x, p * q.y, p * q.z);
-        }
-        let rot = extract_rotation(&a, self.bodies[b].rot);
-        let body = &mut self.bodies[b];
-        body.rot = rot;
-        body.pos = c - rot * rcm;
-        if project {
-            for k in range {
-                let i = self.parts[k] as usize;
-                if self.w[i] > 0.0 {
-                    self.x[i] = c + rot * (self.rest[k] - rcm);
-                }
-            }
-        }
-    }
-
-    /// Stick lengths, and each stick's centre on its segment.
-    fn solve_sticks(&mut self) {
-        for k in 0..self.distances.len() {
-            let d = self.distances[k];
+    /// The distances that keep each body rigid.
+    fn solve_distances(&mut self) {
+        for d in &self.distances {
             let (a, b) = (d.a as usize, d.b as usize);
             let (wa, wb) = (self.w[a], self.w[b]);
             if wa + wb <= 0.0 {
@@ -311,63 +217,49 @@ impl ParticleBackend {
             self.x[a] += corr * wa;
             self.x[b] -= corr * wb;
         }
-        for k in 0..self.middles.len() {
-            let m = self.middles[k];
-            let (c, a, b) = (m.c as usize, m.a as usize, m.b as usize);
-            let t = m.t;
-            let (wc, wa, wb) = (self.w[c], self.w[a], self.w[b]);
-            let den = wc + (1.0 - t) * (1.0 - t) * wa + t * t * wb;
+    }
+
+    /// Each centre particle at its combination of its body's frame particles.
+    fn solve_affines(&mut self) {
+        for a in &self.affines {
+            let c = a.c as usize;
+            let mut target = Vec3::ZERO;
+            let mut den = self.w[c];
+            for k in 0..4 {
+                let r = a.refs[k] as usize;
+                target += self.x[r] * a.alpha[k];
+                den += a.alpha[k] * a.alpha[k] * self.w[r];
+            }
             if den <= 0.0 {
                 continue;
             }
-            let lambda = (self.x[c] - self.x[a].lerp(self.x[b], t)) / den;
-            self.x[c] -= lambda * wc;
-            self.x[a] += lambda * ((1.0 - t) * wa);
-            self.x[b] += lambda * (t * wb);
-        }
-    }
-
-    /// Every cluster back to its rigid shape.
-    fn solve_clusters(&mut self) {
-        for idx in 0..self.order.len() {
-            let b = self.order[idx] as usize;
-            if self.bodies[b].orient == Orient::Cluster && !self.bodies[b].kinematic {
-                self.match_cluster(b, true);
+            let lambda = (self.x[c] - target) / den;
+            self.x[c] -= lambda * self.w[c];
+            for k in 0..4 {
+                let r = a.refs[k] as usize;
+                self.x[r] += lambda * (a.alpha[k] * self.w[r]);
             }
         }
     }
 
-    /// Joint limits: child and parent turn until the child is back inside; a stick's twist
-    /// follows its turned frame.
+    /// Joint limits: child and parent turn until the child is back inside.
     fn solve_limits(&mut self) {
         for k in 0..self.joints.len() {
-            let (p, c) = (self.joints[k].rj.parent, self.joints[k].rj.child);
-            if self.bodies[c].kinematic {
+            let j = &self.joints[k];
+            let (p, c) = (j.parent, j.child);
+            if matches!(j.kind, JointKind::Ball)
+                || (self.bodies[c].kinematic && self.bodies[p].kinematic)
+            {
                 continue;
             }
-            if matches!(self.joints[k].rj.kind, JointKind::Ball) {
-                continue;
-            }
-            // A turn earlier in this pass moved a stick's base or its parent's frame.
-            for b in [p, c] {
-                if self.stale[b] {
-                    self.stale[b] = false;
-                    if let Orient::Stick { joint: Some(jk) } = self.bodies[b].orient {
-                        self.stick_frame(b, jk as usize);
-                    }
-                }
-            }
-            let j = &self.joints[k].rj;
             let (pr, cr) = (self.bodies[p].rot, self.bodies[c].rot);
             let rel = (pr * j.frame_parent.rotation).conjugate() * cr * j.frame_child.rotation;
-            if inside(&j.kind, rel) {
+            if self.bounds[k].inside(rel) {
                 continue;
             }
-            let parent = Transform::new(self.bodies[p].pos, pr);
-            let child = Transform::new(self.bodies[c].pos, cr);
-            let Some(target) = j.clamp_child_rotation(&parent, &child) else {
-                continue;
-            };
+            let fp = pr * j.frame_parent.rotation;
+            let target = fp * clamp_rel(&j.kind, rel) * j.frame_child.rotation.conjugate();
+            let anchor = self.bodies[c].pos + cr * j.frame_child.translation;
             let turn = (target * cr.conjugate()).normalize();
             let turn = if turn.w < 0.0 { -turn } else { turn };
             let delta = turn.to_scaled_axis();
@@ -376,75 +268,126 @@ impl ParticleBackend {
                 continue;
             }
             let axis = delta / angle;
-            let joint_particle = self.joints[k].particle as usize;
-            let free = |b: usize| {
-                (self.w[joint_particle] > 0.0)
-                    .then(|| self.rotational_inertia(b))
-                    .flatten()
-            };
-            match (free(c), free(p)) {
-                (Some((cc, ic)), Some((cp, ip))) => {
+            match (self.body_free(c), self.body_free(p)) {
+                (true, true) => {
                     // XPBD's angular correction between two rigid bodies: each turns
                     // about its own centre of mass by its inverse inertia times the
                     // impulse, so neither momentum changes and the projection cannot
-                    // pump energy against the floor; the sticks and clusters then close
-                    // the joint the turns opened.
-                    let (wc, wp) = (axis.dot(ic * axis), axis.dot(ip * axis));
-                    let lambda = angle / (wc + wp).max(1.0e-12);
-                    self.turn_body(c, cc, ic * axis * lambda);
-                    self.turn_body(p, cp, ip * axis * -lambda);
+                    // pump energy against the floor.
+                    let (bc, bp) = (&self.bodies[c], &self.bodies[p]);
+                    let (ac, ap) = (cr.conjugate() * axis, pr.conjugate() * axis);
+                    let (ic, ip) = (bc.inv_inertia * ac, bp.inv_inertia * ap);
+                    let lambda = angle / (ac.dot(ic) + ap.dot(ip)).max(1.0e-12);
+                    let (cc, cp) = (bc.pos + cr * bc.com, bp.pos + pr * bp.com);
+                    self.turn_body(c, cc, cr * ic * lambda);
+                    self.turn_body(p, cp, pr * ip * -lambda);
                 }
-                _ => {
-                    // Held parent (or joint): the child alone turns about the joint.
-                    let xj = self.x[joint_particle];
-                    self.turn_body(c, xj, delta);
-                }
-            }
-            // Sticks keep the turn's roll about their bone in their twist.
-            self.resync_twist(c);
-            self.resync_twist(p);
-            for b in [c, p] {
-                for idx in 0..self.children[b].len() {
-                    let ch = self.children[b][idx] as usize;
-                    if ch != c {
-                        self.stale[ch] = true;
-                    }
-                }
+                // A held parent: the child alone turns about the joint.
+                (true, false) => self.turn_body(c, anchor, delta),
+                // A held child: the parent turns the other way about the joint.
+                (false, true) => self.turn_body(p, anchor, -delta),
+                (false, false) => {}
             }
         }
-        self.stale.fill(false);
     }
 
-    /// Centre of mass and inverse inertia tensor (world, about that centre) of body `b`'s
-    /// particles, or `None` when one of them is held; a stick's missing inertia about its
-    /// bone is its twist inertia.
-    fn rotational_inertia(&self, b: usize) -> Option<(Vec3, Mat3)> {
-        let parts = &self.parts[self.body_parts(b)];
-        let (mut c, mut mass) = (Vec3::ZERO, 0.0f32);
-        for &i in parts {
-            let i = i as usize;
-            if self.w[i] <= 0.0 {
-                return None;
+    /// Whether something outside the ragdoll holds body `b`: a kinematic particle or a pin.
+    fn held(&self, b: usize) -> bool {
+        !self.body_free(b) || self.pins.iter().any(|p| p.active && p.body as usize == b)
+    }
+
+    /// After the substeps, turns each joint still past its limits back inside, positions
+    /// only, parents first: the child's whole subtree turns about the joint (or, when
+    /// something holds the subtree, the rest of the ragdoll turns the other way), and
+    /// where that would sink a body into the floor the ragdoll is lifted instead. This is
+    /// the world's projection for the rigid backend (`WorldSettings::project_limits`) done
+    /// on the particles: a hard landing bends a straight knee a few degrees past its stop
+    /// within one step, more than the solver's passes take back, and the world's version
+    /// would set each body's particles from its frame, snapping away the small distortions
+    /// the next step's distances then turn into velocity (1.5 % energy in a flat drop).
+    fn project_limits(&mut self) {
+        for idx in 0..self.joint_order.len() {
+            let k = self.joint_order[idx] as usize;
+            let j = &self.joints[k];
+            if matches!(j.kind, JointKind::Ball) {
+                continue;
             }
-            c += self.x[i] * self.m[i];
-            mass += self.m[i];
+            let (p, c) = (j.parent, j.child);
+            let (pr, cr) = (self.bodies[p].rot, self.bodies[c].rot);
+            let fp = pr * j.frame_parent.rotation;
+            let rel = fp.conjugate() * cr * j.frame_child.rotation;
+            if self.bounds[k].inside(rel) {
+                continue;
+            }
+            let target = fp * clamp_rel(&j.kind, rel) * j.frame_child.rotation.conjugate();
+            let turn = (target * cr.conjugate()).normalize();
+            if 2.0 * turn.w.abs().min(1.0).acos() < PROJECT_TOLERANCE {
+                continue;
+            }
+            let anchor = self.bodies[c].pos + cr * j.frame_child.translation;
+            let f = &self.filters[self.bodies[c].ragdoll as usize];
+            let all = f.first_body as usize..(f.first_body + f.bodies) as usize;
+            self.epoch = self.epoch.wrapping_add(1);
+            let epoch = self.epoch;
+            for &b in &self.subtrees[k] {
+                self.body_stamp[b as usize] = epoch;
+            }
+            let sub_held = self.subtrees[k].iter().any(|&b| self.held(b as usize));
+            let (inside_sub, turn) = if !sub_held {
+                (true, turn)
+            } else if all
+                .clone()
+                .any(|b| self.body_stamp[b] != epoch && self.held(b))
+            {
+                // Held on both sides: the holders decide.
+                continue;
+            } else {
+                (false, turn.conjugate())
+            };
+            let mut lift = 0.0f32;
+            for b in all.clone() {
+                if (self.body_stamp[b] == epoch) != inside_sub {
+                    continue;
+                }
+                let before = self.lowest(b);
+                for k2 in self.body_parts(b) {
+                    let i = self.parts[k2] as usize;
+                    if self.stamp[i] != epoch && self.w[i] > 0.0 {
+                        self.stamp[i] = epoch;
+                        self.x[i] = anchor + turn * (self.x[i] - anchor);
+                    }
+                }
+                let body = &mut self.bodies[b];
+                body.rot = (turn * body.rot).normalize();
+                body.pos = anchor + turn * (body.pos - anchor);
+                if let Some(g) = self.settings.ground {
+                    let floor = (g - PROJECT_GROUND_SLACK_M).min(before);
+                    lift = lift.max(floor - self.lowest(b));
+                }
+            }
+            // Where the turn would sink a body into the floor, the ragdoll is lifted by
+            // that much, so the limit wins without pushing a body into the floor.
+            if lift > 0.0 && !all.clone().any(|b| self.held(b)) {
+                self.epoch = self.epoch.wrapping_add(1);
+                let epoch = self.epoch;
+                for b in all {
+                    for k2 in self.body_parts(b) {
+                        let i = self.parts[k2] as usize;
+                        if self.stamp[i] != epoch {
+                            self.stamp[i] = epoch;
+                            self.x[i].y += lift;
+                        }
+                    }
+                    self.bodies[b].pos.y += lift;
+                }
+            }
         }
-        c /= mass;
-        let mut inertia = Mat3::ZERO;
-        for &i in parts {
-            let (r, m) = (self.x[i as usize] - c, self.m[i as usize]);
-            inertia += (Mat3::IDENTITY * r.length_squared()
-                - Mat3::from_cols(r * r.x, r * r.y, r * r.z))
-                * m;
-        }
-        let body = &self.bodies[b];
-        if let Orient::Stick { .. } = body.orient {
-            let d = (self.x[body.tip as usize] - self.x[body.base as usize]).normalize_or(Vec3::Y);
-            inertia += Mat3::from_cols(d * d.x, d * d.y, d * d.z) * body.axial_inertia;
-        }
-        let trace = inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z;
-        inertia += Mat3::IDENTITY * (1.0e-6 * trace + 1.0e-12);
-        Some((c, inertia.inverse()))
+    }
+
+    /// Lowest point of body `b`'s capsule from its frame.
+    fn lowest(&self, b: usize) -> f32 {
+        let (e0, e1) = self.capsule_world(b);
+        e0.y.min(e1.y) - self.bodies[b].radius
     }
 
     /// Turns body `b`'s free particles and frame by the rotation vector `theta` about `centre`.
@@ -459,21 +402,6 @@ impl ParticleBackend {
         let body = &mut self.bodies[b];
         body.rot = (q * body.rot).normalize();
         body.pos = centre + q * (body.pos - centre);
-    }
-
-    /// Sets stick `b`'s twist from its current rotation (after something turned it as a
-    /// whole); a twist rate against the change is stopped, as a limit stop does.
-    fn resync_twist(&mut self, b: usize) {
-        let Orient::Stick { joint: Some(k) } = self.bodies[b].orient else {
-            return;
-        };
-        let j = &self.joints[k as usize].rj;
-        if matches!(j.kind, JointKind::Hinge { .. }) {
-            return;
-        }
-        let body = &self.bodies[b];
-        let t = twist_of(self.bodies[j.parent].rot, j, body.a, body.g, body.rot);
-        self.bodies[b].twist = t;
     }
 
     /// Pins: hard ones are position constraints, soft ones XPBD springs with damping.
