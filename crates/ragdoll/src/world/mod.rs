@@ -94,7 +94,7 @@ pub struct WorldSettings {
     pub backend: BackendKind,
     /// Substeps per physics step of the particle backend (default 3: with the 4 collision
     /// substeps, the particles move at 720 Hz). Two leave the built-in humanoid's bones
-    /// 1.4 % stretched after a fall and gain 3 % energy; four cost a third more for little.
+    /// 1.4 % stretched after a fall; four cost a third more.
     pub particle_substeps: usize,
     /// Projection passes per particle substep (default 1): substeps converge better than
     /// passes for the same cost (Macklin et al. 2019, "Small Steps in Physics Simulation").
