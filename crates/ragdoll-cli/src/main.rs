@@ -121,7 +121,7 @@ pub enum BackendArg {
     /// rapier3d rigid bodies and joints (accurate).
     #[default]
     Rigid,
-    /// Our position-based particle ragdoll (XPBD): cheaper, for crowds.
+    /// Our position-based particle ragdoll (XPBD-style), for crowds and creatures.
     Particle,
 }
 

@@ -2,7 +2,7 @@
 //! never see which engine moved the bodies.
 //!
 //! - `rigid`: rapier3d rigid bodies and impulse joints (the accurate default);
-//! - `particle`: our own position-based particle ragdoll (XPBD), for crowds.
+//! - `particle`: our own position-based particle ragdoll (XPBD-style), for crowds and creatures.
 
 pub(crate) mod particle;
 pub(crate) mod rigid;
@@ -46,8 +46,9 @@ pub enum BackendKind {
     /// rapier3d rigid bodies and impulse joints: the accurate default.
     #[default]
     Rigid,
-    /// Our position-based particle ragdoll (XPBD with substeps): cheaper, for crowds and
-    /// creatures; bones may stretch by a fraction of a percent.
+    /// Our position-based particle ragdoll (XPBD-style projections with substeps), for
+    /// crowds and creatures built from meshes; joints may open and bones stretch by a few
+    /// millimetres.
     Particle,
 }
 
