@@ -27,9 +27,10 @@
 //!   own centres of mass in opposite senses, by their inverse inertias (XPBD's angular
 //!   correction), so a projection never changes momentum; the distance constraints then
 //!   close the joint the turns opened. A body with a held particle cannot turn freely: the
-//!   other side turns about the joint alone. After the substeps, what is still past a
-//!   limit by more than a degree (a hard landing on a straight knee) is turned back
-//!   positions-only, subtree about the joint, as the world does for the rigid backend.
+//!   other side turns about the joint alone. The limits are solved twice a pass, the
+//!   second time last. After the substeps, what is still more than 3° past a limit (a
+//!   hard landing on a straight knee) is turned back positions-only, the subtree about
+//!   the joint (or the rest of the ragdoll, whichever stays out of the floor).
 //! - **Collision**: each body's capsule (boxes become the capsule along their longest edge,
 //!   the radius the smaller of the other two half edges, so nothing sinks into the floor)
 //!   against the ground plane and against every capsule not filtered out, of its own or

@@ -302,15 +302,15 @@ impl ParticleBackend {
         !self.body_free(b) || self.pins.iter().any(|p| p.active && p.body as usize == b)
     }
 
-    /// After the substeps, turns each joint still past its limits back inside, positions
-    /// only, parents first: the child's whole subtree turns about the joint (or, when
-    /// something holds the subtree, the rest of the ragdoll turns the other way), and
-    /// where that would sink a body into the floor the ragdoll is lifted instead. This is
-    /// the world's projection for the rigid backend (`WorldSettings::project_limits`) done
-    /// on the particles: a hard landing bends a straight knee a few degrees past its stop
-    /// within one step, more than the solver's passes take back, and the world's version
-    /// would set each body's particles from its frame, snapping away the small distortions
-    /// the next step's distances then turn into velocity (1.5 % energy in a flat drop).
+    /// After the substeps, turns each joint still more than `PROJECT_TOLERANCE` past its
+    /// limits back inside, positions only, parents first: the child's whole subtree turns
+    /// about the joint, or the rest of the ragdoll the other way when the subtree is held or
+    /// would sink into the floor; when both would, the joint is left to the next step. A
+    /// hard landing bends a straight knee past its stop within one step, more than the
+    /// solver's passes take back. The world's projection for the rigid backend
+    /// (`WorldSettings::project_limits`) cannot serve here: it sets each body's particles
+    /// from its frame, snapping away small distortions that the next step's distances turn
+    /// into velocity (1.5 % energy in a flat drop).
     fn project_limits(&mut self) {
         for idx in 0..self.joint_order.len() {
             let k = self.joint_order[idx] as usize;
