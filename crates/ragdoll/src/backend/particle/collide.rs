@@ -222,7 +222,6 @@ impl ParticleBackend {
             if e0.y.min(e1.y) - radius >= ground || self.bodies[b].kinematic {
                 continue;
             }
-            let range = self.body_parts(b);
             for s in 0..2 {
                 let end = self.capsule_from_particles(b)[s];
                 let depth = ground + radius - end.y;
@@ -235,12 +234,7 @@ impl ParticleBackend {
                 let lambda = depth / w;
                 let inv_mass = self.bodies[b].inv_mass;
                 self.rigid_move(b, c, Vec3::Y * (lambda * inv_mass), turn * lambda);
-                let exact = &self.beta_e[s][range.clone()];
-                let mut moved = Vec3::ZERO;
-                for (k, &i) in self.parts[range.clone()].iter().enumerate() {
-                    let i = i as usize;
-                    moved += (self.x[i] - self.x_prev[i]) * exact[k];
-                }
+                let moved = self.axis_moved(b, s as f32);
                 let slide = Vec3::new(moved.x, 0.0, moved.z);
                 let len = slide.length();
                 if len > 1e-9 {
