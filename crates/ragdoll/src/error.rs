@@ -40,6 +40,15 @@ pub enum Error {
         /// What is wrong.
         message: String,
     },
+    /// The file is refused whole before it is parsed (not a regular file, too large, outside
+    /// the folder it may be read from).
+    #[error("{}: {message}", path.display())]
+    Refused {
+        /// The file involved.
+        path: PathBuf,
+        /// Why it is not read.
+        message: String,
+    },
     /// The file's extension or content is not something we import.
     #[error("{}: unsupported file type (expected .bvh, .glb, .gltf, .obj or .toml)", path.display())]
     UnsupportedFile {

@@ -49,6 +49,7 @@ mod backend;
 pub mod error;
 pub mod events;
 pub mod export;
+pub mod files;
 pub mod import;
 pub mod math;
 pub mod report;
