@@ -529,6 +529,16 @@ fn every_example_loads_with_what_it_describes() {
     assert_eq!(pins.pins.len(), 2);
     assert_eq!(pins.pins[0].event.keys.len(), 3);
     assert_eq!(pins.pins[1].event.stiffness_hz, Some(2.0));
+    // The serpent (our own mesh, rigged on import) is pinned by the head where it rests.
+    let serpent = example("serpent.toml");
+    assert_eq!((serpent.characters.len(), serpent.pins.len()), (1, 1));
+    let skeleton = &serpent.characters[0].character.skeleton;
+    let head = skeleton.rest_world()[skeleton.find("head").unwrap()].translation;
+    let first = serpent.pins[0].event.keys[0].1;
+    assert!(
+        (head - first).length() < 0.02,
+        "head at {head}, pin at {first}"
+    );
     // Every example that runs on a bare clone loads (a new one gets checked here too).
     let (bare, _) = common::examples();
     for path in &bare {
