@@ -16,7 +16,7 @@ fn assert_particle_report(report: &Value, what: &str) {
 }
 
 #[test]
-fn demo_and_simulate_run_on_the_particle_backend() {
+fn demo_runs_on_the_particle_backend_and_rigid_stays_the_default() {
     let tmp = tempfile::tempdir().unwrap();
     let o = ragdoll(
         tmp.path(),
@@ -33,9 +33,13 @@ fn demo_and_simulate_run_on_the_particle_backend() {
         report["max_bone_stretch"].as_f64().unwrap() < 0.05,
         "{report}"
     );
-    let Some(data) = data_dir() else {
-        return;
-    };
+}
+
+#[test]
+#[ignore = "needs ../shared/data"]
+fn simulate_runs_a_file_on_the_particle_backend() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = data_dir();
     let bvh = data.join("bvh/cmu_pirouette_threejs.bvh");
     let o = ragdoll(
         tmp.path(),

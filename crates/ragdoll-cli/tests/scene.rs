@@ -1,8 +1,8 @@
 //! `ragdoll simulate SCENE.toml -o DIR` end to end: every example scene in `examples/`
 //! runs into a temporary folder, its files read back, its glTF judged by the Khronos
 //! validator where node is installed; bad scenes and flags fail with one clear line and
-//! leave nothing behind; two runs write the same bytes. A scene mixing the shared data's
-//! glTF and BVH characters is validated too, where that folder is there.
+//! leave nothing behind; two runs write the same bytes. The examples that need the shared
+//! data, and a scene mixing its glTF and BVH characters, are ignored tests (`--ignored`).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -13,24 +13,19 @@ mod common;
 
 use common::*;
 
-fn examples() -> Vec<PathBuf> {
-    let mut files: Vec<PathBuf> = std::fs::read_dir(repo().join("examples"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-        .collect();
-    files.sort();
-    assert!(
-        files.len() >= 4,
-        "examples/ holds the four scenes: {files:?}"
-    );
-    // Scenes on the shared test data (the dragon) run where it is (always in CI).
-    let uses_data =
-        |p: &PathBuf| std::fs::read_to_string(p).is_ok_and(|t| t.contains("shared/data/"));
-    if files.iter().any(uses_data) && data_dir().is_none() {
-        files.retain(|p| !uses_data(p));
-    }
-    files
+/// The example scenes that run on a bare clone.
+fn bare_examples() -> Vec<PathBuf> {
+    let (bare, _) = examples();
+    assert!(bare.len() >= 4, "examples/ holds the four scenes: {bare:?}");
+    bare
+}
+
+/// The example scenes whose first line says they need the shared data (the dragon).
+fn data_examples() -> Vec<PathBuf> {
+    data_dir();
+    let (_, data) = examples();
+    assert!(!data.is_empty(), "no example is marked {NEEDS_DATA:?}");
+    data
 }
 
 /// Runs a scene into `out` and returns the paths the tool listed on stdout.
@@ -61,11 +56,21 @@ fn number(v: &Value, key: &str, what: &str) -> f64 {
 
 #[test]
 fn every_example_scene_runs_and_its_files_read_back() {
+    scenes_run_and_their_files_read_back(&bare_examples());
+}
+
+#[test]
+#[ignore = "needs ../shared/data"]
+fn every_data_example_scene_runs_and_its_files_read_back() {
+    scenes_run_and_their_files_read_back(&data_examples());
+}
+
+fn scenes_run_and_their_files_read_back(scenes: &[PathBuf]) {
     let tmp = tempfile::tempdir().unwrap();
-    for scene in examples() {
+    for scene in scenes {
         let stem = scene.file_stem().unwrap().to_string_lossy().into_owned();
         let out = tmp.path().join(&stem);
-        let listed = run_scene(tmp.path(), &scene, &out);
+        let listed = run_scene(tmp.path(), scene, &out);
         let report_path = listed
             .iter()
             .find(|p| p.extension().is_some_and(|e| e == "json"))
@@ -130,10 +135,22 @@ fn every_example_scene_runs_and_its_files_read_back() {
     }
 }
 
-/// Node and the validator (`cd .ci && npm install`) are needed; without them the test says
-/// so loudly and passes, as CI installs them only after the tests.
 #[test]
 fn example_scene_gltfs_pass_the_khronos_validator() {
+    scene_gltfs_pass_the_khronos_validator(&bare_examples(), None);
+}
+
+/// The data examples, and characters of every kind in one file: glTF inputs with textures
+/// and their own animations, a BVH, the built-in humanoid.
+#[test]
+#[ignore = "needs ../shared/data"]
+fn data_scene_gltfs_pass_the_khronos_validator() {
+    scene_gltfs_pass_the_khronos_validator(&data_examples(), Some(&data_dir()));
+}
+
+/// Node and the validator (`cd .ci && npm install`) are needed; without them the test says
+/// so loudly and passes, as CI installs them only after the tests.
+fn scene_gltfs_pass_the_khronos_validator(scenes: &[PathBuf], data: Option<&Path>) {
     let script = repo().join(".ci/gltf_validate.mjs");
     let validator = repo().join(".ci/node_modules/gltf-validator");
     let node = Command::new("node").arg("--version").output();
@@ -146,17 +163,17 @@ fn example_scene_gltfs_pass_the_khronos_validator() {
     }
     let tmp = tempfile::tempdir().unwrap();
     let mut glbs = Vec::new();
-    for scene in examples() {
+    for scene in scenes {
         let out = tmp.path().join(scene.file_stem().unwrap());
         glbs.extend(
-            run_scene(tmp.path(), &scene, &out)
+            run_scene(tmp.path(), scene, &out)
                 .into_iter()
                 .filter(|p| p.extension().is_some_and(|e| e == "glb")),
         );
     }
-    // Characters of every kind in one file, where the shared data is there: glTF inputs
-    // with textures and their own animations, a BVH, the built-in humanoid.
-    if let Some(data) = data_dir() {
+    // Characters of every kind in one file: glTF inputs with textures and their own
+    // animations, a BVH, the built-in humanoid.
+    if let Some(data) = data {
         let file = |p: &str| format!("{:?}", data.join(p).display().to_string());
         let text = format!(
             "duration_s = 1\n[[character]]\nfile = {}\nactivate = 0.3\n[[character]]\nfile = {}\nposition = [2, 0, 0]\n[[character]]\nfile = {}\nposition = [-2, 0, 0]\n[[character]]\nfile = {}\nposition = [0, 0, 3]\n[[character]]\nposition = [0, 0, -3]\n[[character]]\nfile = {}\nposition = [4, 0, 0]\n[[blast]]\ntnt_kg = 1\nposition = [1, 0.5, 1]\ntime_s = 0.5\n",

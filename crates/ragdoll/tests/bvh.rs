@@ -3,7 +3,7 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use glam::{Quat, Vec3};
 use ragdoll::Error;
@@ -13,10 +13,6 @@ use ragdoll::import::{ImportOptions, Units, UpAxis};
 use ragdoll::math::Transform;
 use ragdoll::skeleton::{Character, Joint, Skeleton, Source, humanoid};
 use ragdoll::track::Track;
-
-fn data_dir() -> Option<PathBuf> {
-    common::shared_data().map(|d| d.join("bvh"))
-}
 
 fn parse(text: &str) -> ragdoll::Result<Character> {
     bvh::parse(text, Path::new("test.bvh"), &ImportOptions::default())
@@ -89,8 +85,9 @@ fn name_map(a: &Character, b: &Character) -> Vec<usize> {
 }
 
 #[test]
+#[ignore = "needs ../shared/data"]
 fn bvh_data_files_parse_with_expected_counts_and_heights() {
-    let Some(dir) = data_dir() else { return };
+    let dir = common::shared_data().join("bvh");
     // (file, joints, frames, humanoid, metres per unit, up)
     let expected = [
         (
@@ -128,8 +125,9 @@ fn bvh_data_files_parse_with_expected_counts_and_heights() {
 }
 
 #[test]
+#[ignore = "needs ../shared/data"]
 fn bvh_pirouette_details() {
-    let Some(dir) = data_dir() else { return };
+    let dir = common::shared_data().join("bvh");
     let c = bvh::load(
         &dir.join("cmu_pirouette_threejs.bvh"),
         &ImportOptions::default(),
@@ -160,8 +158,9 @@ fn bvh_pirouette_details() {
 }
 
 #[test]
+#[ignore = "needs ../shared/data"]
 fn bvh_round_trip_of_every_data_file_within_a_millimetre() {
-    let Some(dir) = data_dir() else { return };
+    let dir = common::shared_data().join("bvh");
     for entry in std::fs::read_dir(&dir).unwrap() {
         let path = entry.unwrap().path();
         if path.extension().and_then(|e| e.to_str()) != Some("bvh") {
@@ -298,8 +297,9 @@ fn expect_parse_error(text: &str) -> (usize, String) {
 }
 
 #[test]
+#[ignore = "needs ../shared/data"]
 fn bvh_errors_name_file_and_line() {
-    let Some(dir) = data_dir() else { return };
+    let dir = common::shared_data().join("bvh");
     let path = dir.join("mocapbank_bvh-python.bvh");
     let text = std::fs::read_to_string(&path).unwrap();
     let lines: Vec<&str> = text.split_inclusive('\n').collect();
@@ -331,7 +331,10 @@ fn bvh_errors_name_file_and_line() {
     assert_eq!(expect_parse_error(&unclosed).0, 116);
     let more = text.replacen("Frames:\t455", "Frames:\t456", 1);
     assert_eq!(expect_parse_error(&more).0, 575);
-    // The file does not exist.
+}
+
+#[test]
+fn bvh_a_missing_file_is_an_io_error() {
     assert!(matches!(
         bvh::load(Path::new("/nonexistent/x.bvh"), &ImportOptions::default()),
         Err(Error::Io { .. })
@@ -339,8 +342,9 @@ fn bvh_errors_name_file_and_line() {
 }
 
 #[test]
-fn bvh_never_panics_on_truncated_or_garbage_input() {
-    let Some(dir) = data_dir() else { return };
+#[ignore = "needs ../shared/data"]
+fn bvh_never_panics_on_truncated_data_files() {
+    let dir = common::shared_data().join("bvh");
     for (file, step) in [
         ("biovision_example_bvhio.bvh", 1),
         ("two_joint_bvh_anim.bvh", 1),
@@ -358,6 +362,10 @@ fn bvh_never_panics_on_truncated_or_garbage_input() {
             }
         }
     }
+}
+
+#[test]
+fn bvh_never_panics_on_garbage_input() {
     // Random bytes, and random soup of BVH words.
     let mut state = 0x2545_f491_4f6c_dd1du64;
     let mut rand = move || {

@@ -18,19 +18,12 @@ use ragdoll::spec::{BodySpec, RagdollSpec, SPEC_FORMAT_VERSION, Shape};
 use ragdoll::track::Track;
 use serde_json::{Value, json};
 
-fn data_dir() -> Option<PathBuf> {
-    common::shared_data().map(|d| d.join("gltf"))
-}
-
-fn sample(name: &str) -> Option<PathBuf> {
-    data_dir().map(|d| d.join(name))
+fn sample(name: &str) -> PathBuf {
+    common::shared_data().join("gltf").join(name)
 }
 
 fn samples() -> Vec<PathBuf> {
-    let Some(dir) = data_dir() else {
-        return Vec::new();
-    };
-    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+    let mut files: Vec<PathBuf> = std::fs::read_dir(common::shared_data().join("gltf"))
         .unwrap()
         .map(|e| e.unwrap().path())
         .filter(|p| p.extension().is_some_and(|e| e == "glb" || e == "gltf"))
@@ -151,6 +144,7 @@ fn weights_sum_to_one(character: &Character) {
 }
 
 #[test]
+#[ignore = "needs ../shared/data"]
 fn every_sample_imports_with_normalised_weights() {
     for path in samples() {
         let c = load(&path).unwrap_or_else(|e| panic!("{e}"));
@@ -169,10 +163,9 @@ fn every_sample_imports_with_normalised_weights() {
 }
 
 #[test]
+#[ignore = "needs ../shared/data"]
 fn cesium_man_is_19_unnamed_joints_and_one_mesh_standing_up() {
-    let Some(path) = sample("CesiumMan.glb") else {
-        return;
-    };
+    let path = sample("CesiumMan.glb");
     let c = load(&path).unwrap();
     assert_eq!(c.name, "CesiumMan");
     assert_eq!(c.skeleton.len(), 19);
@@ -215,25 +208,22 @@ fn cesium_man_is_19_unnamed_joints_and_one_mesh_standing_up() {
 }
 
 #[test]
+#[ignore = "needs ../shared/data"]
 fn fox_and_simple_skin_have_their_joint_counts() {
-    if let Some(path) = sample("Fox.glb") {
-        let c = load(&path).unwrap();
-        assert_eq!(c.skeleton.len(), 24);
-        assert_eq!(c.skeleton.joints()[0].name, "_rootJoint");
-        assert!(c.skeleton.find("b_Hip_01").is_some());
-        assert_eq!(c.meshes[0].positions.len(), 1728);
-        let names: Vec<&str> = c.clips.iter().map(|c| c.name.as_str()).collect();
-        assert_eq!(names, ["Survey", "Walk", "Run"]);
-    }
-    if let Some(path) = sample("SimpleSkin.gltf") {
-        let c = load(&path).unwrap();
-        assert_eq!(c.skeleton.len(), 2);
-        assert_eq!(c.skeleton.parent(1), Some(0));
-        assert_eq!(c.meshes[0].positions.len(), 10);
-        // Rest pose: joint 1 one unit above joint 0 (its node has translation [0, 1, 0]).
-        let w = c.skeleton.rest_world();
-        assert!((w[1].translation - Vec3::Y).length() < 1e-6);
-    }
+    let c = load(&sample("Fox.glb")).unwrap();
+    assert_eq!(c.skeleton.len(), 24);
+    assert_eq!(c.skeleton.joints()[0].name, "_rootJoint");
+    assert!(c.skeleton.find("b_Hip_01").is_some());
+    assert_eq!(c.meshes[0].positions.len(), 1728);
+    let names: Vec<&str> = c.clips.iter().map(|c| c.name.as_str()).collect();
+    assert_eq!(names, ["Survey", "Walk", "Run"]);
+    let c = load(&sample("SimpleSkin.gltf")).unwrap();
+    assert_eq!(c.skeleton.len(), 2);
+    assert_eq!(c.skeleton.parent(1), Some(0));
+    assert_eq!(c.meshes[0].positions.len(), 10);
+    // Rest pose: joint 1 one unit above joint 0 (its node has translation [0, 1, 0]).
+    let w = c.skeleton.rest_world();
+    assert!((w[1].translation - Vec3::Y).length() < 1e-6);
 }
 
 /// Exports `c` with the test track, reads the result back, and checks what must survive.
@@ -284,6 +274,7 @@ fn empty_spec(name: &str) -> RagdollSpec {
 }
 
 #[test]
+#[ignore = "needs ../shared/data"]
 fn gltf_round_trip_keeps_joint_worlds_and_the_asset() {
     for path in samples() {
         let c = load(&path).unwrap();
@@ -449,9 +440,9 @@ fn a_track_of_the_wrong_shape_is_an_error() {
 }
 
 /// SimpleSkin's JSON, to edit into other test cases.
-fn simple_skin_json() -> Option<Value> {
-    let path = sample("SimpleSkin.gltf")?;
-    Some(serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap())
+fn simple_skin_json() -> Value {
+    let path = sample("SimpleSkin.gltf");
+    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
 }
 
 fn import_json(doc: &Value, name: &str) -> ragdoll::Result<Character> {
@@ -459,10 +450,9 @@ fn import_json(doc: &Value, name: &str) -> ragdoll::Result<Character> {
 }
 
 #[test]
+#[ignore = "needs ../shared/data"]
 fn non_joint_nodes_between_joints_and_matrix_joints_round_trip() {
-    let Some(mut doc) = simple_skin_json() else {
-        return;
-    };
+    let mut doc = simple_skin_json();
     // node 1 (joint) → node 3 (not a joint, turned and moved) → node 2 (joint); node 1 is
     // given as a matrix, which the exporter must turn into TRS to animate it.
     let q = Quat::from_rotation_z(0.4);
@@ -485,10 +475,9 @@ fn non_joint_nodes_between_joints_and_matrix_joints_round_trip() {
 }
 
 #[test]
+#[ignore = "needs ../shared/data"]
 fn the_skin_with_the_most_vertices_wins_and_unread_extensions_pass() {
-    let Some(mut doc) = simple_skin_json() else {
-        return;
-    };
+    let mut doc = simple_skin_json();
     // A second skin made of node 2 alone, used by nothing: skin 0 keeps winning.
     doc["skins"]
         .as_array_mut()
@@ -521,10 +510,9 @@ fn assert_format_error(r: ragdoll::Result<Character>, needle: &str) -> String {
 }
 
 #[test]
+#[ignore = "needs ../shared/data"]
 fn a_gltf_without_a_skin_is_rigged_and_without_a_mesh_or_nodes_is_an_error() {
-    let Some(mut doc) = simple_skin_json() else {
-        return;
-    };
+    let mut doc = simple_skin_json();
     let mut no_skin = doc.clone();
     no_skin.as_object_mut().unwrap().remove("skins");
     no_skin["nodes"][0].as_object_mut().unwrap().remove("skin");
@@ -548,10 +536,9 @@ fn a_gltf_without_a_skin_is_rigged_and_without_a_mesh_or_nodes_is_an_error() {
 }
 
 #[test]
+#[ignore = "needs ../shared/data"]
 fn broken_files_are_errors_not_panics() {
-    let Some(doc) = simple_skin_json() else {
-        return;
-    };
+    let doc = simple_skin_json();
     type Edit = Box<dyn Fn(&mut Value)>;
     let cases: Vec<(&str, Edit)> = vec![
         (
@@ -607,15 +594,18 @@ fn broken_files_are_errors_not_panics() {
         assert!(r.is_err(), "{what}: imported anyway");
         eprintln!("{what}: {}", r.err().unwrap());
     }
+}
+
+#[test]
+fn empty_and_cut_short_files_are_errors_with_their_place() {
     assert_format_error(from_bytes(b"", Path::new("e.glb")), "byte 0");
     assert_format_error(from_bytes(b"{", Path::new("e.gltf")), "line 1");
 }
 
 #[test]
+#[ignore = "needs ../shared/data"]
 fn truncated_or_corrupted_glb_is_an_error_not_a_panic() {
-    let Some(path) = sample("CesiumMan.glb") else {
-        return;
-    };
+    let path = sample("CesiumMan.glb");
     let bytes = std::fs::read(path).unwrap();
     let cut_at: Vec<usize> = (0..64)
         .chain((64..bytes.len()).step_by(4099))
@@ -653,11 +643,10 @@ const PNG_1X1: [u8; 69] = [
 ];
 
 #[test]
+#[ignore = "needs ../shared/data"]
 fn external_buffers_and_images_end_up_inside_the_glb() {
     use base64::Engine;
-    let Some(mut doc) = simple_skin_json() else {
-        return;
-    };
+    let mut doc = simple_skin_json();
     let dir = std::env::temp_dir().join(format!("ragdoll-gltf-ext-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     for (i, b) in doc["buffers"]

@@ -58,10 +58,9 @@ fn com_velocity(world: &World, id: ragdoll::world::RagdollId, masses: &[f32]) ->
 /// centre of mass's velocity; the joints are internal forces), compared with the clip's own
 /// finite differences.
 #[test]
+#[ignore = "needs ../shared/data"]
 fn hand_over_keeps_the_clips_momentum_and_positions() {
-    let Some(data) = common::shared_data() else {
-        return;
-    };
+    let data = common::shared_data();
     let character = load(
         &data.join("bvh/cmu_pirouette_threejs.bvh"),
         &ImportOptions::default(),
@@ -146,10 +145,9 @@ fn a_character_without_a_clip_cannot_wait_for_activation() {
 /// `OnBlast`: the clip plays until the blast front reaches the nearest part, then the
 /// character is thrown.
 #[test]
+#[ignore = "needs ../shared/data"]
 fn on_blast_plays_until_the_front_arrives() {
-    let Some(data) = common::shared_data() else {
-        return;
-    };
+    let data = common::shared_data();
     let character = load(
         &data.join("bvh/mocapbank_bvh-python.bvh"),
         &ImportOptions::default(),
@@ -191,10 +189,9 @@ fn on_blast_plays_until_the_front_arrives() {
 /// `OnContact`: the clip plays until something other than the ground touches the
 /// character; a shot counts too, and its hit lands on the now physical body.
 #[test]
+#[ignore = "needs ../shared/data"]
 fn on_contact_plays_until_a_body_or_a_shot_touches() {
-    let Some(data) = common::shared_data() else {
-        return;
-    };
+    let data = common::shared_data();
     let character = load(
         &data.join("bvh/mocapbank_bvh-python.bvh"),
         &ImportOptions::default(),

@@ -147,10 +147,9 @@ fn worst_tracking(data: &Path, file: &str) -> Vec<(f32, f32)> {
 /// CesiumMan's within 0.5°); hinges within 2.3°, except CesiumMan's left elbow at 5.9°,
 /// where its clip is 6.2° off any hinge.
 #[test]
+#[ignore = "needs ../shared/data"]
 fn powered_ragdoll_on_its_clip_follows_it_within_5_degrees() {
-    let Some(data) = common::shared_data() else {
-        return;
-    };
+    let data = common::shared_data();
     for file in [
         "bvh/cmu_pirouette_threejs.bvh",
         "bvh/mocapbank_bvh-python.bvh",
@@ -200,10 +199,9 @@ fn pelvis_heights(data: &Path, motors: Motors, seconds: f32) -> Vec<f32> {
 }
 
 #[test]
+#[ignore = "needs ../shared/data"]
 fn fading_the_motors_out_leaves_a_limp_ragdoll_that_collapses() {
-    let Some(data) = common::shared_data() else {
-        return;
-    };
+    let data = common::shared_data();
     let seconds = 3.0;
     let limp = pelvis_heights(&data, Motors::fade_out(1.0, 0.25, 1.0), seconds);
     let powered = pelvis_heights(&data, Motors::constant(1.0), seconds);
@@ -225,10 +223,9 @@ fn fading_the_motors_out_leaves_a_limp_ragdoll_that_collapses() {
 }
 
 #[test]
+#[ignore = "needs ../shared/data"]
 fn bad_motor_settings_are_rejected() {
-    let Some(data) = common::shared_data() else {
-        return;
-    };
+    let data = common::shared_data();
     let (character, spec) = load_character(&data, "bvh/cmu_pirouette_threejs.bvh");
     let (mut world, id) =
         World::with_ragdoll(&character, &spec, &WorldSettings::default()).unwrap();

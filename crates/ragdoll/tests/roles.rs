@@ -4,7 +4,7 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use glam::{Quat, Vec3};
 use ragdoll::import::{ImportOptions, load};
@@ -43,13 +43,9 @@ const LIMB_ROLES: [Role; 14] = [
     Role::HandR,
 ];
 
-fn data_dir() -> Option<PathBuf> {
-    common::shared_data()
-}
-
-fn load_data(rel: &str) -> Option<Character> {
-    let dir = data_dir()?;
-    Some(load(&dir.join(rel), &ImportOptions::default()).unwrap_or_else(|e| panic!("{rel}: {e}")))
+fn load_data(rel: &str) -> Character {
+    let path = common::shared_data().join(rel);
+    load(&path, &ImportOptions::default()).unwrap_or_else(|e| panic!("{rel}: {e}"))
 }
 
 /// `c` turned by `yaw` about the vertical through the origin.
@@ -97,9 +93,10 @@ fn check_humanoid(rel: &str, c: &Character, roles: &Roles) {
 }
 
 #[test]
+#[ignore = "needs ../shared/data"]
 fn humanoid_files_are_recognised_whatever_their_facing() {
     for rel in HUMANOIDS {
-        let Some(c) = load_data(rel) else { return };
+        let c = load_data(rel);
         let base = recognise_roles(&c);
         check_humanoid(rel, &c, &base);
         for k in 1..8 {
@@ -126,6 +123,7 @@ fn humanoid_files_are_recognised_whatever_their_facing() {
 
 /// Expected roles by joint name for the named BVH humanoids; everything else rides.
 #[test]
+#[ignore = "needs ../shared/data"]
 fn named_humanoids_get_the_expected_joints() {
     use Role::*;
     let cases: [(&str, &[(&str, Role)]); 3] = [
@@ -226,7 +224,7 @@ fn named_humanoids_get_the_expected_joints() {
 
 /// Checks the roles of `rel` by joint label; joints not listed must ride (`None`).
 fn check_expected(rel: &str, want: &[(&str, Role)]) {
-    let Some(c) = load_data(rel) else { return };
+    let c = load_data(rel);
     let roles = recognise_roles(&c);
     for i in 0..c.skeleton.len() {
         let label = c.skeleton.joint_label(i);
@@ -236,9 +234,10 @@ fn check_expected(rel: &str, want: &[(&str, Role)]) {
 }
 
 #[test]
+#[ignore = "needs ../shared/data"]
 fn other_files_become_chains() {
     for rel in OTHERS {
-        let Some(c) = load_data(rel) else { return };
+        let c = load_data(rel);
         let roles = recognise_roles(&c);
         assert!(!roles.humanoid, "{rel}");
         assert!(
@@ -263,30 +262,30 @@ fn other_files_become_chains() {
         }
     }
     // Fox: its two helper roots (nothing is skinned to them) carry no body; the rest do.
-    if let Some(fox) = load_data("gltf/Fox.glb") {
-        let roles = recognise_roles(&fox);
-        let s = &fox.skeleton;
-        assert_eq!(roles.per_joint[s.find("_rootJoint").unwrap()], None);
-        assert_eq!(roles.per_joint[s.find("b_Root_00").unwrap()], None);
-        assert_eq!(
-            roles.per_joint[s.find("b_Hip_01").unwrap()],
-            Some(Role::Chain)
-        );
-        assert_eq!(
-            roles.per_joint[s.find("b_Tail03_014").unwrap()],
-            Some(Role::Chain)
-        );
-        let spec = build_spec(&fox, &BuildOptions::default()).unwrap();
-        assert_eq!(spec.bodies[0].name, "b_Hip_01");
-    }
+    let fox = load_data("gltf/Fox.glb");
+    let roles = recognise_roles(&fox);
+    let s = &fox.skeleton;
+    assert_eq!(roles.per_joint[s.find("_rootJoint").unwrap()], None);
+    assert_eq!(roles.per_joint[s.find("b_Root_00").unwrap()], None);
+    assert_eq!(
+        roles.per_joint[s.find("b_Hip_01").unwrap()],
+        Some(Role::Chain)
+    );
+    assert_eq!(
+        roles.per_joint[s.find("b_Tail03_014").unwrap()],
+        Some(Role::Chain)
+    );
+    let spec = build_spec(&fox, &BuildOptions::default()).unwrap();
+    assert_eq!(spec.bodies[0].name, "b_Hip_01");
 }
 
 #[test]
+#[ignore = "needs ../shared/data"]
 fn every_file_builds_a_valid_spec_that_round_trips() {
     let mut files: Vec<&str> = HUMANOIDS.to_vec();
     files.extend(OTHERS);
     for rel in files {
-        let Some(c) = load_data(rel) else { return };
+        let c = load_data(rel);
         for opts in [
             BuildOptions::default(),
             BuildOptions {
@@ -388,13 +387,22 @@ fn check_rest_pose(rel: &str, c: &Character, spec: &RagdollSpec) {
 /// Turning a knee by +30° about its hinge axis moves the foot backward, and an elbow moves
 /// the hand forward, whatever way the character faces.
 #[test]
-fn knees_and_elbows_bend_the_right_way_on_every_humanoid() {
-    let mut chars: Vec<(String, Character)> = vec![("humanoid".into(), humanoid())];
-    for rel in HUMANOIDS {
-        let Some(c) = load_data(rel) else { return };
-        chars.push((rel.into(), c));
-    }
-    for (rel, c0) in &chars {
+fn knees_and_elbows_bend_the_right_way_on_the_built_in_humanoid() {
+    knees_and_elbows_bend_the_right_way(&[("humanoid".into(), humanoid())]);
+}
+
+#[test]
+#[ignore = "needs ../shared/data"]
+fn knees_and_elbows_bend_the_right_way_on_every_data_humanoid() {
+    let chars: Vec<(String, Character)> = HUMANOIDS
+        .iter()
+        .map(|rel| (rel.to_string(), load_data(rel)))
+        .collect();
+    knees_and_elbows_bend_the_right_way(&chars);
+}
+
+fn knees_and_elbows_bend_the_right_way(chars: &[(String, Character)]) {
+    for (rel, c0) in chars {
         for k in 0..8 {
             let yaw = (k as f32 * 45.0).to_radians();
             let c = yawed(c0, yaw);
@@ -441,11 +449,12 @@ fn knees_and_elbows_bend_the_right_way_on_every_humanoid() {
 
 /// The table in the report: roles, bodies and masses of every data file.
 #[test]
+#[ignore = "needs ../shared/data"]
 fn summary_of_every_file() {
     let mut files: Vec<&str> = HUMANOIDS.to_vec();
     files.extend(OTHERS);
     for rel in files {
-        let Some(c) = load_data(rel) else { return };
+        let c = load_data(rel);
         let roles = recognise_roles(&c);
         let spec = build_spec(&c, &BuildOptions::default()).unwrap();
         println!(

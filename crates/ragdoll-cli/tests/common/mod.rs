@@ -1,5 +1,5 @@
 //! The small harness the CLI tests share (ripgrep style): run the real binary in a folder,
-//! read what it printed, find the shared test data.
+//! read what it printed, find the shared test data and the examples that need it.
 
 #![allow(dead_code)] // each test binary uses its own subset
 
@@ -25,20 +25,47 @@ pub fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-/// The shared test data, or `None` (with a loud message) when it is missing. Under CI
-/// (`RAGDOLL_REQUIRE_DATA` set) a missing folder is a failure.
-pub fn data_dir() -> Option<PathBuf> {
+/// The shared test data folder (`$RAGDOLL_DATA`, else `../shared/data` beside the
+/// repository). Every test that calls this is `#[ignore = "needs ../shared/data"]`, so a
+/// clone without the folder lists it as ignored instead of passing having run nothing; run
+/// with `--ignored`, a missing folder is a failure that names where it looked.
+pub fn data_dir() -> PathBuf {
     let dir = std::env::var_os("RAGDOLL_DATA")
         .map(PathBuf::from)
         .unwrap_or_else(|| repo().join("../shared/data"));
-    if dir.is_dir() {
-        return Some(dir);
-    }
-    if std::env::var_os("RAGDOLL_REQUIRE_DATA").is_some() {
-        panic!("shared data folder {} is missing", dir.display());
-    }
-    eprintln!("SKIPPING: shared data folder {} is missing", dir.display());
-    None
+    assert!(
+        dir.is_dir(),
+        "the shared test data folder {} is missing (set RAGDOLL_DATA to where it is)",
+        dir.display()
+    );
+    dir
+}
+
+/// How an example scene that needs the shared test data starts: a reader sees it on the
+/// first line, and the tests run such a scene only when the data is asked for.
+pub const NEEDS_DATA: &str = "# Needs ../shared/data";
+
+/// The example scenes in `examples/`, sorted, as (those that run on a bare clone, those
+/// that need the shared data). A scene that points into `shared/data/` without saying so
+/// on its first line fails here, so the first line cannot drift from the truth.
+pub fn examples() -> (Vec<PathBuf>, Vec<PathBuf>) {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(repo().join("examples"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    let (data, bare): (Vec<PathBuf>, Vec<PathBuf>) = files.into_iter().partition(|p| {
+        let text = std::fs::read_to_string(p).unwrap();
+        let marked = text.starts_with(NEEDS_DATA);
+        assert!(
+            marked || !text.contains("shared/data/"),
+            "{} points into shared/data/ but does not start with {NEEDS_DATA:?}",
+            p.display()
+        );
+        marked
+    });
+    (bare, data)
 }
 
 /// A JSON file written by the tool.

@@ -1,28 +1,54 @@
-//! Shared by the integration tests: where the third-party test data lives, and the
-//! simplest test body.
+//! Shared by the integration tests: where the third-party test data lives, which example
+//! scenes need it, and the simplest test body.
 
 #![allow(dead_code)] // each test binary uses its own subset
 
 use std::path::{Path, PathBuf};
 
 /// The shared test data folder (`$RAGDOLL_DATA`, else `../shared/data` beside the
-/// repository), or `None` with a loud message when it is missing. Under CI
-/// (`RAGDOLL_REQUIRE_DATA` set) a missing folder fails the test instead.
-pub fn shared_data() -> Option<PathBuf> {
+/// repository). Every test that calls this is `#[ignore = "needs ../shared/data"]`, so a
+/// clone without the folder lists it as ignored instead of passing having run nothing; run
+/// with `--ignored`, a missing folder is a failure that names where it looked.
+pub fn shared_data() -> PathBuf {
     let dir = std::env::var_os("RAGDOLL_DATA")
         .map(PathBuf::from)
         .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
-    if dir.is_dir() {
-        return Some(dir);
-    }
-    if std::env::var_os("RAGDOLL_REQUIRE_DATA").is_some() {
-        panic!("the shared test data folder {} is missing", dir.display());
-    }
-    eprintln!(
-        "SKIPPING: the shared test data folder {} is missing",
+    assert!(
+        dir.is_dir(),
+        "the shared test data folder {} is missing (set RAGDOLL_DATA to where it is)",
         dir.display()
     );
-    None
+    dir
+}
+
+/// The repository's `examples/` folder.
+pub const EXAMPLES_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples");
+
+/// How an example scene that needs the shared test data starts: a reader sees it on the
+/// first line, and the tests run such a scene only when the data is asked for.
+pub const NEEDS_DATA: &str = "# Needs ../shared/data";
+
+/// The example scenes in `examples/`, sorted, as (those that run on a bare clone, those
+/// that need the shared data). A scene that points into `shared/data/` without saying so
+/// on its first line fails here, so the first line cannot drift from the truth.
+pub fn examples() -> (Vec<PathBuf>, Vec<PathBuf>) {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(EXAMPLES_DIR)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    let (data, bare): (Vec<PathBuf>, Vec<PathBuf>) = files.into_iter().partition(|p| {
+        let text = std::fs::read_to_string(p).unwrap();
+        let marked = text.starts_with(NEEDS_DATA);
+        assert!(
+            marked || !text.contains("shared/data/"),
+            "{} points into shared/data/ but does not start with {NEEDS_DATA:?}",
+            p.display()
+        );
+        marked
+    });
+    (bare, data)
 }
 
 /// A one-joint character "bar" 1 m up with a single capsule body "bar" (long axis vertical):
