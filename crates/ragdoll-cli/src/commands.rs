@@ -201,14 +201,18 @@ pub fn shoot(a: &ShootArgs) -> Result<()> {
         ..Default::default()
     };
     let (track, report) = simulate_character(&input, &character, &spec, &a.sim, &events)?;
-    for p in &report.projectiles {
-        match &p.body {
-            Some(body) => eprintln!("hit {body} with {:.1} N·s", p.impulse_ns),
-            None => eprintln!("missed"),
-        }
-    }
+    let notes: Vec<String> = report
+        .projectiles
+        .iter()
+        .map(|p| match &p.body {
+            Some(body) => format!("hit {body} with {:.1} N·s", p.impulse_ns),
+            None => "missed".to_string(),
+        })
+        .collect();
     let markers = preview_cmd::markers(&[], &events.projectiles, &report.projectiles);
-    write_result(&out, &character, &spec, &track, &report, &markers)
+    write_result(&out, &character, &spec, &track, &report, &markers)?;
+    print_notes(&notes);
+    Ok(())
 }
 
 /// Runs the simulation with a progress bar; returns the track and its report, or an error
@@ -453,20 +457,31 @@ pub fn blast(a: &BlastArgs) -> Result<()> {
             ..Default::default()
         },
     )?;
-    for b in &report.blasts {
-        for c in &b.characters {
-            if let Some(v) = c.com_velocity_mps {
-                let v = glam::Vec3::from_array(v);
-                eprintln!(
-                    "{}: thrown at {:.2} m/s (centre of mass, after the blast passed)",
-                    c.name,
-                    v.length()
-                );
-            }
-        }
-    }
+    let notes: Vec<String> = report
+        .blasts
+        .iter()
+        .flat_map(|b| &b.characters)
+        .filter_map(|c| {
+            let v = glam::Vec3::from_array(c.com_velocity_mps?);
+            Some(format!(
+                "{}: thrown at {:.2} m/s (centre of mass, after the blast passed)",
+                c.name,
+                v.length()
+            ))
+        })
+        .collect();
     let markers = preview_cmd::markers(&[blast], &[], &[]);
-    write_result(&out, &character, &spec, &track, &report, &markers)
+    write_result(&out, &character, &spec, &track, &report, &markers)?;
+    print_notes(&notes);
+    Ok(())
+}
+
+/// What a run found (a hit, a throw), printed once its files are written, so that a
+/// failed run prints only its error.
+fn print_notes(notes: &[String]) {
+    for n in notes {
+        errln!("{n}");
+    }
 }
 
 /// `OUT.glb` → `OUT.report.json`, next to it.
@@ -480,7 +495,7 @@ fn report_path(output: &Path) -> PathBuf {
 
 fn print_summary(report: &Report) {
     let m = &report.metrics;
-    eprintln!(
+    errln!(
         "{}: {} bodies, {:.1} kg, {} frames at {} fps in {:.2} s wall; limit violation {:.2}°, penetration {:.1} mm, joint separation {:.2} mm, energy drift {:.4}",
         report.character,
         report.bodies,

@@ -20,7 +20,7 @@ pub fn build(a: &BuildArgs) -> Result<()> {
         spec.to_toml()
     );
     write_atomic(&a.output, text.as_bytes())?;
-    eprintln!(
+    errln!(
         "{}: {} bodies, {} joints, {:.1} kg",
         spec.name,
         spec.bodies.len(),

@@ -16,6 +16,15 @@ macro_rules! outln {
     }};
 }
 
+/// `eprintln!` for status lines, which carries on when stderr is closed (`eprintln!`
+/// panics there, and a status line is not worth failing a finished run for).
+macro_rules! errln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+
 /// `print!` that stops quietly when stdout is closed, as [`outln!`].
 #[allow(unused_macros)]
 macro_rules! out {

@@ -203,7 +203,7 @@ pub fn run(a: &PreviewArgs) -> Result<()> {
     .map_err(option_error)?;
     progress.finish();
     write_atomic(&a.output, &bytes)?;
-    eprintln!(
+    errln!(
         "{}: {} frames at {:.1} fps drawn",
         character.name,
         track.frames.len(),

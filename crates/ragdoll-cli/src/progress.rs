@@ -16,6 +16,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 /// How long work runs before a bar appears.
 const DELAY: Duration = Duration::from_secs(1);
+/// Overrides [`DELAY`], in milliseconds: lets the tests see a bar without depending on how
+/// long their work takes on the machine at hand.
+const DELAY_VAR: &str = "RAGDOLL_PROGRESS_DELAY_MS";
 /// How often the bar is redrawn.
 const TICK: Duration = Duration::from_millis(100);
 
@@ -120,10 +123,14 @@ fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
 
 /// The drawing thread: waits [`DELAY`], then redraws every [`TICK`] until stopped.
 fn draw(shared: &Shared) {
+    let delay = std::env::var(DELAY_VAR)
+        .ok()
+        .and_then(|ms| ms.parse().ok())
+        .map_or(DELAY, Duration::from_millis);
     let stage = lock(&shared.stage);
     let (stage, _) = shared
         .wake
-        .wait_timeout_while(stage, DELAY, |s| !s.stopped)
+        .wait_timeout_while(stage, delay, |s| !s.stopped)
         .unwrap_or_else(|e| e.into_inner());
     if stage.stopped {
         return;

@@ -143,7 +143,7 @@ pub fn run(a: &SimulateArgs, matches: &ArgMatches) -> Result<()> {
 
 fn print_summary(r: &SceneReport) {
     let m = &r.metrics;
-    eprintln!(
+    errln!(
         "{}: {} character{}, {} frames at {} fps in {:.2} s wall; limit violation {:.2}°, penetration {:.1} mm, joint separation {:.2} mm, energy drift {:.4}",
         r.scene,
         r.characters.len(),
@@ -160,7 +160,7 @@ fn print_summary(r: &SceneReport) {
         for c in &b.characters {
             if let Some(v) = c.com_velocity_mps {
                 let v = glam::Vec3::from_array(v);
-                eprintln!(
+                errln!(
                     "  {}: thrown at {:.2} m/s by the {} kg blast at {} s",
                     c.name,
                     v.length(),
@@ -172,11 +172,13 @@ fn print_summary(r: &SceneReport) {
     }
     for p in &r.projectiles {
         match (&p.body, p.character.and_then(|c| r.characters.get(c))) {
-            (Some(body), Some(c)) => eprintln!(
+            (Some(body), Some(c)) => errln!(
                 "  shot at {:.2} s hit {}'s {body} with {:.1} N·s",
-                p.time_s, c.name, p.impulse_ns
+                p.time_s,
+                c.name,
+                p.impulse_ns
             ),
-            _ => eprintln!("  shot at {:.2} s missed", p.time_s),
+            _ => errln!("  shot at {:.2} s missed", p.time_s),
         }
     }
 }

@@ -510,7 +510,9 @@ fn shoot_table() -> Vec<Case> {
             &short,
             &["--time", "0.1"],
             Some(|dir, _| {
-                let t = out_report(dir)["projectiles"][0]["time_s"].as_f64().unwrap();
+                let t = out_report(dir)["projectiles"][0]["time_s"]
+                    .as_f64()
+                    .unwrap();
                 assert!((t - 0.1).abs() < 1e-6, "{t}");
             }),
             &["--time", "1"],
