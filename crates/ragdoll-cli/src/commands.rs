@@ -352,7 +352,7 @@ pub fn demo(a: &DemoArgs) -> Result<()> {
     staging.write(&json, report.to_json().as_bytes())?;
     let preview = a
         .preview
-        .stage(&mut staging, &[(&character, &spec, &track)], &[])?;
+        .stage(&mut staging, &[(&character, &spec, &track)], &[], &progress)?;
     fatal::debug_panic_point("staged");
     let written = staging.commit()?;
     progress.finish();
@@ -393,12 +393,15 @@ fn write_result(
     let report_path = report_path(out.path);
     staging.write(out.path, &encode(out.kind, character, spec, track)?)?;
     staging.write(&report_path, report.to_json().as_bytes())?;
-    let preview = out
-        .preview
-        .stage(&mut staging, &[(character, spec, track)], markers)?;
+    let preview = out.preview.stage(
+        &mut staging,
+        &[(character, spec, track)],
+        markers,
+        &progress,
+    )?;
     let objs = match out.obj_sequence {
         Some(dir) => Some((
-            preview_cmd::stage_obj_sequence(&mut staging, dir, character, spec, track)?,
+            preview_cmd::stage_obj_sequence(&mut staging, dir, character, spec, track, &progress)?,
             dir,
         )),
         None => None,

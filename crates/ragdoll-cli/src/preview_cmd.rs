@@ -48,11 +48,12 @@ impl PreviewArg {
         staging: &mut Staging,
         actors: &[ragdoll_preview::Actor<'_>],
         markers: &[Marker],
+        progress: &Progress,
     ) -> Result<Option<PathBuf>> {
         let Some(path) = &self.preview else {
             return Ok(None);
         };
-        let _progress = Progress::new(0, "drawing the preview");
+        progress.stage(0, "drawing the preview");
         let bytes = ragdoll_preview::encode(path, actors, markers, &PreviewOptions::default())
             .map_err(flag("--preview"))?;
         staging.write(path, &bytes)?;
@@ -104,10 +105,11 @@ pub fn stage_obj_sequence(
     character: &Character,
     spec: &RagdollSpec,
     track: &Track,
+    progress: &Progress,
 ) -> Result<Vec<PathBuf>> {
     let mut seq = obj::ObjSequence::new(character, spec)?;
     let n = track.frames.len();
-    let progress = Progress::new(n as u64, "writing OBJ files");
+    progress.stage(n as u64, "writing OBJ files");
     let mut paths = Vec::with_capacity(n);
     for (f, frame) in track.frames.iter().enumerate() {
         let text = seq.frame(frame)?;

@@ -12,7 +12,7 @@ use std::sync::{Arc, Condvar, Mutex};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 /// How long work runs before a bar appears.
 const DELAY: Duration = Duration::from_secs(1);
@@ -135,10 +135,13 @@ fn draw(shared: &Shared) {
     if stage.stopped {
         return;
     }
+    // Styled while hidden, so the first frame drawn is already ours.
+    let bar = ProgressBar::hidden();
+    style(&bar, stage.len, &stage.message);
+    let mut shown = Some(stage.serial);
     drop(stage);
-    let bar = ProgressBar::new(0);
+    bar.set_draw_target(ProgressDrawTarget::stderr());
     *lock(&shared.bar) = Some(bar.clone());
-    let mut shown = None;
     loop {
         let stage = lock(&shared.stage);
         if stage.stopped {
@@ -146,9 +149,9 @@ fn draw(shared: &Shared) {
         }
         if shown != Some(stage.serial) {
             shown = Some(stage.serial);
-            style(&bar, stage.len);
-            bar.set_message(stage.message.clone());
+            style(&bar, stage.len, &stage.message);
             bar.reset_eta();
+            bar.reset_elapsed();
         }
         bar.set_position(shared.done.load(Ordering::Relaxed));
         if stage.len == 0 {
@@ -163,16 +166,19 @@ fn draw(shared: &Shared) {
     bar.finish_and_clear();
 }
 
-fn style(bar: &ProgressBar, len: u64) {
+/// Sets the bar's look for a stage, the message part of the template so that one call
+/// changes both (no frame drawn with the old message in the new style).
+fn style(bar: &ProgressBar, len: u64, message: &str) {
+    let message = message.replace('{', "{{").replace('}', "}}");
     let template = if len > 0 {
-        "{msg} [{bar:30}] {pos}/{len} ({eta})"
+        format!("{message} [{{bar:30}}] {{pos}}/{{len}} ({{eta}})")
     } else {
-        "{spinner} {msg} ({elapsed})"
+        format!("{{spinner}} {message} ({{elapsed}})")
     };
-    if let Ok(style) = ProgressStyle::with_template(template) {
-        bar.set_style(style.progress_chars("=> "));
-    }
     if len > 0 {
         bar.set_length(len);
+    }
+    if let Ok(style) = ProgressStyle::with_template(&template) {
+        bar.set_style(style.progress_chars("=> "));
     }
 }

@@ -124,7 +124,9 @@ pub fn run(a: &SimulateArgs, matches: &ArgMatches) -> Result<()> {
     let blasts: Vec<_> = scene.blasts.iter().map(|b| b.event).collect();
     let shots: Vec<_> = scene.projectiles.iter().map(|p| p.event).collect();
     let markers = crate::preview_cmd::markers(&blasts, &shots, &result.report.projectiles);
-    let preview = a.preview.stage(&mut staging, &actors, &markers)?;
+    let preview = a
+        .preview
+        .stage(&mut staging, &actors, &markers, &progress)?;
     crate::fatal::debug_panic_point("staged");
     let written = staging.commit()?;
     progress.finish();
