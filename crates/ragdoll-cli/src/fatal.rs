@@ -21,15 +21,24 @@ pub const EXIT_BUG: u8 = 70;
 static LAST_PANIC: Mutex<Option<String>> = Mutex::new(None);
 
 /// Replaces the default hook (which prints a message and a backtrace, `RUST_BACKTRACE`
-/// permitting) with one that only records the message: [`guard`] prints it as one line.
-///
-/// Threads that catch their own panics (the viewer's) report them from the payload; the
-/// hook prints nothing for them either.
+/// permitting) with one that records the message: [`guard`] prints it as one line. A
+/// panic on another thread, one that is not a rayon worker (whose panics come back to the
+/// caller), is printed as one line there and then, since nothing may carry it back.
 pub fn install_panic_hook() {
     panic::set_hook(Box::new(|info| {
         let mut text = payload_text(info.payload());
         if let Some(at) = info.location() {
             text = format!("{text} (at {}:{})", at.file(), at.line());
+        }
+        // A panic on a thread of our own that nobody re-raises (a server thread, say)
+        // would otherwise pass unseen; rayon's workers re-raise theirs on the caller.
+        let thread = std::thread::current();
+        let name = thread.name().unwrap_or("unnamed");
+        if name != "main" && rayon::current_thread_index().is_none() {
+            let _ = writeln!(
+                std::io::stderr(),
+                "error: internal error on thread '{name}', a bug in ragdoll (please report it with the command line and its input files): {text}"
+            );
         }
         *LAST_PANIC.lock().unwrap_or_else(|e| e.into_inner()) = Some(text);
     }));
@@ -217,10 +226,19 @@ mod tests {
     #[test]
     fn a_panic_becomes_an_error_naming_the_command() {
         install_panic_hook();
-        let err = guard("simulate", || -> anyhow::Result<()> {
-            panic!("boom {}", 7)
-        })
-        .unwrap_err();
+        // On a thread named as the real main thread is, whose panics the hook leaves to
+        // `guard` to print.
+        let err = std::thread::Builder::new()
+            .name("main".into())
+            .spawn(|| {
+                guard("simulate", || -> anyhow::Result<()> {
+                    panic!("boom {}", 7)
+                })
+            })
+            .unwrap()
+            .join()
+            .unwrap()
+            .unwrap_err();
         let text = one_line(&err);
         assert!(text.contains("`ragdoll simulate`"), "{text}");
         assert!(text.contains("boom 7"), "{text}");

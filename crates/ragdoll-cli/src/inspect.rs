@@ -2,7 +2,6 @@
 //! tree and ragdoll) and build (write its ragdoll spec for editing).
 
 use anyhow::{Context, Result};
-use ragdoll::export::write_atomic;
 use ragdoll::spec;
 
 use crate::commands::{load, ragdoll_spec};
@@ -19,7 +18,7 @@ pub fn build(a: &BuildArgs) -> Result<()> {
         a.file.display(),
         spec.to_toml()
     );
-    write_atomic(&a.output, text.as_bytes())?;
+    output::write_one(&a.output, text.as_bytes())?;
     errln!(
         "{}: {} bodies, {} joints, {:.1} kg",
         spec.name,

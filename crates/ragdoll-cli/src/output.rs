@@ -71,6 +71,15 @@ fn parent_of(path: &Path) -> &Path {
     }
 }
 
+/// Writes one file through a [`Staging`]: like the library's `write_atomic`, but a
+/// folder made for it is removed again when the write fails.
+pub fn write_one(path: &Path, bytes: &[u8]) -> Result<()> {
+    let mut staging = Staging::new();
+    staging.write(path, bytes)?;
+    staging.commit()?;
+    Ok(())
+}
+
 /// Files being written under temporary names; see the module documentation.
 #[derive(Default)]
 pub struct Staging {

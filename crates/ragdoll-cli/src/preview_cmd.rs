@@ -10,7 +10,7 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use glam::Vec3;
 use ragdoll::events::{Blast, Projectile, ProjectileReport};
-use ragdoll::export::{obj, write_atomic};
+use ragdoll::export::obj;
 use ragdoll::import::{self, ImportOptions};
 use ragdoll::math::Transform;
 use ragdoll::skeleton::Character;
@@ -204,7 +204,7 @@ pub fn run(a: &PreviewArgs) -> Result<()> {
     )
     .map_err(option_error)?;
     progress.finish();
-    write_atomic(&a.output, &bytes)?;
+    output::write_one(&a.output, &bytes)?;
     errln!(
         "{}: {} frames at {:.1} fps drawn",
         character.name,

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::{Result, bail};
 use clap::Args;
 use glam::Vec3;
-use ragdoll::export::{gltf::rig_to_glb, write_atomic};
+use ragdoll::export::gltf::rig_to_glb;
 use ragdoll::import;
 use ragdoll::rig::{Branch, DEFAULT_JOINTS, Landmark, RigOptions};
 use ragdoll::skeleton::Source;
@@ -143,7 +143,7 @@ pub fn run(a: &RigArgs) -> Result<()> {
         );
     }
     let bytes = rig_to_glb(&character)?;
-    write_atomic(&a.output, &bytes)?;
+    output::write_one(&a.output, &bytes)?;
     let vertices: usize = character.meshes.iter().map(|m| m.positions.len()).sum();
     let skeleton = &character.skeleton;
     let head = skeleton.rest_world()[skeleton.find("head").unwrap_or(0)].translation;
