@@ -1,11 +1,13 @@
-//! The commands that turn a character into files: demo, inspect, build, simulate.
+//! The commands that simulate one character and bake it: demo, simulate, blast, shoot.
+//! Each checks its flags and output paths, simulates, checks the result is finite, and
+//! writes every output together through [`Staging`].
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use ragdoll::events::{Blast, Projectile};
-use ragdoll::export::{self, write_atomic};
+use ragdoll::export;
 use ragdoll::import::{self, ImportOptions, Units, UpAxis};
 use ragdoll::report::Report;
 use ragdoll::skeleton::{self, Character};
@@ -13,11 +15,11 @@ use ragdoll::spec::{self, BuildOptions, RagdollSpec};
 use ragdoll::track::Track;
 use ragdoll::world::{StartPose, World, WorldSettings};
 
-use crate::preview_cmd;
+use crate::output::{self, Staging};
 use crate::progress::Progress;
 use crate::{
-    BlastArgs, BuildArgs, DemoArgs, ImportArgs, InspectArgs, RagdollArgs, ShootArgs, SimArgs,
-    SimulateArgs, UnitsArg, UpArg,
+    AnimArgs, BlastArgs, DemoArgs, ImportArgs, RagdollArgs, RunArgs, ShootArgs, SimArgs,
+    SimulateArgs, UnitsArg, UpArg, checks, fatal, preview_cmd,
 };
 
 pub(crate) fn import_options(a: &ImportArgs) -> ImportOptions {
@@ -35,42 +37,70 @@ pub(crate) fn import_options(a: &ImportArgs) -> ImportOptions {
     }
 }
 
-fn load(file: &Path, a: &ImportArgs) -> Result<Character> {
+/// Reads a character file, with a spinner when that takes more than a second.
+pub(crate) fn load(file: &Path, a: &ImportArgs) -> Result<Character> {
+    checks::import_flags(Some(file), a)?;
+    let _progress = Progress::new(0, &format!("reading {}", file.display()));
     Ok(import::load(file, &import_options(a))?)
 }
 
-/// The spec from `--spec`, or one built from the character.
+/// An error about the file `path`, named once: the library's parse errors already name it,
+/// its spec checks do not.
+pub(crate) fn in_file(path: &Path, e: ragdoll::Error) -> anyhow::Error {
+    let name = path.display().to_string();
+    if e.to_string().contains(&name) {
+        e.into()
+    } else {
+        anyhow::Error::new(e).context(name)
+    }
+}
+
+/// The spec from `--spec` (its masses scaled to `--mass` when given), or one built from
+/// the character.
 pub(crate) fn ragdoll_spec(character: &Character, a: &RagdollArgs) -> Result<RagdollSpec> {
     if let Some(m) = a.mass
         && !(m.is_finite() && m > 0.0)
     {
         bail!("--mass: the total mass must be a positive number of kilograms, not {m}");
     }
-    match &a.spec {
-        Some(path) => {
-            let text = std::fs::read_to_string(path).map_err(|e| ragdoll::Error::io(path, e))?;
-            let spec = RagdollSpec::from_toml(&text, path)
-                .with_context(|| format!("{}", path.display()))?;
-            Ok(spec)
-        }
-        None => Ok(spec::build_spec(
+    let Some(path) = &a.spec else {
+        return Ok(spec::build_spec(
             character,
             &BuildOptions {
                 total_mass_kg: a.mass,
                 female: a.female,
             },
-        )?),
+        )?);
+    };
+    let text = ragdoll::files::read_text_capped(path, ragdoll::files::MAX_SETTINGS_BYTES)?;
+    let mut spec = RagdollSpec::from_toml(&text, path).map_err(|e| in_file(path, e))?;
+    if let Some(m) = a.mass {
+        scale_masses(&mut spec, m);
+        spec.validate().map_err(|e| in_file(path, e))?;
+    }
+    Ok(spec)
+}
+
+/// Scales every body's mass by one factor so they add up to `total_kg`: the spec's mass
+/// distribution (what the user edited) is kept, the total is what `--mass` says.
+fn scale_masses(spec: &mut RagdollSpec, total_kg: f32) {
+    let now = spec.total_mass_kg();
+    if now > 0.0 && now.is_finite() {
+        let factor = total_kg / now;
+        for b in &mut spec.bodies {
+            b.mass_kg *= factor;
+        }
     }
 }
 
-fn world_settings(a: &SimArgs) -> Result<WorldSettings> {
+fn world_settings(a: &RunArgs, rest_pose: bool) -> Result<WorldSettings> {
     if !(a.seconds.is_finite() && a.seconds >= 0.0 && a.seconds <= 3600.0) {
         bail!("--seconds: must be between 0 and 3600, not {}", a.seconds);
     }
     let settings = WorldSettings {
         backend: a.backend.backend.kind(),
         fps: a.fps,
-        start: if a.rest_pose {
+        start: if rest_pose {
             StartPose::Rest
         } else {
             StartPose::FirstFrame
@@ -108,18 +138,45 @@ pub(crate) fn load_or_builtin(
 ) -> Result<(Character, String)> {
     Ok(match file {
         Some(file) => (load(file, import)?, file.display().to_string()),
-        None => (skeleton::humanoid(), "built-in".to_string()),
+        None => {
+            checks::import_flags(None, import)?;
+            (skeleton::humanoid(), "built-in".to_string())
+        }
     })
 }
 
+/// Where a single-character run writes: the baked file and its report, and the extras.
+struct Outputs<'a> {
+    kind: OutputKind,
+    path: &'a Path,
+    preview: &'a preview_cmd::PreviewArg,
+    obj_sequence: Option<&'a Path>,
+}
+
+impl Outputs<'_> {
+    /// Checks every path before any simulation time is spent.
+    fn check(&self) -> Result<()> {
+        output::check_file(self.path)?;
+        self.preview.check()?;
+        if let Some(dir) = self.obj_sequence {
+            output::check_folder(dir)?;
+        }
+        Ok(())
+    }
+}
+
 pub fn shoot(a: &ShootArgs) -> Result<()> {
-    let kind = output_kind(&a.output)?;
-    a.preview.check()?;
+    let out = Outputs {
+        kind: output_kind(&a.output)?,
+        path: &a.output,
+        preview: &a.preview,
+        obj_sequence: None,
+    };
     let from = glam::Vec3::from_array(a.from);
     let shot = Projectile {
         origin: from,
         direction: glam::Vec3::from_array(a.toward) - from,
-        mass_kg: a.mass,
+        mass_kg: a.bullet_mass,
         speed_mps: a.speed,
         time_s: a.time,
     };
@@ -127,8 +184,16 @@ pub fn shoot(a: &ShootArgs) -> Result<()> {
         ragdoll::Error::Setting { setting, message } if setting == "direction" => {
             anyhow::anyhow!("--toward: must differ from --from ({message})")
         }
+        ragdoll::Error::Setting { setting, message }
+            if setting == "mass" || setting == "mass_kg" =>
+        {
+            anyhow::anyhow!("--bullet-mass: {message}")
+        }
         e => flag_error(e),
     })?;
+    checks::event_time("--time", "the shot", a.time, a.sim.run.seconds)?;
+    checks::activation(&a.sim, false, true)?;
+    out.check()?;
     let (character, input) = load_or_builtin(a.file.as_deref(), &a.import)?;
     let spec = ragdoll_spec(&character, &a.ragdoll)?;
     let events = Events {
@@ -136,18 +201,22 @@ pub fn shoot(a: &ShootArgs) -> Result<()> {
         ..Default::default()
     };
     let (track, report) = simulate_character(&input, &character, &spec, &a.sim, &events)?;
-    for p in &report.projectiles {
-        match &p.body {
-            Some(body) => eprintln!("hit {body} with {:.1} N·s", p.impulse_ns),
-            None => eprintln!("missed"),
-        }
-    }
-    write_result(&kind, &a.output, &character, &spec, &track, &report)?;
+    let notes: Vec<String> = report
+        .projectiles
+        .iter()
+        .map(|p| match &p.body {
+            Some(body) => format!("hit {body} with {:.1} N·s", p.impulse_ns),
+            None => "missed".to_string(),
+        })
+        .collect();
     let markers = preview_cmd::markers(&[], &events.projectiles, &report.projectiles);
-    a.preview.write(&[(&character, &spec, &track)], &markers)
+    write_result(&out, &character, &spec, &track, &report, &markers)?;
+    print_notes(&notes);
+    Ok(())
 }
 
-/// Runs the simulation with a progress bar; returns the track and its report.
+/// Runs the simulation with a progress bar; returns the track and its report, or an error
+/// when the simulation produced non-finite numbers.
 fn simulate_character(
     input: &str,
     character: &Character,
@@ -155,16 +224,21 @@ fn simulate_character(
     sim: &SimArgs,
     events: &Events,
 ) -> Result<(Track, Report)> {
-    let settings = world_settings(sim)?;
+    checks::rest_pose(character, &sim.anim)?;
+    let (run, anim) = (&sim.run, &sim.anim);
+    let settings = world_settings(run, anim.rest_pose)?;
     let started = Instant::now();
+    let progress = Progress::new(0, "building the ragdoll");
     let (mut world, id) = World::with_ragdoll(character, spec, &settings)?;
-    world.set_activation(id, sim.activate).map_err(flag_error)?;
-    if let Some(strength) = sim.powered {
-        let mut motors = match sim.fade_out {
+    world
+        .set_activation(id, anim.activate)
+        .map_err(flag_error)?;
+    if let Some(strength) = anim.powered {
+        let mut motors = match anim.fade_out {
             Some([start, end]) => ragdoll::world::Motors::fade_out(strength, start, end),
             None => ragdoll::world::Motors::constant(strength),
         };
-        motors.root_on_clip = sim.root_on_clip;
+        motors.root_on_clip = anim.root_on_clip;
         world.set_motors(id, motors).map_err(|e| match e {
             ragdoll::Error::Setting { message, .. } => anyhow::anyhow!("--powered: {message}"),
             e => e.into(),
@@ -176,8 +250,8 @@ fn simulate_character(
     for p in &events.projectiles {
         world.add_projectile(*p)?;
     }
-    let steps = (sim.seconds / settings.dt).round() as u64;
-    let mut progress = Progress::new(steps, "simulating");
+    let steps = (run.seconds / settings.dt).round() as u64;
+    progress.stage(steps, "simulating");
     world.run(0.0);
     for i in 0..steps {
         world.step();
@@ -188,13 +262,14 @@ fn simulate_character(
     let blast_reports = world.blast_reports();
     let world_projectiles = world.projectile_reports();
     let track = world.into_track();
+    check_finite(&character.name, metrics.nan, &track)?;
     let mut report = Report::new(
         input,
         character.skeleton.rest_height(),
         spec,
         &track,
         metrics,
-        sim.seconds,
+        run.seconds,
         started.elapsed().as_secs_f64(),
     );
     report.backend = settings.backend.as_str().into();
@@ -203,6 +278,29 @@ fn simulate_character(
     Ok((track, report))
 }
 
+/// A run whose numbers went non-finite (`nan` in the metrics, or a NaN or infinite joint
+/// in the track) is a failed run, not a result: its files would hold garbage or nothing.
+/// No output is written, not even the report: the error sentence carries what the report
+/// would have said that matters (when it happened), and the rest of a NaN run's report is
+/// NaN too.
+pub(crate) fn check_finite(name: &str, nan_seen: bool, track: &Track) -> Result<()> {
+    let first_bad = track
+        .frames
+        .iter()
+        .position(|f| f.iter().any(|t| !t.is_finite()));
+    if !nan_seen && first_bad.is_none() {
+        return Ok(());
+    }
+    let when = match first_bad {
+        Some(f) => format!(" from frame {f} ({:.3} s)", f as f32 / track.fps),
+        None => String::new(),
+    };
+    bail!(
+        "{name}: the simulation produced non-finite numbers (NaN or infinity){when}, so nothing was written; the spec or the events ask for more than the physics can honour (absurd sizes, masses, forces or speeds)"
+    )
+}
+
+#[derive(Clone, Copy)]
 enum OutputKind {
     Glb,
     Bvh,
@@ -222,7 +320,7 @@ fn output_kind(path: &Path) -> Result<OutputKind> {
 }
 
 fn encode(
-    kind: &OutputKind,
+    kind: OutputKind,
     character: &Character,
     spec: &RagdollSpec,
     track: &Track,
@@ -234,61 +332,112 @@ fn encode(
 }
 
 pub fn demo(a: &DemoArgs) -> Result<()> {
+    output::check_folder(&a.output)?;
     a.preview.check()?;
     let character = skeleton::humanoid();
     let spec = ragdoll_spec(&character, &a.ragdoll)?;
+    let sim = SimArgs {
+        run: a.run.clone(),
+        anim: AnimArgs::default(),
+    };
     let (track, report) =
-        simulate_character("built-in", &character, &spec, &a.sim, &Events::default())?;
-    // Encode everything before writing anything, so a failure leaves no partial set.
-    let glb = encode(&OutputKind::Glb, &character, &spec, &track)?;
-    let bvh = encode(&OutputKind::Bvh, &character, &spec, &track)?;
-    let files = [
-        (a.output.join("demo.glb"), glb),
-        (a.output.join("demo.bvh"), bvh),
-        (a.output.join("report.json"), report.to_json().into_bytes()),
-    ];
-    for (path, bytes) in &files {
-        write_atomic(path, bytes)?;
-    }
-    print_summary(&report, files.iter().map(|(p, _)| p.as_path()));
-    a.preview.write(&[(&character, &spec, &track)], &[])
+        simulate_character("built-in", &character, &spec, &sim, &Events::default())?;
+    let progress = Progress::new(0, "writing");
+    let mut staging = Staging::new();
+    let glb = a.output.join("demo.glb");
+    let bvh = a.output.join("demo.bvh");
+    let json = a.output.join("report.json");
+    staging.write(&glb, &encode(OutputKind::Glb, &character, &spec, &track)?)?;
+    staging.write(&bvh, &encode(OutputKind::Bvh, &character, &spec, &track)?)?;
+    staging.write(&json, report.to_json().as_bytes())?;
+    let preview = a
+        .preview
+        .stage(&mut staging, &[(&character, &spec, &track)], &[], &progress)?;
+    fatal::debug_panic_point("staged");
+    let written = staging.commit()?;
+    progress.finish();
+    print_summary(&report);
+    print_paths(&written, preview.as_deref(), None);
+    Ok(())
 }
 
 pub fn simulate(a: &SimulateArgs) -> Result<()> {
-    let kind = output_kind(&a.output)?;
-    a.preview.check()?;
+    let out = Outputs {
+        kind: output_kind(&a.output)?,
+        path: &a.output,
+        preview: &a.preview,
+        obj_sequence: a.obj_sequence.as_deref(),
+    };
+    checks::activation(&a.sim, false, false)?;
+    out.check()?;
     let character = load(&a.file, &a.import)?;
     let spec = ragdoll_spec(&character, &a.ragdoll)?;
     let input = a.file.display().to_string();
     let (track, report) =
         simulate_character(&input, &character, &spec, &a.sim, &Events::default())?;
-    write_result(&kind, &a.output, &character, &spec, &track, &report)?;
-    if let Some(dir) = &a.obj_sequence {
-        preview_cmd::write_obj_sequence(dir, &character, &spec, &track)?;
-    }
-    a.preview.write(&[(&character, &spec, &track)], &[])
+    write_result(&out, &character, &spec, &track, &report, &[])
 }
 
-/// Encodes the track, then writes it and its report (each atomically).
+/// Encodes the track, its report and the extras (preview, OBJ sequence) and writes them
+/// all together.
 fn write_result(
-    kind: &OutputKind,
-    output: &Path,
+    out: &Outputs<'_>,
     character: &Character,
     spec: &RagdollSpec,
     track: &Track,
     report: &Report,
+    markers: &[ragdoll_preview::Marker],
 ) -> Result<()> {
-    let bytes = encode(kind, character, spec, track)?;
-    let report_path = report_path(output);
-    write_atomic(output, &bytes)?;
-    write_atomic(&report_path, report.to_json().as_bytes())?;
-    print_summary(report, [output, report_path.as_path()]);
+    let progress = Progress::new(0, "writing");
+    let mut staging = Staging::new();
+    let report_path = report_path(out.path);
+    staging.write(out.path, &encode(out.kind, character, spec, track)?)?;
+    staging.write(&report_path, report.to_json().as_bytes())?;
+    let preview = out.preview.stage(
+        &mut staging,
+        &[(character, spec, track)],
+        markers,
+        &progress,
+    )?;
+    let objs = match out.obj_sequence {
+        Some(dir) => Some((
+            preview_cmd::stage_obj_sequence(&mut staging, dir, character, spec, track, &progress)?,
+            dir,
+        )),
+        None => None,
+    };
+    fatal::debug_panic_point("staged");
+    let written = staging.commit()?;
+    progress.finish();
+    print_summary(report);
+    print_paths(&written, preview.as_deref(), objs);
     Ok(())
 }
 
+/// Prints the paths written, one a line (the OBJ sequence as its folder and count).
+fn print_paths(written: &[PathBuf], preview: Option<&Path>, objs: Option<(Vec<PathBuf>, &Path)>) {
+    let obj_files = objs.as_ref().map_or(&[][..], |(files, _)| files.as_slice());
+    for p in written {
+        if Some(p.as_path()) == preview || obj_files.contains(p) {
+            continue;
+        }
+        outln!("{}", p.display());
+    }
+    if let Some((files, dir)) = &objs {
+        outln!("{} ({} OBJ files)", dir.display(), files.len());
+    }
+    if let Some(p) = preview {
+        outln!("{}", p.display());
+    }
+}
+
 pub fn blast(a: &BlastArgs) -> Result<()> {
-    let kind = output_kind(&a.output)?;
-    a.preview.check()?;
+    let out = Outputs {
+        kind: output_kind(&a.output)?,
+        path: &a.output,
+        preview: &a.preview,
+        obj_sequence: None,
+    };
     let blast = Blast {
         tnt_kg: a.tnt,
         position: glam::Vec3::from_array(a.at),
@@ -296,6 +445,9 @@ pub fn blast(a: &BlastArgs) -> Result<()> {
         scale: a.scale,
     };
     blast.validate().map_err(flag_error)?;
+    checks::event_time("--time", "the blast", a.time, a.sim.run.seconds)?;
+    checks::activation(&a.sim, true, false)?;
+    out.check()?;
     let (character, input) = load_or_builtin(a.file.as_deref(), &a.import)?;
     let spec = ragdoll_spec(&character, &a.ragdoll)?;
     let (track, report) = simulate_character(
@@ -308,21 +460,31 @@ pub fn blast(a: &BlastArgs) -> Result<()> {
             ..Default::default()
         },
     )?;
-    for b in &report.blasts {
-        for c in &b.characters {
-            if let Some(v) = c.com_velocity_mps {
-                let v = glam::Vec3::from_array(v);
-                eprintln!(
-                    "{}: thrown at {:.2} m/s (centre of mass, after the blast passed)",
-                    c.name,
-                    v.length()
-                );
-            }
-        }
-    }
-    write_result(&kind, &a.output, &character, &spec, &track, &report)?;
+    let notes: Vec<String> = report
+        .blasts
+        .iter()
+        .flat_map(|b| &b.characters)
+        .filter_map(|c| {
+            let v = glam::Vec3::from_array(c.com_velocity_mps?);
+            Some(format!(
+                "{}: thrown at {:.2} m/s (centre of mass, after the blast passed)",
+                c.name,
+                v.length()
+            ))
+        })
+        .collect();
     let markers = preview_cmd::markers(&[blast], &[], &[]);
-    a.preview.write(&[(&character, &spec, &track)], &markers)
+    write_result(&out, &character, &spec, &track, &report, &markers)?;
+    print_notes(&notes);
+    Ok(())
+}
+
+/// What a run found (a hit, a throw), printed once its files are written, so that a
+/// failed run prints only its error.
+fn print_notes(notes: &[String]) {
+    for n in notes {
+        errln!("{n}");
+    }
 }
 
 /// `OUT.glb` → `OUT.report.json`, next to it.
@@ -334,10 +496,10 @@ fn report_path(output: &Path) -> PathBuf {
     output.with_file_name(format!("{stem}.report.json"))
 }
 
-fn print_summary<'a>(report: &Report, files: impl IntoIterator<Item = &'a Path>) {
+fn print_summary(report: &Report) {
     let m = &report.metrics;
-    eprintln!(
-        "{}: {} bodies, {:.1} kg, {} frames at {} fps in {:.2} s wall; limit violation {:.2}°, penetration {:.1} mm, joint separation {:.2} mm, energy drift {:.4}{}",
+    errln!(
+        "{}: {} bodies, {:.1} kg, {} frames at {} fps in {:.2} s wall; limit violation {:.2}°, penetration {:.1} mm, joint separation {:.2} mm, energy drift {:.4}",
         report.character,
         report.bodies,
         report.total_mass_kg,
@@ -348,135 +510,5 @@ fn print_summary<'a>(report: &Report, files: impl IntoIterator<Item = &'a Path>)
         m.max_penetration_m * 1000.0,
         m.max_joint_separation_m * 1000.0,
         m.energy_drift,
-        if m.nan { ", NaN seen!" } else { "" }
     );
-    for f in files {
-        outln!("{}", f.display());
-    }
-}
-
-pub fn build(a: &BuildArgs) -> Result<()> {
-    let character = load(&a.file, &a.import)?;
-    let spec = ragdoll_spec(&character, &a.ragdoll)?;
-    let text = format!(
-        "# Ragdoll spec for {} (built by ragdoll {} from {}).\n# Edit any number and pass it back with --spec. Lengths in metres, masses in kg,\n# angles in degrees; centres and rotations are in each bone's rest frame.\n\n{}",
-        spec.name,
-        env!("CARGO_PKG_VERSION"),
-        a.file.display(),
-        spec.to_toml()
-    );
-    write_atomic(&a.output, text.as_bytes())?;
-    eprintln!(
-        "{}: {} bodies, {} joints, {:.1} kg",
-        spec.name,
-        spec.bodies.len(),
-        spec.joints.len(),
-        spec.total_mass_kg()
-    );
-    outln!("{}", a.output.display());
-    Ok(())
-}
-
-pub fn inspect(a: &InspectArgs) -> Result<()> {
-    let character = load(&a.file, &a.import)?;
-    let roles = spec::recognise_roles(&character);
-    let spec = ragdoll_spec(&character, &a.ragdoll)
-        .with_context(|| format!("{}: building the ragdoll", a.file.display()))?;
-    let s = &character.skeleton;
-    let mut out = String::new();
-    if a.json {
-        let joints: Vec<serde_json::Value> = (0..s.len())
-            .map(|i| {
-                serde_json::json!({
-                    "index": i,
-                    "name": s.joint_label(i),
-                    "parent": s.parent(i).map(|p| s.joint_label(p)),
-                    "role": roles.per_joint[i].map(|r| r.as_str()),
-                })
-            })
-            .collect();
-        let value = serde_json::json!({
-            "character": character.name,
-            "humanoid": roles.humanoid,
-            "forward": roles.forward.to_array(),
-            "joints": joints,
-            "bodies": spec.bodies,
-            "constraints": spec.joints,
-            "total_mass_kg": spec.total_mass_kg(),
-            "clips": character.clips.iter().map(|c| serde_json::json!({
-                "name": c.name, "frames": c.frames.len(), "fps": 1.0 / c.frame_time,
-            })).collect::<Vec<_>>(),
-        });
-        out.push_str(&serde_json::to_string_pretty(&value)?);
-        out.push('\n');
-    } else {
-        use std::fmt::Write;
-        let kind = if roles.humanoid {
-            "humanoid"
-        } else {
-            "not humanoid: generic chain bodies"
-        };
-        writeln!(
-            out,
-            "{} ({kind}), {} joints, {} meshes, {} clips",
-            character.name,
-            s.len(),
-            character.meshes.len(),
-            character.clips.len()
-        )?;
-        let mut depth = vec![0usize; s.len()];
-        for i in 0..s.len() {
-            if let Some(p) = s.parent(i) {
-                depth[i] = depth[p] + 1;
-            }
-            let role = roles.per_joint[i].map_or("-".to_string(), |r| r.as_str().to_string());
-            writeln!(
-                out,
-                "{}{}  [{}]",
-                "  ".repeat(depth[i]),
-                s.joint_label(i),
-                role
-            )?;
-        }
-        writeln!(out, "\nbodies:")?;
-        for b in &spec.bodies {
-            let shape = match b.shape {
-                ragdoll::spec::Shape::Capsule { radius_m, length_m } => {
-                    format!("capsule r={radius_m:.3} m, l={length_m:.3} m")
-                }
-                ragdoll::spec::Shape::Box { size_m } => format!(
-                    "box {:.3} x {:.3} x {:.3} m",
-                    size_m[0], size_m[1], size_m[2]
-                ),
-            };
-            writeln!(
-                out,
-                "  {:<16} on {:<16} {shape}, {:.2} kg",
-                b.name, b.bone, b.mass_kg
-            )?;
-        }
-        writeln!(out, "\njoints:")?;
-        for j in &spec.joints {
-            let kind = match j.kind {
-                ragdoll::spec::JointKind::Hinge { min_deg, max_deg } => {
-                    format!("hinge {min_deg:.0}..{max_deg:.0}°")
-                }
-                ragdoll::spec::JointKind::SwingTwist {
-                    swing_deg,
-                    twist_deg,
-                    ..
-                } => format!(
-                    "swing-twist cone {swing_deg:.0}°, twist {:.0}..{:.0}°",
-                    twist_deg[0], twist_deg[1]
-                ),
-                ragdoll::spec::JointKind::Ball => "ball".into(),
-                ragdoll::spec::JointKind::Fixed => "fixed".into(),
-            };
-            writeln!(out, "  {:<16} {} -> {}: {kind}", j.name, j.parent, j.child)?;
-        }
-        writeln!(out, "\ntotal mass: {:.2} kg", spec.total_mass_kg())?;
-    }
-    use std::io::Write;
-    std::io::stdout().write_all(out.as_bytes())?;
-    Ok(())
 }

@@ -1,7 +1,9 @@
 //! `ragdoll`: the command-line tool. A thin layer over the `ragdoll` library: clap parses
-//! raw values, `settings.rs`-style validation turns them into library settings, and each
-//! command lives in its own module. Errors print as one line and exit non-zero; outputs are
-//! written atomically, so a failed run leaves no partial file.
+//! raw values, the library validates them as settings, and each command lives in its own
+//! module. Flags that would be ignored in a combination are refused rather than dropped.
+//! Errors print as one line and exit non-zero (1 for a bad input, 2 for a bad command
+//! line, 70 for a bug: a panic caught by [`fatal::guard`]); outputs are staged and renamed
+//! into place together ([`output::Staging`]), so a failed run leaves no partial file.
 
 /// `println!` that stops quietly when stdout is closed (`ragdoll inspect X | head`):
 /// `println!` panics on a broken pipe, and a closed reader is not an error of ours.
@@ -11,6 +13,15 @@ macro_rules! outln {
         if writeln!(std::io::stdout(), $($arg)*).is_err() {
             std::process::exit(0);
         }
+    }};
+}
+
+/// `eprintln!` for status lines, which carries on when stderr is closed (`eprintln!`
+/// panics there, and a status line is not worth failing a finished run for).
+macro_rules! errln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
     }};
 }
 
@@ -26,7 +37,11 @@ macro_rules! out {
 }
 
 mod bench;
+mod checks;
 mod commands;
+mod fatal;
+mod inspect;
+mod output;
 mod preview_cmd;
 mod progress;
 mod rig_cmd;
@@ -105,12 +120,14 @@ enum UpArg {
 struct RagdollArgs {
     /// Total body mass in kg (humanoids default to 75 kg; other creatures to their volume
     /// times the density of water).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     mass: Option<f32>,
-    /// Use the female table of body-segment masses (de Leva 1996).
-    #[arg(long)]
+    /// Use the female table of body-segment masses (de Leva 1996). Not with --spec, whose
+    /// masses are already set.
+    #[arg(long, conflicts_with = "spec")]
     female: bool,
     /// Use this spec (written by `ragdoll build`, possibly edited) instead of building one.
+    /// With --mass, its body masses are scaled to that total.
     #[arg(long, value_name = "SPEC.toml")]
     spec: Option<PathBuf>,
 }
@@ -145,26 +162,32 @@ pub struct BackendArgs {
 
 /// How long and how finely to simulate.
 #[derive(Args, Debug, Clone)]
-struct SimArgs {
+struct RunArgs {
     #[command(flatten)]
     backend: BackendArgs,
     /// Simulated seconds.
-    #[arg(long, default_value_t = 3.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 3.0)]
     seconds: f32,
     /// Output frames per second.
-    #[arg(long, default_value_t = 30.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 30.0)]
     fps: f32,
+}
+
+/// How a character's animation leads into the simulation. Only for commands that read a
+/// character file (the built-in humanoid has no animation).
+#[derive(Args, Debug, Clone)]
+struct AnimArgs {
     /// Start from the rest pose instead of the first animation frame.
     #[arg(long)]
     rest_pose: bool,
     /// When physics takes over: `start`, a time in seconds (the animation plays until
     /// then), `blast` (when the first blast front reaches the character) or `contact` (when
     /// something other than the ground touches it, or a shot hits it).
-    #[arg(long, value_name = "start|SECONDS|blast|contact", default_value = "start", value_parser = parse_activation)]
+    #[arg(long, allow_negative_numbers = true, value_name = "start|SECONDS|blast|contact", default_value = "start", value_parser = parse_activation)]
     activate: ragdoll::world::Activation,
     /// Powered mode: joint motors pull the ragdoll toward its animation with this strength
     /// (0-1) once physics has taken over.
-    #[arg(long, value_name = "STRENGTH")]
+    #[arg(long, allow_negative_numbers = true, value_name = "STRENGTH")]
     powered: Option<f32>,
     /// With --powered: the strength falls linearly to 0 between these times, seconds, and
     /// the ragdoll goes limp.
@@ -174,6 +197,28 @@ struct SimArgs {
     /// rest.
     #[arg(long, requires = "powered")]
     root_on_clip: bool,
+}
+
+impl Default for AnimArgs {
+    /// What a command without these flags (demo) runs with.
+    fn default() -> Self {
+        AnimArgs {
+            rest_pose: false,
+            activate: ragdoll::world::Activation::Immediately,
+            powered: None,
+            fade_out: None,
+            root_on_clip: false,
+        }
+    }
+}
+
+/// The simulation flags of the commands that read a character.
+#[derive(Args, Debug, Clone)]
+struct SimArgs {
+    #[command(flatten)]
+    run: RunArgs,
+    #[command(flatten)]
+    anim: AnimArgs,
 }
 
 /// Parses `START,END` (two finite numbers).
@@ -216,7 +261,7 @@ struct DemoArgs {
     #[command(flatten)]
     ragdoll: RagdollArgs,
     #[command(flatten)]
-    sim: SimArgs,
+    run: RunArgs,
     #[command(flatten)]
     preview: preview_cmd::PreviewArg,
 }
@@ -275,16 +320,16 @@ struct BlastArgs {
     /// A .bvh, .glb, .gltf or .obj file; the built-in humanoid when left out.
     file: Option<PathBuf>,
     /// Charge as TNT-equivalent mass, kg.
-    #[arg(long, value_name = "KG")]
+    #[arg(long, allow_negative_numbers = true, value_name = "KG")]
     tnt: f32,
     /// Where the charge is, metres: X,Y,Z (Y up; the character stands around the origin).
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
     at: [f32; 3],
     /// Detonation time, seconds after the start.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.0)]
     time: f32,
     /// Artistic multiplier on the blast loads (1 = physical).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1.0)]
     scale: f32,
     /// Output file: .glb or .bvh. The report goes next to it as <stem>.report.json.
     #[arg(short, long, value_name = "OUT.glb|OUT.bvh")]
@@ -309,14 +354,19 @@ struct ShootArgs {
     /// A point it flies toward, metres: X,Y,Z.
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
     toward: [f32; 3],
-    /// Its mass, kg (default: a 9 mm bullet).
-    #[arg(long, default_value_t = 0.008)]
-    mass: f32,
+    /// The projectile's mass, kg (default: a 9 mm bullet). `--mass` is the character's.
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_name = "KG",
+        default_value_t = 0.008
+    )]
+    bullet_mass: f32,
     /// Its speed, m/s.
-    #[arg(long, default_value_t = 360.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 360.0)]
     speed: f32,
     /// When it hits, seconds after the start.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.0)]
     time: f32,
     /// Output file: .glb or .bvh. The report goes next to it as <stem>.report.json.
     #[arg(short, long, value_name = "OUT.glb|OUT.bvh")]
@@ -347,17 +397,45 @@ fn parse_vec3(text: &str) -> Result<[f32; 3], String> {
 }
 
 fn main() -> ExitCode {
+    fatal::install_panic_hook();
+    let typed = typed_subcommand();
+    let label = typed.as_deref().unwrap_or("");
+    match fatal::guard(label, run) {
+        Err(e) if e.is::<clap::Error>() => match e.downcast::<clap::Error>() {
+            Ok(e) => fatal::usage_error(e, typed.as_deref()),
+            Err(e) => fatal::exit(Err(e)),
+        },
+        result => fatal::exit(result),
+    }
+}
+
+/// The subcommand named on the command line, if any (for messages written before or
+/// without a successful parse).
+fn typed_subcommand() -> Option<String> {
+    let names: Vec<String> = Cli::command()
+        .get_subcommands()
+        .map(|c| c.get_name().to_string())
+        .collect();
+    std::env::args()
+        .skip(1)
+        .find(|a| !a.starts_with('-'))
+        .filter(|a| names.contains(a))
+}
+
+/// Parses the command line and runs the command; a clap error comes back as the
+/// `clap::Error` inside the `anyhow::Error`.
+fn run() -> anyhow::Result<()> {
     // Parsed in two steps so a scene run can tell flags typed from clap's defaults.
-    let matches = Cli::command().get_matches();
-    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
-    let result = match cli.command {
+    let matches = Cli::command().try_get_matches()?;
+    let cli = Cli::from_arg_matches(&matches)?;
+    match cli.command {
         Command::Simulate(a) if scene_cmd::is_scene(&a.file) => scene_cmd::run(
             &a,
             matches.subcommand_matches("simulate").unwrap_or(&matches),
         ),
         Command::Demo(a) => commands::demo(&a),
-        Command::Inspect(a) => commands::inspect(&a),
-        Command::Build(a) => commands::build(&a),
+        Command::Inspect(a) => inspect::inspect(&a),
+        Command::Build(a) => inspect::build(&a),
         Command::Simulate(a) => commands::simulate(&a),
         Command::Blast(a) => commands::blast(&a),
         Command::Shoot(a) => commands::shoot(&a),
@@ -365,22 +443,5 @@ fn main() -> ExitCode {
         Command::Preview(a) => preview_cmd::run(&a),
         Command::Rig(a) => rig_cmd::run(&a),
         Command::View(a) => view_cmd::run(&a),
-    };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(err) => {
-            if is_broken_pipe(&err) {
-                return ExitCode::SUCCESS;
-            }
-            eprintln!("error: {err:#}");
-            ExitCode::from(1)
-        }
     }
-}
-
-fn is_broken_pipe(err: &anyhow::Error) -> bool {
-    err.chain().any(|e| {
-        e.downcast_ref::<std::io::Error>()
-            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
-    })
 }

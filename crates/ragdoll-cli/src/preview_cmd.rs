@@ -10,13 +10,16 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use glam::Vec3;
 use ragdoll::events::{Blast, Projectile, ProjectileReport};
-use ragdoll::export::{obj, write_atomic};
+use ragdoll::export::obj;
 use ragdoll::import::{self, ImportOptions};
 use ragdoll::math::Transform;
 use ragdoll::skeleton::Character;
 use ragdoll::spec::{self, BuildOptions, RagdollSpec};
 use ragdoll::track::Track;
-use ragdoll_preview::{Marker, PreviewOptions};
+use ragdoll_preview::{Format, Marker, PreviewOptions};
+
+use crate::output::{self, Staging};
+use crate::progress::Progress;
 
 /// The `--preview` flag the simulating commands share.
 #[derive(Args, Debug, Clone, Default)]
@@ -28,24 +31,33 @@ pub struct PreviewArg {
 }
 
 impl PreviewArg {
-    /// Fails on an extension we cannot draw, before any simulation time is spent.
+    /// Fails on an extension we cannot draw or a path we cannot write, before any
+    /// simulation time is spent.
     pub fn check(&self) -> Result<()> {
         if let Some(p) = &self.preview {
             ragdoll_preview::format_of(p).map_err(flag("--preview"))?;
+            output::check_file(p)?;
         }
         Ok(())
     }
 
-    /// Draws and writes the preview, when one was asked for.
-    pub fn write(&self, actors: &[ragdoll_preview::Actor<'_>], markers: &[Marker]) -> Result<()> {
+    /// Draws the preview, when one was asked for, and stages it with the run's other
+    /// outputs; returns its path.
+    pub fn stage(
+        &self,
+        staging: &mut Staging,
+        actors: &[ragdoll_preview::Actor<'_>],
+        markers: &[Marker],
+        progress: &Progress,
+    ) -> Result<Option<PathBuf>> {
         let Some(path) = &self.preview else {
-            return Ok(());
+            return Ok(None);
         };
+        progress.stage(0, "drawing the preview");
         let bytes = ragdoll_preview::encode(path, actors, markers, &PreviewOptions::default())
             .map_err(flag("--preview"))?;
-        write_atomic(path, &bytes)?;
-        outln!("{}", path.display());
-        Ok(())
+        staging.write(path, &bytes)?;
+        Ok(Some(path.clone()))
     }
 }
 
@@ -84,27 +96,29 @@ pub fn markers(blasts: &[Blast], shots: &[Projectile], hits: &[ProjectileReport]
     out
 }
 
-/// `--obj-sequence DIR`: one OBJ per frame of the deformed mesh (or the ragdoll's bodies).
-/// The first frame is encoded before anything is written, so a mesh that cannot be skinned
-/// leaves no files; each file is written atomically.
-pub fn write_obj_sequence(
+/// `--obj-sequence DIR`: one OBJ per frame of the deformed mesh (or the ragdoll's bodies),
+/// staged with the run's other outputs (each frame goes to disk as it is encoded, so a
+/// long run does not hold them all in memory); returns their paths.
+pub fn stage_obj_sequence(
+    staging: &mut Staging,
     dir: &Path,
     character: &Character,
     spec: &RagdollSpec,
     track: &Track,
-) -> Result<()> {
+    progress: &Progress,
+) -> Result<Vec<PathBuf>> {
     let mut seq = obj::ObjSequence::new(character, spec)?;
     let n = track.frames.len();
-    let mut pending = Some(seq.frame(&track.frames[0])?);
-    for f in 0..n {
-        let text = match pending.take() {
-            Some(t) => t,
-            None => seq.frame(&track.frames[f])?,
-        };
-        write_atomic(&dir.join(obj::file_name(f, n)), text.as_bytes())?;
+    progress.stage(n as u64, "writing OBJ files");
+    let mut paths = Vec::with_capacity(n);
+    for (f, frame) in track.frames.iter().enumerate() {
+        let text = seq.frame(frame)?;
+        let path = dir.join(obj::file_name(f, n));
+        staging.write(&path, text.as_bytes())?;
+        paths.push(path);
+        progress.set(f as u64 + 1);
     }
-    outln!("{} ({n} OBJ files)", dir.display());
-    Ok(())
+    Ok(paths)
 }
 
 /// `ragdoll preview RESULT.glb -o FILE.gif|png`.
@@ -119,11 +133,12 @@ pub struct PreviewArgs {
     /// Picture size in pixels.
     #[arg(long, value_name = "WxH", default_value = "640x480", value_parser = parse_size)]
     size: (u32, u32),
-    /// At most this many GIF frames per second (every n-th frame of the animation).
-    #[arg(long, default_value_t = 15.0)]
-    gif_fps: f32,
-    /// The frame a PNG shows (default: the middle one).
-    #[arg(long)]
+    /// At most this many GIF frames per second (every n-th frame of the animation); 15 by
+    /// default. For a .gif only.
+    #[arg(long, allow_negative_numbers = true, value_name = "FPS")]
+    gif_fps: Option<f32>,
+    /// The frame a PNG shows, counted from 0 (default: the middle one). For a .png only.
+    #[arg(long, allow_negative_numbers = true, value_name = "N")]
     frame: Option<usize>,
 }
 
@@ -140,7 +155,27 @@ fn parse_size(text: &str) -> Result<(u32, u32), String> {
 }
 
 pub fn run(a: &PreviewArgs) -> Result<()> {
-    ragdoll_preview::format_of(&a.output).map_err(flag("-o"))?;
+    let format = ragdoll_preview::format_of(&a.output).map_err(flag("-o"))?;
+    match format {
+        Format::Png if a.gif_fps.is_some() => bail!(
+            "--gif-fps: {} is a PNG (one frame); the GIF frame rate applies to a .gif",
+            a.output.display()
+        ),
+        Format::Gif if a.frame.is_some() => bail!(
+            "--frame: {} is a GIF (the whole animation); --frame picks the frame of a .png",
+            a.output.display()
+        ),
+        _ => {}
+    }
+    let defaults = PreviewOptions::default();
+    let options = PreviewOptions {
+        width: a.size.0,
+        height: a.size.1,
+        gif_fps: a.gif_fps.unwrap_or(defaults.gif_fps),
+        png_frame: a.frame,
+        ..defaults
+    };
+    output::check_file(&a.output)?;
     let is_glb = a
         .file
         .extension()
@@ -160,22 +195,17 @@ pub fn run(a: &PreviewArgs) -> Result<()> {
         empty_spec(&character.name)
     };
     let markers = report_markers(&a.file)?;
-    let options = PreviewOptions {
-        width: a.size.0,
-        height: a.size.1,
-        gif_fps: a.gif_fps,
-        png_frame: a.frame,
-        ..Default::default()
-    };
+    let progress = Progress::new(0, "drawing");
     let bytes = ragdoll_preview::encode(
         &a.output,
         &[(&character, &spec, &track)],
         &markers,
         &options,
     )
-    .map_err(flag("preview"))?;
-    write_atomic(&a.output, &bytes)?;
-    eprintln!(
+    .map_err(option_error)?;
+    progress.finish();
+    output::write_one(&a.output, &bytes)?;
+    errln!(
         "{}: {} frames at {:.1} fps drawn",
         character.name,
         track.frames.len(),
@@ -231,6 +261,26 @@ fn empty_spec(name: &str) -> RagdollSpec {
     }
 }
 
+/// A preview option out of range, under the flag that set it (the library names them all
+/// `preview`).
+fn option_error(e: ragdoll::Error) -> anyhow::Error {
+    match e {
+        ragdoll::Error::Setting { message, .. } => {
+            let flag = if message.contains("pixels") {
+                "--size"
+            } else if message.contains("GIF frame rate") {
+                "--gif-fps"
+            } else if message.starts_with("frame") {
+                "--frame"
+            } else {
+                "preview"
+            };
+            anyhow::anyhow!("{flag}: {message}")
+        }
+        e => e.into(),
+    }
+}
+
 /// Blasts and hits from `<stem>.report.json` beside the file, when there is one. Reports
 /// hold where a shot hit but not where it came from, so shots show as a spark at the hit.
 fn report_markers(glb: &Path) -> Result<Vec<Marker>> {
@@ -239,9 +289,10 @@ fn report_markers(glb: &Path) -> Result<Vec<Marker>> {
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
     let path = glb.with_file_name(format!("{stem}.report.json"));
-    let Ok(text) = std::fs::read_to_string(&path) else {
+    if !path.exists() {
         return Ok(Vec::new());
-    };
+    }
+    let text = ragdoll::files::read_text_capped(&path, ragdoll::files::MAX_SETTINGS_BYTES)?;
     let json: serde_json::Value = serde_json::from_str(&text)
         .with_context(|| format!("{}: not a JSON report", path.display()))?;
     let mut out = Vec::new();

@@ -6,12 +6,13 @@ use std::path::PathBuf;
 use anyhow::{Result, bail};
 use clap::Args;
 use glam::Vec3;
-use ragdoll::export::{gltf::rig_to_glb, write_atomic};
+use ragdoll::export::gltf::rig_to_glb;
 use ragdoll::import;
 use ragdoll::rig::{Branch, DEFAULT_JOINTS, Landmark, RigOptions};
 use ragdoll::skeleton::Source;
 
-use crate::ImportArgs;
+use crate::progress::Progress;
+use crate::{ImportArgs, checks, output};
 
 /// Rig a mesh without a skeleton (OBJ, or glTF without a skin) and write a skinned .glb.
 #[derive(Args, Debug)]
@@ -19,7 +20,7 @@ pub struct RigArgs {
     /// A mesh without a skeleton: .obj, or .glb/.gltf without a skin.
     file: PathBuf,
     /// Spine joints, evenly spaced along the body's centre line (tail to head).
-    #[arg(long, default_value_t = DEFAULT_JOINTS)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = DEFAULT_JOINTS)]
     joints: usize,
     /// A point near the head, X,Y,Z in metres or vN (the mesh's vertex N, counted from 0):
     /// the end of the centre line nearest it is the head. By default the bulkier end.
@@ -27,15 +28,15 @@ pub struct RigArgs {
     head: Option<Landmark>,
     /// Run the centre line through these landmarks, tail to head, separated by `/`
     /// (default: found by principal-component analysis of the mesh).
-    #[arg(long, value_name = "P/P/...", value_parser = parse_landmarks, allow_hyphen_values = true)]
-    spine: Option<Vec<Landmark>>,
+    #[arg(long, value_name = "P/P/...", value_parser = parse_spine, allow_hyphen_values = true)]
+    spine: Option<Spine>,
     /// A limb, fin or whisker: NAME=P/P/..., from where it leaves the body to its end, each
     /// P being X,Y,Z or vN. It hangs from the nearest spine joint and gets a mirrored twin
     /// across the body's symmetry plane. Repeat for several.
     #[arg(long, value_name = "NAME=P/P/...", value_parser = parse_branch, allow_hyphen_values = true)]
     branch: Vec<Branch>,
     /// Do not give branches a mirrored twin.
-    #[arg(long)]
+    #[arg(long, requires = "branch")]
     no_mirror: bool,
     /// The rigged file to write (.glb).
     #[arg(short, long, value_name = "OUT.glb")]
@@ -64,6 +65,16 @@ fn parse_landmark(text: &str) -> Result<Landmark, String> {
             "\"{t}\": expected X,Y,Z (three numbers, metres) or vN"
         )),
     }
+}
+
+/// The `--spine` landmarks. A type of its own because clap's derive reads an
+/// `Option<Vec<T>>` field as a flag taking several values of `T`, and then panics ("Mismatch
+/// between definition and access") when the parser hands it one `Vec<T>`.
+#[derive(Clone, Debug)]
+struct Spine(Vec<Landmark>);
+
+fn parse_spine(text: &str) -> Result<Spine, String> {
+    parse_landmarks(text).map(Spine)
 }
 
 /// Parses `P/P/...`.
@@ -105,9 +116,11 @@ pub fn run(a: &RigArgs) -> Result<()> {
     if !is_glb {
         bail!("{}: the output must end in .glb", a.output.display());
     }
+    output::check_file(&a.output)?;
+    checks::import_flags(Some(&a.file), &a.import)?;
     let opts = RigOptions {
         joints: a.joints,
-        centre_line: a.spine.clone().unwrap_or_default(),
+        centre_line: a.spine.clone().map(|s| s.0).unwrap_or_default(),
         head: a.head,
         branches: a
             .branch
@@ -118,9 +131,11 @@ pub fn run(a: &RigArgs) -> Result<()> {
             })
             .collect(),
     };
+    let progress = Progress::new(0, &format!("rigging {}", a.file.display()));
     let character =
         import::load_rigged(&a.file, &crate::commands::import_options(&a.import), &opts)
             .map_err(rig_flag_error)?;
+    progress.finish();
     if !matches!(character.source, Source::Mesh(_)) {
         bail!(
             "{}: already has a skeleton; `ragdoll rig` is for meshes without one (simulate it directly)",
@@ -128,7 +143,7 @@ pub fn run(a: &RigArgs) -> Result<()> {
         );
     }
     let bytes = rig_to_glb(&character)?;
-    write_atomic(&a.output, &bytes)?;
+    output::write_one(&a.output, &bytes)?;
     let vertices: usize = character.meshes.iter().map(|m| m.positions.len()).sum();
     let skeleton = &character.skeleton;
     let head = skeleton.rest_world()[skeleton.find("head").unwrap_or(0)].translation;

@@ -11,6 +11,8 @@ use ragdoll::scene::{Scene, SceneReport};
 use ragdoll::world::StartPose;
 
 use crate::SimulateArgs;
+use crate::commands::check_finite;
+use crate::output::{self, Staging};
 use crate::progress::Progress;
 
 /// Whether `simulate` was given a scene file rather than a character: the `.toml`
@@ -43,6 +45,9 @@ pub fn run(a: &SimulateArgs, matches: &ArgMatches) -> Result<()> {
         ("units", "--units", "units"),
         ("up", "--up", "up"),
         ("activate", "--activate", "activate"),
+        ("powered", "--powered", "powered"),
+        ("fade_out", "--fade-out", "powered"),
+        ("root_on_clip", "--root-on-clip", "powered"),
     ] {
         if given(matches, id) {
             bail!(
@@ -54,46 +59,61 @@ pub fn run(a: &SimulateArgs, matches: &ArgMatches) -> Result<()> {
     if a.obj_sequence.is_some() {
         bail!("--obj-sequence applies to a character file, not a scene file");
     }
+    output::check_folder(&a.output)?;
     a.preview.check()?;
+    let progress = Progress::new(0, "reading the scene");
     let mut scene = Scene::load(&a.file)?;
     if given(matches, "seconds") {
-        if !(a.sim.seconds.is_finite() && a.sim.seconds > 0.0 && a.sim.seconds <= 3600.0) {
+        if !(a.sim.run.seconds.is_finite()
+            && a.sim.run.seconds > 0.0
+            && a.sim.run.seconds <= 3600.0)
+        {
             bail!(
                 "--seconds: must be more than 0 and at most 3600, not {}",
-                a.sim.seconds
+                a.sim.run.seconds
             );
         }
-        scene.duration_s = a.sim.seconds;
+        scene.duration_s = a.sim.run.seconds;
     }
     if given(matches, "fps") {
-        if !(a.sim.fps.is_finite() && (1.0..=1000.0).contains(&a.sim.fps)) {
+        if !(a.sim.run.fps.is_finite() && (1.0..=1000.0).contains(&a.sim.run.fps)) {
             bail!(
                 "--fps: frames per second must be between 1 and 1000, not {}",
-                a.sim.fps
+                a.sim.run.fps
             );
         }
-        scene.settings.fps = a.sim.fps;
+        scene.settings.fps = a.sim.run.fps;
     }
-    if a.sim.rest_pose {
+    if a.sim.anim.rest_pose {
         scene.settings.start = StartPose::Rest;
     }
     // The flag overrides the scene's `backend` only when given.
     if given(matches, "backend") {
-        scene.settings.backend = a.sim.backend.backend.kind();
+        scene.settings.backend = a.sim.run.backend.backend.kind();
     }
-    let mut progress: Option<Progress> = None;
+    progress.stage(0, "building the scene");
+    let mut started = false;
     let result = scene.run_with_progress(|done, total| {
-        progress
-            .get_or_insert_with(|| Progress::new(total, "simulating"))
-            .set(done);
+        if !started {
+            progress.stage(total, "simulating");
+            started = true;
+        }
+        progress.set(done);
     })?;
-    if let Some(p) = progress {
-        p.finish();
+    // The character whose track went bad, else the scene's metrics.
+    let in_scene = |e: anyhow::Error| e.context(a.file.display().to_string());
+    for (c, track) in scene.characters.iter().zip(&result.tracks) {
+        check_finite(&c.name, false, track).map_err(in_scene)?;
     }
-    let written = scene.write(&result, &a.output)?;
-    print_summary(&result.report);
-    for path in written {
-        outln!("{}", path.display());
+    let no_track = ragdoll::track::Track {
+        fps: scene.settings.fps,
+        frames: Vec::new(),
+    };
+    check_finite("a character", result.report.metrics.nan, &no_track).map_err(in_scene)?;
+    progress.stage(0, "writing");
+    let mut staging = Staging::new();
+    for (name, bytes) in scene.encode(&result)? {
+        staging.write(&a.output.join(name), &bytes)?;
     }
     let actors: Vec<_> = scene
         .characters
@@ -104,13 +124,29 @@ pub fn run(a: &SimulateArgs, matches: &ArgMatches) -> Result<()> {
     let blasts: Vec<_> = scene.blasts.iter().map(|b| b.event).collect();
     let shots: Vec<_> = scene.projectiles.iter().map(|p| p.event).collect();
     let markers = crate::preview_cmd::markers(&blasts, &shots, &result.report.projectiles);
-    a.preview.write(&actors, &markers)
+    let preview = a
+        .preview
+        .stage(&mut staging, &actors, &markers, &progress)?;
+    crate::fatal::debug_panic_point("staged");
+    let written = staging.commit()?;
+    progress.finish();
+    print_summary(&result.report);
+    for path in written
+        .iter()
+        .filter(|p| Some(p.as_path()) != preview.as_deref())
+    {
+        outln!("{}", path.display());
+    }
+    if let Some(p) = preview {
+        outln!("{}", p.display());
+    }
+    Ok(())
 }
 
 fn print_summary(r: &SceneReport) {
     let m = &r.metrics;
-    eprintln!(
-        "{}: {} character{}, {} frames at {} fps in {:.2} s wall; limit violation {:.2}°, penetration {:.1} mm, joint separation {:.2} mm, energy drift {:.4}{}",
+    errln!(
+        "{}: {} character{}, {} frames at {} fps in {:.2} s wall; limit violation {:.2}°, penetration {:.1} mm, joint separation {:.2} mm, energy drift {:.4}",
         r.scene,
         r.characters.len(),
         if r.characters.len() == 1 { "" } else { "s" },
@@ -121,13 +157,12 @@ fn print_summary(r: &SceneReport) {
         m.max_penetration_m * 1000.0,
         m.max_joint_separation_m * 1000.0,
         m.energy_drift,
-        if m.nan { ", NaN seen!" } else { "" }
     );
     for b in &r.blasts {
         for c in &b.characters {
             if let Some(v) = c.com_velocity_mps {
                 let v = glam::Vec3::from_array(v);
-                eprintln!(
+                errln!(
                     "  {}: thrown at {:.2} m/s by the {} kg blast at {} s",
                     c.name,
                     v.length(),
@@ -139,11 +174,13 @@ fn print_summary(r: &SceneReport) {
     }
     for p in &r.projectiles {
         match (&p.body, p.character.and_then(|c| r.characters.get(c))) {
-            (Some(body), Some(c)) => eprintln!(
+            (Some(body), Some(c)) => errln!(
                 "  shot at {:.2} s hit {}'s {body} with {:.1} N·s",
-                p.time_s, c.name, p.impulse_ns
+                p.time_s,
+                c.name,
+                p.impulse_ns
             ),
-            _ => eprintln!("  shot at {:.2} s missed", p.time_s),
+            _ => errln!("  shot at {:.2} s missed", p.time_s),
         }
     }
 }

@@ -1,0 +1,135 @@
+//! The commands that read a character without simulating it: inspect (print its joint
+//! tree and ragdoll) and build (write its ragdoll spec for editing).
+
+use anyhow::{Context, Result};
+use ragdoll::spec;
+
+use crate::commands::{load, ragdoll_spec};
+use crate::{BuildArgs, InspectArgs, output};
+
+pub fn build(a: &BuildArgs) -> Result<()> {
+    output::check_file(&a.output)?;
+    let character = load(&a.file, &a.import)?;
+    let spec = ragdoll_spec(&character, &a.ragdoll)?;
+    let text = format!(
+        "# Ragdoll spec for {} (built by ragdoll {} from {}).\n# Edit any number and pass it back with --spec. Lengths in metres, masses in kg,\n# angles in degrees; centres and rotations are in each bone's rest frame.\n\n{}",
+        spec.name,
+        env!("CARGO_PKG_VERSION"),
+        a.file.display(),
+        spec.to_toml()
+    );
+    output::write_one(&a.output, text.as_bytes())?;
+    errln!(
+        "{}: {} bodies, {} joints, {:.1} kg",
+        spec.name,
+        spec.bodies.len(),
+        spec.joints.len(),
+        spec.total_mass_kg()
+    );
+    outln!("{}", a.output.display());
+    Ok(())
+}
+
+pub fn inspect(a: &InspectArgs) -> Result<()> {
+    let character = load(&a.file, &a.import)?;
+    let roles = spec::recognise_roles(&character);
+    let spec = ragdoll_spec(&character, &a.ragdoll)
+        .with_context(|| format!("{}: building the ragdoll", a.file.display()))?;
+    let s = &character.skeleton;
+    let mut out = String::new();
+    if a.json {
+        let joints: Vec<serde_json::Value> = (0..s.len())
+            .map(|i| {
+                serde_json::json!({
+                    "index": i,
+                    "name": s.joint_label(i),
+                    "parent": s.parent(i).map(|p| s.joint_label(p)),
+                    "role": roles.per_joint[i].map(|r| r.as_str()),
+                })
+            })
+            .collect();
+        let value = serde_json::json!({
+            "character": character.name,
+            "humanoid": roles.humanoid,
+            "forward": roles.forward.to_array(),
+            "joints": joints,
+            "bodies": spec.bodies,
+            "constraints": spec.joints,
+            "total_mass_kg": spec.total_mass_kg(),
+            "clips": character.clips.iter().map(|c| serde_json::json!({
+                "name": c.name, "frames": c.frames.len(), "fps": 1.0 / c.frame_time,
+            })).collect::<Vec<_>>(),
+        });
+        out.push_str(&serde_json::to_string_pretty(&value)?);
+        out.push('\n');
+    } else {
+        use std::fmt::Write;
+        let kind = if roles.humanoid {
+            "humanoid"
+        } else {
+            "not humanoid: generic chain bodies"
+        };
+        writeln!(
+            out,
+            "{} ({kind}), {} joints, {} meshes, {} clips",
+            character.name,
+            s.len(),
+            character.meshes.len(),
+            character.clips.len()
+        )?;
+        let mut depth = vec![0usize; s.len()];
+        for i in 0..s.len() {
+            if let Some(p) = s.parent(i) {
+                depth[i] = depth[p] + 1;
+            }
+            let role = roles.per_joint[i].map_or("-".to_string(), |r| r.as_str().to_string());
+            writeln!(
+                out,
+                "{}{}  [{}]",
+                "  ".repeat(depth[i]),
+                s.joint_label(i),
+                role
+            )?;
+        }
+        writeln!(out, "\nbodies:")?;
+        for b in &spec.bodies {
+            let shape = match b.shape {
+                ragdoll::spec::Shape::Capsule { radius_m, length_m } => {
+                    format!("capsule r={radius_m:.3} m, l={length_m:.3} m")
+                }
+                ragdoll::spec::Shape::Box { size_m } => format!(
+                    "box {:.3} x {:.3} x {:.3} m",
+                    size_m[0], size_m[1], size_m[2]
+                ),
+            };
+            writeln!(
+                out,
+                "  {:<16} on {:<16} {shape}, {:.2} kg",
+                b.name, b.bone, b.mass_kg
+            )?;
+        }
+        writeln!(out, "\njoints:")?;
+        for j in &spec.joints {
+            let kind = match j.kind {
+                ragdoll::spec::JointKind::Hinge { min_deg, max_deg } => {
+                    format!("hinge {min_deg:.0}..{max_deg:.0}°")
+                }
+                ragdoll::spec::JointKind::SwingTwist {
+                    swing_deg,
+                    twist_deg,
+                    ..
+                } => format!(
+                    "swing-twist cone {swing_deg:.0}°, twist {:.0}..{:.0}°",
+                    twist_deg[0], twist_deg[1]
+                ),
+                ragdoll::spec::JointKind::Ball => "ball".into(),
+                ragdoll::spec::JointKind::Fixed => "fixed".into(),
+            };
+            writeln!(out, "  {:<16} {} -> {}: {kind}", j.name, j.parent, j.child)?;
+        }
+        writeln!(out, "\ntotal mass: {:.2} kg", spec.total_mass_kg())?;
+    }
+    use std::io::Write;
+    std::io::stdout().write_all(out.as_bytes())?;
+    Ok(())
+}
