@@ -48,7 +48,8 @@ pub enum ClientMsg {
     Pause {},
     /// Pause, then advance one step (through the recording when scrubbed back).
     Step {},
-    /// Back to time 0 with no events added in the viewer; edits to the ragdolls are kept.
+    /// Back to the file: time 0, paused, the file's specs, no events added in the viewer
+    /// (the backend chosen is kept).
     Reset {},
     /// Pause and show the recorded state at this time, seconds.
     Scrub {
@@ -117,8 +118,15 @@ pub enum ClientMsg {
         #[serde(default)]
         twist_deg: Option<[f32; 2]>,
     },
-    /// Write every edited spec next to the input (or into `--save-dir`).
-    Save {},
+    /// Write every edited spec into the save folder. A file already there is not
+    /// overwritten unless `overwrite` is true: the server answers the page that asked with
+    /// `{"type":"confirm_overwrite","files":[...]}`, and the page, once the user agrees,
+    /// sends the message again with `overwrite`.
+    Save {
+        /// Replace files that exist.
+        #[serde(default)]
+        overwrite: bool,
+    },
     /// Switch the simulation backend.
     Backend {
         /// The backend wanted.
@@ -231,7 +239,7 @@ fn check(msg: &ClientMsg, shape: &SceneShape) -> Result<(), Rejected> {
         | ClientMsg::Step {}
         | ClientMsg::Reset {}
         | ClientMsg::DragEnd {}
-        | ClientMsg::Save {}
+        | ClientMsg::Save { .. }
         | ClientMsg::Backend { .. } => Ok(()),
         ClientMsg::Scrub { time_s } => {
             if time_s.is_finite() && *time_s >= 0.0 && *time_s <= 1.0e6 {
