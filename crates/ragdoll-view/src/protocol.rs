@@ -6,7 +6,15 @@
 //! unknown field, carries finite numbers inside the ranges below, and names ragdolls,
 //! bodies and joints that exist. Anything else is rejected with a reason (the server logs
 //! it and drops the message; the connection stays open), so a hostile page or a buggy
-//! script can neither crash the server nor push the simulation into NaNs.
+//! script can neither crash the server nor push the simulation into NaNs. What an accepted
+//! message then does is bounded again by the session (edit bounds relative to the file's
+//! ragdoll, caps on charges, drags and the recording; see the README's "The viewer").
+//!
+//! The server sends JSON text too, tagged the same way: `scene` (once: skeletons and
+//! meshes), `specs` (on connect and after each change: the specs, the backend, and each
+//! ragdoll's `edit_bounds`), `frame` (the step shown), `notice` (`level` `info`, `error`
+//! or `progress`, and a `message` sentence) and, to the page that asked alone,
+//! `confirm_overwrite` (the save files already there, before any is replaced).
 
 use serde::{Deserialize, Serialize};
 

@@ -66,12 +66,13 @@ impl EditBounds {
         let size = extent(&body.shape);
         let offset = body.center_m.iter().fold(0.0f32, |m, v| m.max(v.abs()));
         let name = &body.name;
-        if !(size <= self.max_extent_m) {
+        let within = |v: f32| v.is_finite() && v <= self.max_extent_m;
+        if !within(size) {
             Some(format!(
                 "body \"{name}\" would be {size} m long, past this ragdoll's {} m ({EDIT_SIZE_FACTOR} times its largest body in the file)",
                 self.max_extent_m
             ))
-        } else if !(offset <= self.max_extent_m) {
+        } else if !within(offset) {
             Some(format!(
                 "body \"{name}\" would sit {offset} m off its bone, past this ragdoll's {} m ({EDIT_SIZE_FACTOR} times its largest body in the file)",
                 self.max_extent_m
