@@ -136,7 +136,16 @@ pub(crate) async fn check(
             .map(|v| String::from_utf8_lossy(v.as_bytes()))
     };
     let host = text(header::HOST);
-    if !host.as_deref().is_some_and(|h| guard.host_ok(h)) {
+    // A request in absolute form (`GET http://name:port/ HTTP/1.1`) names its host there
+    // too, and that name wins over `Host`: both must be ours.
+    let target = request.uri().authority().map(|a| a.as_str());
+    let named_ok = target.is_none_or(|t| guard.host_ok(t));
+    if !(named_ok && host.as_deref().is_some_and(|h| guard.host_ok(h))) {
+        let host = if named_ok {
+            host
+        } else {
+            target.map(Into::into)
+        };
         let shown = host
             .as_deref()
             .unwrap_or("(none)")

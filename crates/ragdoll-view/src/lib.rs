@@ -211,6 +211,7 @@ impl Viewer {
             state,
             guard: guard::Guard::new(addr),
             pages: Default::default(),
+            dropped: Default::default(),
         });
         let (stopped_tx, stopped) = mpsc::channel::<Stopped>();
         let fail_restart = Arc::new(AtomicBool::new(false));
@@ -221,9 +222,17 @@ impl Viewer {
             stopped: stopped_tx.clone(),
             fail_restart: fail_restart.clone(),
         };
+        let sim_stopped = stopped_tx.clone();
         let simulation = std::thread::Builder::new()
             .name("ragdoll-view-sim".into())
-            .spawn(move || supervisor.run(session, rx))
+            .spawn(move || {
+                // The supervisor catches the session's panics; this catches its own, so
+                // `wait` always hears that the simulation is gone.
+                let run = std::panic::AssertUnwindSafe(|| supervisor.run(session, rx));
+                if std::panic::catch_unwind(run).is_err() {
+                    let _ = sim_stopped.send(Err("the simulation's supervisor crashed".into()));
+                }
+            })
             .map_err(io)?;
 
         let runtime = tokio::runtime::Builder::new_multi_thread()

@@ -4,7 +4,7 @@
 //! simulation thread; a bad one is logged and dropped, the connection kept.
 
 use std::net::SocketAddr;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::{SyncSender, TrySendError};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
@@ -59,6 +59,34 @@ pub(crate) struct App {
     pub guard: Guard,
     /// Pages connected now.
     pub pages: AtomicUsize,
+    /// Messages dropped so far, by reason (shown by `GET /api/state`).
+    pub dropped: Dropped,
+}
+
+/// Counts of messages dropped, so scripts (and tests) can see the limits at work.
+#[derive(Default)]
+pub(crate) struct Dropped {
+    /// Over [`MESSAGES_PER_S`].
+    over_rate: AtomicU64,
+    /// Refused by the checks of [`crate::protocol`], or not text.
+    refused: AtomicU64,
+    /// The simulation's queue was full.
+    busy: AtomicU64,
+}
+
+impl Dropped {
+    fn count(counter: &AtomicU64) {
+        counter.fetch_add(1, Ordering::Relaxed);
+    }
+
+    fn json(&self) -> serde_json::Value {
+        let n = |c: &AtomicU64| c.load(Ordering::Relaxed);
+        serde_json::json!({
+            "over_rate": n(&self.over_rate),
+            "refused": n(&self.refused),
+            "busy": n(&self.busy),
+        })
+    }
 }
 
 pub(crate) fn router(app: Arc<App>) -> Router {
@@ -93,11 +121,14 @@ async fn script() -> Response {
 }
 
 async fn state(State(app): State<Arc<App>>) -> Response {
-    let value = app
+    let mut value = app
         .state
         .lock()
         .unwrap_or_else(PoisonError::into_inner)
         .clone();
+    if let Some(map) = value.as_object_mut() {
+        map.insert("dropped_messages".into(), app.dropped.json());
+    }
     axum::Json(value).into_response()
 }
 
@@ -206,6 +237,7 @@ async fn connection(mut ws: WebSocket, peer: SocketAddr, slot: PageSlot) {
             incoming = ws.recv() => match incoming {
                 Some(Ok(Message::Text(text))) => {
                     if !rate.take() {
+                        Dropped::count(&app.dropped.over_rate);
                         log.line(|| format!("dropped a message from {peer}: over {MESSAGES_PER_S} messages a second"));
                         continue;
                     }
@@ -214,18 +246,29 @@ async fn connection(mut ws: WebSocket, peer: SocketAddr, slot: PageSlot) {
                             let command = Command::Client { msg, reply: reply.clone() };
                             match app.commands.try_send(command) {
                                 Ok(()) => {}
-                                Err(TrySendError::Full(_)) => log.line(|| format!(
-                                    "dropped a message from {peer}: the simulation is busy ({} messages are waiting)",
-                                    crate::MAX_QUEUED_COMMANDS
-                                )),
+                                Err(TrySendError::Full(_)) => {
+                                    Dropped::count(&app.dropped.busy);
+                                    log.line(|| format!(
+                                        "dropped a message from {peer}: the simulation is busy ({} messages are waiting)",
+                                        crate::MAX_QUEUED_COMMANDS
+                                    ));
+                                }
                                 // The simulation has stopped: the server is going down.
                                 Err(TrySendError::Disconnected(_)) => return,
                             }
                         }
-                        Err(why) => log.line(|| format!("dropped a message from {peer}: {why}")),
+                        Err(why) => {
+                            Dropped::count(&app.dropped.refused);
+                            log.line(|| format!("dropped a message from {peer}: {why}"));
+                        }
                     }
                 }
                 Some(Ok(Message::Binary(bytes))) => {
+                    if !rate.take() {
+                        Dropped::count(&app.dropped.over_rate);
+                        continue;
+                    }
+                    Dropped::count(&app.dropped.refused);
                     log.line(|| format!(
                         "dropped a binary message of {} bytes from {peer}: only JSON text is understood",
                         bytes.len()

@@ -69,6 +69,21 @@ fn requests_for_another_host_are_refused() {
     // No Host at all (HTTP/1.0 allows it).
     let (code, _) = raw(addr, "GET /api/state HTTP/1.0\r\n\r\n");
     assert_eq!(code, 421);
+    // A request in absolute form names its host in the target, which wins over Host.
+    let (code, _) = raw(
+        addr,
+        &format!(
+            "GET http://evil.example:{port}/api/state HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nConnection: close\r\n\r\n"
+        ),
+    );
+    assert_eq!(code, 421);
+    let (code, _) = raw(
+        addr,
+        &format!(
+            "GET http://localhost:{port}/api/state HTTP/1.1\r\nHost: localhost:{port}\r\nConnection: close\r\n\r\n"
+        ),
+    );
+    assert_eq!(code, 200);
     viewer.shutdown();
 }
 
