@@ -6,15 +6,19 @@
 // Starts BIN view on the character (the built-in humanoid when none is given) on a free
 // port, opens the printed URL, and checks with the server's state (GET /api/state) and
 // screenshots that:
-//   1. the page draws with WebGL2 and receives frames;
+//   1. the page draws with WebGL2 and receives frames; it shows t = 0, paused, until Play;
 //   2. a mouse drag on an arm lifts it while held (the soft pin pulls it up);
 //   3. a charge placed by clicking the ground, then "Detonate", throws the character
 //      (its centre of mass moves), and the screenshots before and after differ;
-//   4. malformed and hostile WebSocket messages are dropped with a log line each, the
+//   4. Save writes the spec, and a second Save asks before replacing it; Reset goes back
+//      to t = 0, paused;
+//   5. malformed and hostile WebSocket messages are dropped with a log line each, the
 //      connection that sent them keeps working, and an oversized one closes only its own
-//      connection: the server survives all of it.
+//      connection: the server survives all of it; a request naming another host (DNS
+//      rebinding) is refused.
 import { spawn } from 'node:child_process';
-import { mkdtempSync, mkdirSync, writeFileSync } from 'node:fs';
+import { existsSync, mkdtempSync, mkdirSync, readFileSync, writeFileSync } from 'node:fs';
+import { request as httpRequest } from 'node:http';
 import { tmpdir } from 'node:os';
 import { join } from 'node:path';
 import { chromium } from 'playwright-core';
@@ -41,7 +45,8 @@ function check(ok, what, detail = '') {
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 
 // ------------------------------------------------------------------ the server
-const serverArgs = ['view', ...(file ? [file] : []), '--port', '0', '--no-open'];
+const saveDir = mkdtempSync(join(tmpdir(), 'ragdoll-view-save-'));
+const serverArgs = ['view', ...(file ? [file] : []), '--port', '0', '--no-open', '--save-dir', saveDir];
 const server = spawn(bin, serverArgs, { stdio: ['ignore', 'pipe', 'pipe'] });
 let stdout = '', stderr = '', exited = null;
 server.stdout.on('data', (d) => { stdout += d; });
@@ -100,8 +105,28 @@ const info = await page.evaluate(() => ({
 check(info.ready && info.frames > 0, 'the page connects and receives the scene and frames', JSON.stringify(info));
 if (!check(info.webgl && info.drawn > 0, 'the page draws with WebGL2', info.glError || '')) await finish();
 
-// Let the character fall and come to rest.
+// The simulation waits at t = 0, paused, until Play: nothing has fallen yet.
+const shown = async () => page.evaluate(() => ({
+  time: document.getElementById('time').textContent,
+  play: document.getElementById('play').textContent,
+  t: window.viewer.frame.t, playing: window.viewer.frame.playing,
+}));
 let s = await state();
+const first = await shown();
+await sleep(1500);
+const later = await shown();
+const s2 = await state();
+check(first.t === 0 && !first.playing && first.time.startsWith('0.00 s') && first.play === 'Play',
+  'the page opens at t = 0, paused, with a Play button', JSON.stringify(first));
+check(later.t === 0 && later.time.startsWith('0.00 s') && s.time_s === 0 && s2.time_s === 0 && !s2.playing,
+  'it stays at t = 0 until Play', `after 1.5 s the page shows ${later.time}, the server ${s2.time_s} s`);
+await page.screenshot({ path: join(shots, '0-paused-at-start.png') });
+await page.click('#play');
+await sleep(300);
+s = await state();
+check(s.playing && s.time_s > 0, 'Play starts the simulation', `t = ${s.time_s.toFixed(2)} s`);
+
+// Let the character fall and come to rest.
 for (let i = 0; i < 100; i++) {
   const a = com(s);
   await sleep(300);
@@ -147,9 +172,14 @@ await sleep(1500);
 s = await state();
 const c0 = com(s);
 const charge = [c0[0] + 0.6, 0, c0[2] + 0.3];
+// The camera follows the character; while it still eases toward it, a point projected
+// now is elsewhere by the time of the click: hold the camera still first.
+await page.evaluate(() => { document.getElementById('follow').checked = false; });
+await sleep(200);
 const click = await page.evaluate((p) => window.viewer.project(p), charge);
 await page.mouse.click(click.x, click.y);
 const placed = await page.evaluate(() => window.viewer.blastAt);
+await page.evaluate(() => { document.getElementById('follow').checked = true; });
 check(placed && Math.hypot(placed[0] - charge[0], placed[2] - charge[2]) < 0.05,
   'a click on the ground places the charge there', JSON.stringify(placed));
 check(await page.isEnabled('#detonate'), 'the Detonate button is enabled once a charge is placed');
@@ -199,6 +229,38 @@ const changed = await page.evaluate(async ([a, b]) => {
 check(changed > 0.005, 'the screenshots before and after the blast differ',
   `${(changed * 100).toFixed(1)} % of pixels changed`);
 
+// ------------------------------------------------------------------ save, reset
+const notice = () => page.evaluate(() => document.getElementById('notice').textContent);
+const waitNotice = async (re) => {
+  for (let i = 0; i < 50; i++) {
+    const n = await notice();
+    if (re.test(n)) return n;
+    await sleep(100);
+  }
+  return notice();
+};
+const saved = join(saveDir, `${file ? file.split('/').pop().replace(/\.[^.]*$/, '') : 'humanoid'}.spec.toml`);
+await page.click('#save');
+let n = await waitNotice(/saved/);
+check(existsSync(saved) && /saved/.test(n), 'Save writes the spec into --save-dir', n);
+writeFileSync(saved, '# edited by hand\n');
+let asked = null;
+page.once('dialog', async (d) => { asked = d.message(); await d.dismiss(); });
+await page.click('#save');
+n = await waitNotice(/not saved/);
+check(asked !== null && asked.includes('.spec.toml') && readFileSync(saved, 'utf8') === '# edited by hand\n',
+  'a second Save asks before replacing the file, and "no" keeps it', `${asked} / ${n}`);
+page.once('dialog', async (d) => { asked = d.message(); await d.accept(); });
+await page.click('#save');
+n = await waitNotice(/^saved/);
+check(readFileSync(saved, 'utf8').includes('[[bodies]]'), '"yes" replaces it', n);
+await page.click('#reset');
+await sleep(500);
+const afterReset = await shown();
+s = await state();
+check(s.time_s === 0 && !s.playing && s.events === 0 && afterReset.time.startsWith('0.00 s'),
+  'Reset goes back to t = 0, paused, with no events', `${afterReset.time}, events ${s.events}`);
+
 // ------------------------------------------------------------------ hostile messages
 const dropsBefore = (stderr.match(/dropped/g) || []).length;
 const hostile = await page.evaluate(async () => {
@@ -242,11 +304,26 @@ check(drops === hostile.sent, 'every malformed or hostile message is dropped wit
   `${drops} of ${hostile.sent} logged`);
 check(hostile.stillOpen, 'the connection that sent them stays open');
 check(hostile.bigClosed, 'a 2 MiB message closes only its own connection');
+// Every new connection started the simulation over (as a reload does): play again.
+await page.click('#play');
+await sleep(300);
 const a = await state();
 await sleep(500);
 const b = await state();
 check(exited === null && b.time_s > a.time_s, 'the server survives and keeps simulating',
   `t ${a.time_s.toFixed(2)} → ${b.time_s.toFixed(2)} s`);
+// DNS rebinding: the page of a name that now points at 127.0.0.1 names itself in Host.
+const port = new URL(url).port;
+const statusFor = (host) => new Promise((res) => {
+  const req = httpRequest({ host: '127.0.0.1', port, path: '/api/state', headers: { Host: host } },
+    (r) => { r.resume(); res(r.statusCode); });
+  req.on('error', (e) => res(String(e)));
+  req.end();
+});
+const evil = await statusFor(`evil.example:${port}`);
+const own = await statusFor(`localhost:${port}`);
+check(evil === 421 && own === 200 && /refused a request .* for host "evil\.example/.test(stderr),
+  'a request naming another host is refused with a log line', `evil.example ${evil}, localhost ${own}`);
 const stillDrawing = await page.evaluate(() => window.viewer.connected);
 check(stillDrawing, "the page's own connection is unaffected");
 check(pageErrors.length === 0, 'the page logged no errors', pageErrors.join(' | '));

@@ -1,6 +1,7 @@
 //! `ragdoll view [FILE|SCENE.toml]`: the interactive viewer. Loads the character (or the
 //! scene), starts the local web server of the `ragdoll-view` crate, prints the page's URL
-//! and serves until stopped (Ctrl-C).
+//! and serves until stopped (Ctrl-C). If the viewer stops on its own (the server failed,
+//! or the simulation crashed and could not be restarted) it exits non-zero with the reason.
 
 use std::net::IpAddr;
 use std::path::PathBuf;
@@ -30,7 +31,8 @@ pub struct ViewArgs {
     /// Do not open a browser; just print the URL.
     #[arg(long)]
     no_open: bool,
-    /// Folder the page's "Save spec" writes into (default: the current folder).
+    /// Folder the page's "Save spec" writes into (default: the current folder); created on
+    /// the first save. The page asks before replacing a file already there.
     #[arg(long, value_name = "DIR")]
     save_dir: Option<PathBuf>,
     /// Start from the rest pose instead of the first animation frame.
@@ -96,7 +98,7 @@ pub fn run(a: &ViewArgs) -> Result<()> {
     if !a.no_open {
         open_browser(&url);
     }
-    viewer.wait();
+    viewer.wait()?;
     Ok(())
 }
 

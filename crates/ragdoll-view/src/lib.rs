@@ -7,20 +7,30 @@
 //!
 //! - `session`: one thread owns the [`ragdoll::world::World`], steps it in real time,
 //!   records every step (for scrubbing) and replays the user's events after edits;
+//! - `supervisor`: runs the session, and restarts it from the file's spec when it panics;
 //! - `server`: the page, `GET /api/state` (time and body positions, JSON, for scripts and
 //!   tests) and `GET /ws`, where every message is checked by [`protocol`] first;
+//! - `guard`: the Host and Origin checks every request passes first (DNS rebinding);
 //! - `web/index.html` and `web/viewer.js`: the page.
+//!
+//! **One simulation for all pages.** Every open page shows and drives the same simulation.
+//! A page that connects (a new tab, or a reload) starts it over as the file describes it:
+//! t = 0, paused, the file's specs, no events; the other pages follow (they are told why).
 //!
 //! The server listens on 127.0.0.1 unless told otherwise: it runs a simulation anyone who
 //! reaches the port can drive and writes spec files into the save folder.
 #![deny(missing_docs)]
 
+mod guard;
+mod log;
 pub mod protocol;
 mod server;
 mod session;
+mod supervisor;
 
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, mpsc};
 
 use ragdoll::error::{Error, Result};
@@ -30,7 +40,11 @@ use ragdoll::spec::RagdollSpec;
 use ragdoll::world::{Activation, WorldSettings};
 use tokio::sync::{broadcast, watch};
 
-use session::{Command, Outlets, Session};
+use session::{Command, Outlets, SaveTarget, Session};
+
+/// Commands waiting for the simulation thread: past this many, messages from pages are
+/// dropped (with a log line) instead of queueing without bound while a long replay runs.
+const MAX_QUEUED_COMMANDS: usize = 256;
 
 /// Where the viewer listens and writes.
 #[derive(Clone, Debug)]
@@ -89,16 +103,62 @@ pub fn single_character_scene(
     }
 }
 
+/// Refuses a save folder that can never be written: a path that is a file, or sits below
+/// one. A folder that does not exist yet is fine (the first save creates it).
+fn check_save_dir(dir: &Path) -> Result<()> {
+    let refuse = |message: String| {
+        Err(Error::Setting {
+            setting: "--save-dir".into(),
+            message,
+        })
+    };
+    let mut at = Some(dir);
+    while let Some(p) = at.filter(|p| !p.as_os_str().is_empty()) {
+        match std::fs::metadata(p) {
+            Ok(m) if m.is_dir() => return Ok(()),
+            Ok(_) if p == dir => {
+                return refuse(format!(
+                    "{} is a file, not a folder: the page's Save writes spec files into a folder",
+                    dir.display()
+                ));
+            }
+            Ok(_) => {
+                return refuse(format!(
+                    "{} cannot be a folder: {} is a file",
+                    dir.display(),
+                    p.display()
+                ));
+            }
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::NotFound | std::io::ErrorKind::NotADirectory
+                ) =>
+            {
+                at = p.parent()
+            }
+            Err(e) => return refuse(format!("{}: {e}", p.display())),
+        }
+    }
+    Ok(())
+}
+
+/// Why the viewer stopped on its own: sent by the supervisor or the server task.
+type Stopped = std::result::Result<(), String>;
+
 /// A running viewer: the server's tasks and the simulation thread.
 pub struct Viewer {
     addr: SocketAddr,
     runtime: tokio::runtime::Runtime,
-    commands: mpsc::Sender<Command>,
+    commands: mpsc::SyncSender<Command>,
     simulation: std::thread::JoinHandle<()>,
+    stopped: mpsc::Receiver<Stopped>,
+    fail_restart: Arc<AtomicBool>,
 }
 
 impl Viewer {
-    /// Builds the scene's world, binds the port and starts serving; returns at once.
+    /// Builds the scene's world, binds the port and starts serving; returns at once. The
+    /// simulation waits, paused at t = 0, for a page's Play.
     ///
     /// ```no_run
     /// use ragdoll::{skeleton, spec, world::WorldSettings};
@@ -109,9 +169,10 @@ impl Viewer {
     /// let scene = single_character_scene(character, spec, "built-in", WorldSettings::default());
     /// let viewer = Viewer::start(scene, &ViewOptions { port: 0, ..Default::default() }).unwrap();
     /// println!("open {}", viewer.url());
-    /// viewer.wait();
+    /// viewer.wait().unwrap();
     /// ```
     pub fn start(scene: Scene, options: &ViewOptions) -> Result<Viewer> {
+        check_save_dir(&options.save_dir)?;
         let addr = SocketAddr::new(options.host, options.port);
         let listener = std::net::TcpListener::bind(addr).map_err(|e| Error::Setting {
             setting: "port".into(),
@@ -134,25 +195,44 @@ impl Viewer {
             notices: notices.clone(),
             state: state.clone(),
         };
-        let (tx, rx) = mpsc::channel();
-        let session = Session::new(
-            scene,
-            options.save_dir.clone(),
-            options.save_stem.clone(),
-            outlets,
-        )?;
+        let (tx, rx) = mpsc::sync_channel(MAX_QUEUED_COMMANDS);
+        let save = SaveTarget {
+            dir: options.save_dir.clone(),
+            stem: options.save_stem.clone(),
+        };
+        let session = Session::new(scene.clone(), save.clone(), outlets.clone())?;
         let app = Arc::new(server::App {
             scene_json: session.scene_message().into(),
             shape: session.shape(),
-            commands: Mutex::new(tx.clone()),
+            commands: tx.clone(),
             frames: frames_rx,
             specs: specs_rx,
             notices,
             state,
+            guard: guard::Guard::new(addr),
+            pages: Default::default(),
+            dropped: Default::default(),
         });
+        let (stopped_tx, stopped) = mpsc::channel::<Stopped>();
+        let fail_restart = Arc::new(AtomicBool::new(false));
+        let supervisor = supervisor::Supervisor {
+            original: scene,
+            save,
+            outlets,
+            stopped: stopped_tx.clone(),
+            fail_restart: fail_restart.clone(),
+        };
+        let sim_stopped = stopped_tx.clone();
         let simulation = std::thread::Builder::new()
             .name("ragdoll-view-sim".into())
-            .spawn(move || session.run(rx))
+            .spawn(move || {
+                // The supervisor catches the session's panics; this catches its own, so
+                // `wait` always hears that the simulation is gone.
+                let run = std::panic::AssertUnwindSafe(|| supervisor.run(session, rx));
+                if std::panic::catch_unwind(run).is_err() {
+                    let _ = sim_stopped.send(Err("the simulation's supervisor crashed".into()));
+                }
+            })
             .map_err(io)?;
 
         let runtime = tokio::runtime::Builder::new_multi_thread()
@@ -166,15 +246,20 @@ impl Viewer {
         };
         let service = server::router(app).into_make_service_with_connect_info::<SocketAddr>();
         runtime.spawn(async move {
-            if let Err(e) = axum::serve(listener, service).await {
-                eprintln!("viewer: the server stopped: {e}");
-            }
+            let why = match axum::serve(listener, service).await {
+                Ok(()) => "the server stopped".to_string(),
+                Err(e) => format!("the server stopped: {e}"),
+            };
+            eprintln!("viewer: {why}");
+            let _ = stopped_tx.send(Err(why));
         });
         Ok(Viewer {
             addr,
             runtime,
             commands: tx,
             simulation,
+            stopped,
+            fail_restart,
         })
     }
 
@@ -188,10 +273,24 @@ impl Viewer {
         format!("http://{}/", self.addr)
     }
 
-    /// Serves until the process is stopped (Ctrl-C).
-    pub fn wait(self) {
-        let _ = self.simulation.join();
-        drop(self.runtime);
+    /// Serves until the process is stopped (Ctrl-C). Returns an error, one sentence, when
+    /// the viewer cannot go on: the server stopped, or the simulation crashed and could not
+    /// be restarted.
+    pub fn wait(self) -> Result<()> {
+        let why = match self.stopped.recv() {
+            Ok(Ok(())) => None,
+            Ok(Err(why)) => Some(why),
+            Err(_) => Some("the simulation thread is gone".to_string()),
+        };
+        let _ = self.commands.try_send(Command::Shutdown);
+        self.runtime.shutdown_background();
+        match why {
+            None => Ok(()),
+            Some(message) => Err(Error::Setting {
+                setting: "viewer".into(),
+                message,
+            }),
+        }
     }
 
     /// Stops the simulation and the server.
@@ -199,5 +298,15 @@ impl Viewer {
         let _ = self.commands.send(Command::Shutdown);
         let _ = self.simulation.join();
         self.runtime.shutdown_background();
+    }
+
+    /// **Test hook, not for pages**: makes the simulation thread panic while handling its
+    /// next command, as a bug in the engine would, so tests can check it is reported and
+    /// restarted. With `fail_restart`, the restart fails too, so the viewer stops and
+    /// [`Viewer::wait`] returns the error. Pages cannot reach this: no message maps to it.
+    #[doc(hidden)]
+    pub fn inject_panic_for_tests(&self, fail_restart: bool) {
+        self.fail_restart.store(fail_restart, Ordering::SeqCst);
+        let _ = self.commands.send(Command::Panic);
     }
 }

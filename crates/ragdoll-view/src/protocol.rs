@@ -6,7 +6,15 @@
 //! unknown field, carries finite numbers inside the ranges below, and names ragdolls,
 //! bodies and joints that exist. Anything else is rejected with a reason (the server logs
 //! it and drops the message; the connection stays open), so a hostile page or a buggy
-//! script can neither crash the server nor push the simulation into NaNs.
+//! script can neither crash the server nor push the simulation into NaNs. What an accepted
+//! message then does is bounded again by the session (edit bounds relative to the file's
+//! ragdoll, caps on charges, drags and the recording; see the README's "The viewer").
+//!
+//! The server sends JSON text too, tagged the same way: `scene` (once: skeletons and
+//! meshes), `specs` (on connect and after each change: the specs, the backend, and each
+//! ragdoll's `edit_bounds`), `frame` (the step shown), `notice` (`level` `info`, `error`
+//! or `progress`, and a `message` sentence) and, to the page that asked alone,
+//! `confirm_overwrite` (the save files already there, before any is replaced).
 
 use serde::{Deserialize, Serialize};
 
@@ -48,7 +56,8 @@ pub enum ClientMsg {
     Pause {},
     /// Pause, then advance one step (through the recording when scrubbed back).
     Step {},
-    /// Back to time 0 with no events added in the viewer; edits to the ragdolls are kept.
+    /// Back to the file: time 0, paused, the file's specs, no events added in the viewer
+    /// (the backend chosen is kept).
     Reset {},
     /// Pause and show the recorded state at this time, seconds.
     Scrub {
@@ -117,8 +126,15 @@ pub enum ClientMsg {
         #[serde(default)]
         twist_deg: Option<[f32; 2]>,
     },
-    /// Write every edited spec next to the input (or into `--save-dir`).
-    Save {},
+    /// Write every edited spec into the save folder. A file already there is not
+    /// overwritten unless `overwrite` is true: the server answers the page that asked with
+    /// `{"type":"confirm_overwrite","files":[...]}`, and the page, once the user agrees,
+    /// sends the message again with `overwrite`.
+    Save {
+        /// Replace files that exist.
+        #[serde(default)]
+        overwrite: bool,
+    },
     /// Switch the simulation backend.
     Backend {
         /// The backend wanted.
@@ -231,7 +247,7 @@ fn check(msg: &ClientMsg, shape: &SceneShape) -> Result<(), Rejected> {
         | ClientMsg::Step {}
         | ClientMsg::Reset {}
         | ClientMsg::DragEnd {}
-        | ClientMsg::Save {}
+        | ClientMsg::Save { .. }
         | ClientMsg::Backend { .. } => Ok(()),
         ClientMsg::Scrub { time_s } => {
             if time_s.is_finite() && *time_s >= 0.0 && *time_s <= 1.0e6 {

@@ -29,7 +29,14 @@ fn every_kind_of_valid_message_is_accepted() {
     assert_eq!(ok(r#"{"type":"step"}"#), ClientMsg::Step {});
     assert_eq!(ok(r#"{"type":"reset"}"#), ClientMsg::Reset {});
     assert_eq!(ok(r#"{"type":"drag_end"}"#), ClientMsg::DragEnd {});
-    assert_eq!(ok(r#"{"type":"save"}"#), ClientMsg::Save {});
+    assert_eq!(
+        ok(r#"{"type":"save"}"#),
+        ClientMsg::Save { overwrite: false }
+    );
+    assert_eq!(
+        ok(r#"{"type":"save","overwrite":true}"#),
+        ClientMsg::Save { overwrite: true }
+    );
     assert_eq!(
         ok(r#"{"type":"scrub","time_s":1.5}"#),
         ClientMsg::Scrub { time_s: 1.5 }
@@ -75,6 +82,8 @@ fn malformed_json_and_wrong_types_are_refused() {
         r#"{"type":"drag_move","target":[1,2,3,4]}"#,
         r#"{"type":"drag_start","ragdoll":-1,"body":0,"local":[0,0,0],"target":[0,0,0]}"#,
         r#"{"type":"backend","kind":"soft"}"#,
+        r#"{"type":"save","overwrite":"yes"}"#,
+        r#"{"type":"save","overwrite":1}"#,
     ] {
         refused(text);
     }

@@ -116,6 +116,7 @@ function connect() {
     else if (m.type === 'specs') onSpecs(m);
     else if (m.type === 'frame') onFrame(m);
     else if (m.type === 'notice') onNotice(m);
+    else if (m.type === 'confirm_overwrite') onConfirmOverwrite(m);
   };
 }
 
@@ -161,10 +162,21 @@ function onFrame(m) {
 
 function onNotice(m) {
   viewer.notices.push(m);
+  if (viewer.notices.length > 100) viewer.notices.shift();
   const n = $('notice');
   n.textContent = m.message;
   n.className = m.level;
   if (m.level === 'error' && viewer.specs) $('backend').value = viewer.specs.backend;
+}
+
+// Save found files of the same name: replace them only if the user says so.
+function onConfirmOverwrite(m) {
+  const files = m.files.join(', ');
+  if (window.confirm(`${files} already in ${m.dir}: replace?`)) {
+    send({ type: 'save', overwrite: true });
+  } else {
+    onNotice({ type: 'notice', level: 'info', message: `not saved: ${files} kept as they were` });
+  }
 }
 
 // Poses of ragdoll r's bodies in the current frame, as {t, q}.
@@ -837,13 +849,18 @@ function showSelected() {
   const radius = body.shape.kind === 'capsule' ? body.shape.radius_m : Math.min(...body.shape.size_m) / 2;
   const length = body.shape.kind === 'capsule' ? body.shape.length_m : body.shape.size_m[1];
   const size = Math.max(radius, length);
-  ui.radius.range(0.005 * size, 3 * size); ui.radius.set(radius);
-  ui.length.range(0, 3 * size); ui.length.set(length);
+  // The server refuses edits past its bounds (relative to the file's ragdoll): the
+  // sliders stop there.
+  const eb = s.ragdolls[sel.ragdoll].edit_bounds;
+  ui.radius.range(0.005 * size, Math.min(3 * size, eb.max_extent_m / 2)); ui.radius.set(radius);
+  ui.length.range(0, Math.min(3 * size, eb.max_extent_m)); ui.length.set(length);
+  const reach = Math.min(2 * size, eb.max_extent_m);
   for (const [k, i] of [['cx', 0], ['cy', 1], ['cz', 2]]) {
-    ui[k].range(-2 * size, 2 * size);
+    ui[k].range(-reach, reach);
     ui[k].set(body.center_m[i]);
   }
-  ui.mass.range(body.mass_kg / 20, body.mass_kg * 5); ui.mass.set(body.mass_kg);
+  ui.mass.range(Math.max(body.mass_kg / 20, eb.min_mass_kg), Math.min(body.mass_kg * 5, eb.max_mass_kg));
+  ui.mass.set(body.mass_kg);
   const ji = spec.joints.findIndex((j) => j.child === body.name);
   const joint = spec.joints[ji];
   $('joint-panel').classList.toggle('hidden', !joint || (joint.kind !== 'hinge' && joint.kind !== 'swing_twist'));
