@@ -12,9 +12,10 @@ use ragdoll::world::{BackendKind, World, WorldSettings};
 /// to see the bodies, few enough to keep a run in milliseconds.
 pub const WORLD_STEPS: usize = 8;
 
-/// An empty folder of this process (on tmpfs where there is one): the importers and the
-/// scene parser resolve relative file names against the input's folder, so an input that
-/// names a file next to itself finds nothing rather than a file of the repository.
+/// An empty folder (on tmpfs where there is one): the importers and the scene parser
+/// resolve relative file names against the input's folder, so an input that names a file
+/// next to itself finds nothing rather than a file of the repository. Nothing is ever
+/// written into it, so every fuzzing process shares the one folder.
 pub fn scratch_dir() -> &'static Path {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
     DIR.get_or_init(|| {
@@ -23,7 +24,7 @@ pub fn scratch_dir() -> &'static Path {
         } else {
             std::env::temp_dir()
         };
-        let dir = base.join(format!("ragdoll-fuzz.{}", std::process::id()));
+        let dir = base.join("ragdoll-fuzz");
         std::fs::create_dir_all(&dir).expect("scratch folder");
         dir
     })
