@@ -593,7 +593,8 @@ fn every_event_bound_accepts_its_edge_and_refuses_past_it() {
         time_s: time,
         scale,
     };
-    let edges: Vec<(&str, Box<dyn Fn(f32) -> ragdoll::Result<()>>, f32)> = vec![
+    type Check = Box<dyn Fn(f32) -> ragdoll::Result<()>>;
+    let edges: Vec<(&str, Check, f32)> = vec![
         (
             "tnt",
             Box::new(move |v| blast(v, 0.0, 0.0, 1.0).validate()),

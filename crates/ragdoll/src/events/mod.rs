@@ -96,7 +96,7 @@ pub(crate) fn check_end(start: f32, end: f32) -> std::result::Result<(), String>
     check_time(end)?;
     if end < start {
         return Err(format!(
-            "must not be before the start ({} s), not {} s",
+            "must not be before start_s ({} s), not {} s",
             show(start),
             show(end)
         ));
