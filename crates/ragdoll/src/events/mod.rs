@@ -565,3 +565,34 @@ pub struct BlastReport {
     /// Every character.
     pub characters: Vec<BlastCharacterReport>,
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn windows_may_stay_open_but_not_end_before_they_start() {
+        assert!(check_end(0.0, OPEN_END_S).is_ok());
+        assert!(check_end(1.0, 1.0).is_ok());
+        assert!(check_end(2.0, 1.0).unwrap_err().contains("start_s"));
+        assert!(check_end(0.0, f32::INFINITY).is_err());
+    }
+
+    #[test]
+    fn keys_name_the_key_that_is_wrong() {
+        let ok = |_: f32| Ok(());
+        assert!(check_keys::<f32>(&[], ok).is_err());
+        let m = check_keys(&[(0.0, 1.0), (2.0, 1.0), (1.0, 1.0)], ok).unwrap_err();
+        assert!(m.starts_with("key 3:") && m.contains("backwards"), "{m}");
+        let m = check_keys(&[(-1.0, 1.0)], ok).unwrap_err();
+        assert!(m.starts_with("key 1: time_s"), "{m}");
+    }
+
+    #[test]
+    fn points_stay_within_the_world() {
+        assert!(check_point(Vec3::splat(MAX_COORDINATE_M)).is_ok());
+        let m = check_point(Vec3::new(4_294_967_296.0, 0.0, 0.0)).unwrap_err();
+        assert!(m.contains("10000 m") && m.contains("4.2949673e9"), "{m}");
+        assert!(check_point(Vec3::NAN).is_err());
+    }
+}

@@ -413,3 +413,36 @@ impl RagdollSpec {
         None
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_read_as_a_user_writes_them() {
+        assert_eq!(show(1e30), "1e30");
+        assert_eq!(show(-1.0), "-1");
+        assert_eq!(show(100.0), "100");
+        assert_eq!(show(1e-6), "1e-6");
+        assert_eq!(show(0.0), "0");
+        assert_eq!(show(f32::NAN), "NaN");
+    }
+
+    #[test]
+    fn messages_state_the_bound_and_the_value() {
+        let m = check_within(1e30, 0.0, MAX_SHAPE_M, " m").unwrap_err();
+        assert_eq!(m, "must be between 0 and 100 m, not 1e30");
+        let m = check_above(0.0, 0.0, MAX_BODY_KG, " kg").unwrap_err();
+        assert_eq!(m, "must be more than 0 and at most 1e8 kg, not 0");
+        assert!(check_within(f32::NAN, 0.0, 1.0, "").is_err());
+        assert!(check_length([f32::INFINITY, 0.0, 0.0], 1.0, " m").is_err());
+        assert!(check_length([0.6, 0.8, 0.0], 1.0, " m").is_ok());
+    }
+
+    #[test]
+    fn long_names_are_cut_on_a_character_boundary() {
+        let name = "é".repeat(100);
+        let cut = name_of(&name);
+        assert!(cut.len() <= 64 && name.starts_with(cut));
+    }
+}
