@@ -329,7 +329,7 @@ fn check_counts(src: &Src, raw: &RawScene) -> Result<()> {
 }
 
 /// Refuses a scene whose characters hold more bodies than [`MAX_SCENE_BODIES`], or whose
-/// run would record more than the world keeps.
+/// run would record more than the world keeps (events are counted as they are read).
 fn check_size(src: &Src, raw: &RawScene, scene: &Scene) -> Result<()> {
     let mut bodies = 0;
     for c in &scene.characters {
@@ -344,21 +344,6 @@ fn check_size(src: &Src, raw: &RawScene, scene: &Scene) -> Result<()> {
                 ),
             ));
         }
-    }
-    let events = scene.blasts.len()
-        + scene.projectiles.len()
-        + scene.pushes.len()
-        + scene.fields.len()
-        + scene.pins.len();
-    if events > MAX_EVENTS {
-        let line = scene.projectiles.last().map_or(1, |p| p.line);
-        return Err(src.err_line(
-            line,
-            format!(
-                "[[projectile]]: the scene's events, counting each shot of a burst, number \
-                 {events}, more than the {MAX_EVENTS} a scene may hold"
-            ),
-        ));
     }
     let joints: usize = scene
         .characters
@@ -426,7 +411,8 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Scene> {
             ),
         ));
     }
-    let projectiles = projectiles(&src, &raw.projectile)?;
+    let others = raw.blast.len() + raw.push.len() + raw.field.len() + raw.pin.len();
+    let projectiles = projectiles(&src, &raw.projectile, MAX_EVENTS - others)?;
     let pushes = pushes(&src, &raw.push, &characters)?;
     let fields = fields(&src, &raw.field)?;
     let pins = pins(&src, &raw.pin, &characters)?;

@@ -95,8 +95,14 @@ fn direction(c: &Ctx, p: &S<RawProjectile>, origin: Vec3) -> Result<Vec3> {
     }
 }
 
-/// Every projectile table, a burst expanded into its shots.
-pub(super) fn projectiles(src: &Src, raw: &[S<RawProjectile>]) -> Result<Vec<Event<Projectile>>> {
+/// Every projectile table, a burst expanded into its shots; at most `budget` shots in all
+/// (what the scene's other events leave of [`super::MAX_EVENTS`]), refused before they are
+/// made.
+pub(super) fn projectiles(
+    src: &Src,
+    raw: &[S<RawProjectile>],
+    budget: usize,
+) -> Result<Vec<Event<Projectile>>> {
     let mut out = Vec::new();
     for (i, p) in raw.iter().enumerate() {
         let c = Ctx::new(src, format!("[[projectile]] {}", i + 1));
@@ -137,6 +143,19 @@ pub(super) fn projectiles(src: &Src, raw: &[S<RawProjectile>]) -> Result<Vec<Eve
             Some(n) => *n.get_ref(),
             None => 1,
         };
+        if out.len() + count as usize > budget {
+            let span = r.count.as_ref().map_or(p.span(), S::span);
+            return Err(c.err(
+                &span,
+                "count",
+                format!(
+                    "the scene's events, counting each shot of a burst, would number {}, more \
+                     than the {} a scene may hold",
+                    out.len() + count as usize + (super::MAX_EVENTS - budget),
+                    super::MAX_EVENTS
+                ),
+            ));
+        }
         let interval = c.time(&r.interval_s, "interval_s", DEFAULT_BURST_INTERVAL_S)?;
         let last = time_s + (count - 1) as f32 * interval;
         if last > MAX_SECONDS {

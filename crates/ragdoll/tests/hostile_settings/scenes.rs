@@ -187,11 +187,21 @@ fn scene_counts_are_bounded() {
         "[[character]]\n[[projectile]]\norigin = [0, 1, 5]\ntarget = [0, 1, 0]\ncount = {}\ninterval_s = 0\n[[blast]]\ntnt_kg = 1\nposition = [5, 0, 0]\n",
         scene::MAX_BURST
     );
-    let (_, message) = scene_failure(&burst, path);
+    let (line, message) = scene_failure(&burst, path);
+    assert_eq!(line, 5, "at the burst's count: {message}");
     assert!(
         message.contains("10001") && message.contains("10000"),
         "{message}"
     );
+    // Bursts are refused before their shots are made: ten thousand tables of ten thousand
+    // shots would be 10⁸ events.
+    let table = format!(
+        "[[projectile]]\norigin = [0, 1, 5]\ntarget = [0, 1, 0]\ncount = {}\ninterval_s = 0\n",
+        scene::MAX_BURST
+    );
+    let text = format!("[[character]]\n{}", table.repeat(scene::MAX_EVENTS));
+    let (line, message) = scene_failure(&text, path);
+    assert_eq!(line, 1 + 5 + 4, "the second burst's count: {message}");
 
     let keys: Vec<String> = (0..=events::MAX_KEYS)
         .map(|k| format!("{{ time_s = {}, position = [0, 1, 0] }}", k as f32 * 0.01))
