@@ -48,7 +48,10 @@ mod raw;
 mod report;
 mod timeline;
 
-pub use characters::{MAX_CHARACTER_KG, MAX_CHARACTER_NAME_BYTES, MAX_FACING_DEG};
+pub use characters::{
+    MAX_CHARACTER_KG, MAX_CHARACTER_NAME_BYTES, MAX_FACING_DEG, MAX_SCENE_CHARACTER_BYTES,
+    character_bytes,
+};
 pub use parse::{MAX_CHARACTERS, MAX_EVENTS, MAX_OUTPUT_NAME_BYTES, MAX_SCENE_BODIES};
 pub use report::{CharacterReport, SceneReport};
 pub use timeline::MAX_BURST;
