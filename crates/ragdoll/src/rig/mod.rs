@@ -51,6 +51,16 @@ pub const DEFAULT_JOINTS: usize = 12;
 /// Most spine joints (or joints of one branch) a rig may ask for: more adds nothing a
 /// ragdoll can use and each joint costs a rigid body.
 pub const MAX_JOINTS: usize = 256;
+/// Most landmarks on one line (the centre line, or one branch): a point every few
+/// centimetres along a dragon. Each is resolved and walked for every joint placed.
+pub const MAX_LANDMARKS: usize = 256;
+/// Most branches (limbs, fins, whiskers) a rig may ask for, before mirroring.
+pub const MAX_BRANCHES: usize = 64;
+/// Most joints of a whole rig, spine and branches (mirrored twins counted): every joint
+/// becomes a rigid body, and a ragdoll holds at most [`crate::spec::MAX_BODIES`].
+pub const MAX_RIG_JOINTS: usize = crate::spec::MAX_BODIES;
+/// Longest branch name, bytes: it is the stem of its joints' names.
+pub const MAX_BRANCH_NAME_BYTES: usize = 32;
 /// Slabs along the principal axis per spine joint: two keep each joint's neighbourhood
 /// sampled on both sides without letting one leg dominate a slab.
 const SLABS_PER_JOINT: usize = 2;
@@ -153,8 +163,9 @@ fn setting(setting: impl Into<String>, message: impl Into<String>) -> Error {
     }
 }
 
-/// The skeleton [`rig`] would bind `meshes` to, without touching them.
-pub fn build_skeleton(meshes: &[SkinnedMesh], opts: &RigOptions) -> Result<Skeleton> {
+/// Checks the options' counts before any work: spine joints, landmarks, branches, branch
+/// names and the joints of the whole rig.
+pub fn check_options(opts: &RigOptions) -> Result<()> {
     if !(1..=MAX_JOINTS).contains(&opts.joints) {
         return Err(setting(
             "rig.joints",
@@ -164,6 +175,75 @@ pub fn build_skeleton(meshes: &[SkinnedMesh], opts: &RigOptions) -> Result<Skele
             ),
         ));
     }
+    if opts.centre_line.len() > MAX_LANDMARKS {
+        return Err(setting(
+            "rig.centre_line",
+            format!(
+                "has {} landmarks, more than {MAX_LANDMARKS}",
+                opts.centre_line.len()
+            ),
+        ));
+    }
+    if opts.branches.len() > MAX_BRANCHES {
+        return Err(setting(
+            "rig.branch",
+            format!("{} branches, more than {MAX_BRANCHES}", opts.branches.len()),
+        ));
+    }
+    let mut total = opts.joints;
+    let mut names = std::collections::HashSet::new();
+    for b in &opts.branches {
+        let what = format!("rig.branch \"{}\"", b.name);
+        let name_ok = !b.name.is_empty()
+            && b.name.len() <= MAX_BRANCH_NAME_BYTES
+            && b.name.chars().all(|c| c.is_alphanumeric() || c == '_');
+        if !name_ok {
+            return Err(setting(
+                what,
+                format!(
+                    "a branch name needs 1 to {MAX_BRANCH_NAME_BYTES} bytes of letters, digits or _ (it names joints)"
+                ),
+            ));
+        }
+        if !names.insert(b.name.as_str()) {
+            return Err(setting(what, "two branches have this name"));
+        }
+        if !(2..=MAX_LANDMARKS).contains(&b.points.len()) {
+            return Err(setting(
+                what,
+                format!(
+                    "needs 2 to {MAX_LANDMARKS} landmarks (where it leaves the body, where it ends), got {}",
+                    b.points.len()
+                ),
+            ));
+        }
+        if b.joints > MAX_JOINTS {
+            return Err(setting(
+                what,
+                format!("asks for {} joints, more than {MAX_JOINTS}", b.joints),
+            ));
+        }
+        let per_side = if b.joints == 0 {
+            b.points.len()
+        } else {
+            b.joints + 1
+        };
+        total += per_side * if b.mirror { 2 } else { 1 };
+    }
+    if total > MAX_RIG_JOINTS {
+        return Err(setting(
+            "rig.joints",
+            format!(
+                "the spine and branches would have {total} joints, more than the {MAX_RIG_JOINTS} a ragdoll may have bodies"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The skeleton [`rig`] would bind `meshes` to, without touching them.
+pub fn build_skeleton(meshes: &[SkinnedMesh], opts: &RigOptions) -> Result<Skeleton> {
+    check_options(opts)?;
     // Every vertex, in order, so landmarks can name vertices; triangle indices shifted.
     let mut vertices = Vec::new();
     let mut indices = Vec::new();
@@ -185,11 +265,9 @@ pub fn build_skeleton(meshes: &[SkinnedMesh], opts: &RigOptions) -> Result<Skele
                 )
             })?,
         };
-        if p.is_finite() {
-            Ok(p)
-        } else {
-            Err(setting(what, "a landmark is not a finite point"))
-        }
+        crate::events::check_point(p)
+            .map(|()| p)
+            .map_err(|m| setting(what, format!("a landmark: {m}")))
     };
     let (points, weights) = surface_samples(&vertices, &indices);
     let frame = Frame::new(&points, &weights, &vertices);
@@ -270,18 +348,6 @@ pub fn build_skeleton(meshes: &[SkinnedMesh], opts: &RigOptions) -> Result<Skele
     // 4. Branches.
     for b in &opts.branches {
         let what = format!("rig.branch \"{}\"", b.name);
-        if b.points.len() < 2 {
-            return Err(setting(
-                what,
-                "needs at least two landmarks (where it leaves the body, where it ends)",
-            ));
-        }
-        if b.joints > MAX_JOINTS {
-            return Err(setting(
-                what,
-                format!("asks for {} joints, more than {MAX_JOINTS}", b.joints),
-            ));
-        }
         let pts = b
             .points
             .iter()
@@ -332,6 +398,15 @@ pub fn build_skeleton(meshes: &[SkinnedMesh], opts: &RigOptions) -> Result<Skele
             }
             *tips.last_mut().expect("a branch has joints") = Some(end);
         }
+    }
+
+    // Joints are found by name: a branch named like the spine's joints would shadow one.
+    let mut seen = std::collections::HashSet::with_capacity(names.len());
+    if let Some(dup) = names.iter().find(|n| !seen.insert(n.as_str())) {
+        return Err(setting(
+            "rig.branch",
+            format!("the joint name \"{dup}\" would be used twice: rename the branch"),
+        ));
     }
 
     // 5. Rest frames: Y along the bone, X toward the left.

@@ -34,15 +34,27 @@
 //!
 //! plus `[[projectile]]`, `[[push]]`, `[[field]]` and `[[pin]]` tables (see
 //! [`Scene::from_toml`]). Unknown keys and bad values are errors that name the file, the
-//! line and the key.
+//! line and the key. Every value is held to the bounds the library holds it to (positions
+//! within [`crate::world::MAX_COORDINATE_M`], times within [`crate::world::MAX_SECONDS`],
+//! the event bounds in [`crate::events`], the spec bounds in [`crate::spec`]), and the
+//! scene itself to [`MAX_CHARACTERS`], [`MAX_SCENE_BODIES`] and [`MAX_EVENTS`].
 //!
 //! Loading reads every character file and builds every ragdoll, so a scene that loads
 //! runs: mistakes surface before minutes of simulation, not after.
 
+mod characters;
 mod parse;
+mod raw;
 mod report;
+mod timeline;
 
+pub use characters::{
+    MAX_CHARACTER_KG, MAX_CHARACTER_NAME_BYTES, MAX_FACING_DEG, MAX_SCENE_CHARACTER_BYTES,
+    character_bytes,
+};
+pub use parse::{MAX_CHARACTERS, MAX_EVENTS, MAX_OUTPUT_NAME_BYTES, MAX_SCENE_BODIES};
 pub use report::{CharacterReport, SceneReport};
+pub use timeline::MAX_BURST;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -61,7 +73,7 @@ use crate::world::{Activation, RagdollId, World, WorldSettings};
 /// End of a time window left open in the file (`end_s` omitted): later than any scene, and
 /// finite, so it survives the world's checks and a duration changed after loading (the
 /// CLI's `--seconds`).
-pub const OPEN_END_S: f32 = f32::MAX;
+pub const OPEN_END_S: f32 = crate::events::OPEN_END_S;
 
 /// A scene read from a file: the world's settings, the characters with their ragdolls, the
 /// events and the output names, all checked.
@@ -173,9 +185,10 @@ pub struct SceneResult {
 }
 
 impl Scene {
-    /// Reads and checks a scene file, loading every character it names.
+    /// Reads and checks a scene file (a regular file of at most
+    /// [`crate::files::MAX_SETTINGS_BYTES`]), loading every character it names.
     pub fn load(path: &Path) -> Result<Scene> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = crate::files::read_text_capped(path, crate::files::MAX_SETTINGS_BYTES)?;
         Scene::from_toml(&text, path)
     }
 

@@ -5,7 +5,9 @@
 //!
 //! - `roles.rs` recognises pelvis, spine, limbs… from topology and geometry;
 //! - `anthropometry.rs` holds body-segment masses and joint ranges (de Leva 1996, DESIGN §3);
-//! - `build.rs` turns a skeleton plus its roles into a spec.
+//! - `build.rs` turns a skeleton plus its roles into a spec;
+//! - `validate.rs` holds the bounds every value of a spec is checked against, `file.rs`
+//!   reads a spec file with the line of every mistake.
 
 use serde::{Deserialize, Serialize};
 
@@ -85,7 +87,7 @@ impl Role {
 /// Collision shape of a body, in the body's own frame: centred on its origin, long axis
 /// along local Y.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case")]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Shape {
     /// A capsule: a segment of `length_m` (between the two sphere centres) swept by `radius_m`.
     Capsule {
@@ -241,147 +243,32 @@ impl RagdollSpec {
         self.bodies.iter().position(|b| b.name == name)
     }
 
-    /// Reads a spec from TOML text; `path` is only used in error messages.
-    pub fn from_toml(text: &str, path: &std::path::Path) -> Result<Self> {
-        let spec: RagdollSpec = toml::from_str(text).map_err(|e| {
-            let line = e
-                .span()
-                .map(|s| text[..s.start.min(text.len())].lines().count().max(1))
-                .unwrap_or(1);
-            Error::Parse {
-                path: path.to_path_buf(),
-                line,
-                message: e.message().to_string(),
-            }
-        })?;
-        check_joint_keys(&spec, text, path)?;
-        spec.validate()?;
-        Ok(spec)
-    }
-
     /// Writes the spec as TOML.
     pub fn to_toml(&self) -> String {
         toml::to_string_pretty(self).expect("a spec always serialises")
     }
 
-    /// Checks every value a world would trip on, collecting nothing past the first problem
-    /// per body so the message stays one sentence.
+    /// Checks every value a world would trip on against the bounds in this module
+    /// ([`MAX_SHAPE_M`], [`MAX_BODY_KG`], ...); the error names the first body, joint or
+    /// key out of bounds and the bound. [`RagdollSpec::from_toml`] runs the same checks
+    /// and adds the line.
     pub fn validate(&self) -> Result<()> {
-        let err = |place: String, message: &str| Error::Spec {
-            place,
-            message: message.to_string(),
-        };
-        if self.bodies.is_empty() {
-            return Err(err("bodies".into(), "a ragdoll needs at least one body"));
+        match self.problem() {
+            None => Ok(()),
+            Some(p) => Err(Error::Spec {
+                place: p.place.describe(self),
+                message: p.message,
+            }),
         }
-        for (i, b) in self.bodies.iter().enumerate() {
-            let place = |field: &str| format!("body \"{}\".{field}", b.name);
-            if self.bodies[..i].iter().any(|o| o.name == b.name) {
-                return Err(err(place("name"), "two bodies have this name"));
-            }
-            if !(b.mass_kg.is_finite() && b.mass_kg > 0.0) {
-                return Err(err(
-                    place("mass_kg"),
-                    "mass must be a positive number of kilograms",
-                ));
-            }
-            match b.shape {
-                Shape::Capsule { radius_m, length_m } => {
-                    if !(radius_m.is_finite() && radius_m > 0.0) {
-                        return Err(err(place("shape.radius_m"), "radius must be positive"));
-                    }
-                    if !(length_m.is_finite() && length_m >= 0.0) {
-                        return Err(err(
-                            place("shape.length_m"),
-                            "length must be zero or positive",
-                        ));
-                    }
-                }
-                Shape::Box { size_m } => {
-                    if size_m.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
-                        return Err(err(place("shape.size_m"), "box sizes must be positive"));
-                    }
-                }
-            }
-            if b.center_m
-                .iter()
-                .chain(b.rotation.iter())
-                .any(|v| !v.is_finite())
-            {
-                return Err(err(place("center_m"), "values must be finite"));
-            }
-            let q = glam::Quat::from_array(b.rotation);
-            if (q.length() - 1.0).abs() > 1e-2 {
-                return Err(err(
-                    place("rotation"),
-                    "rotation must be a unit quaternion [x, y, z, w]",
-                ));
-            }
-        }
-        for j in &self.joints {
-            let place = |field: &str| format!("joint \"{}\".{field}", j.name);
-            if self.body_index(&j.parent).is_none() {
-                return Err(err(place("parent"), "no body has this name"));
-            }
-            if self.body_index(&j.child).is_none() {
-                return Err(err(place("child"), "no body has this name"));
-            }
-            if j.parent == j.child {
-                return Err(err(place("child"), "a joint cannot link a body to itself"));
-            }
-            let q = glam::Quat::from_array(j.frame);
-            if !q.is_finite() || (q.length() - 1.0).abs() > 1e-2 {
-                return Err(err(
-                    place("frame"),
-                    "frame must be a unit quaternion [x, y, z, w]",
-                ));
-            }
-            let bad_range = |lo: f32, hi: f32| !(lo.is_finite() && hi.is_finite() && lo <= hi);
-            match j.kind {
-                JointKind::Hinge { min_deg, max_deg } => {
-                    if bad_range(min_deg, max_deg) {
-                        return Err(err(place("min_deg"), "min_deg must not exceed max_deg"));
-                    }
-                }
-                JointKind::SwingTwist {
-                    swing_deg,
-                    twist_deg,
-                    cone_tilt_deg,
-                } => {
-                    if !(swing_deg.is_finite() && (0.0..=180.0).contains(&swing_deg)) {
-                        return Err(err(
-                            place("swing_deg"),
-                            "swing must be between 0 and 180 degrees",
-                        ));
-                    }
-                    if bad_range(twist_deg[0], twist_deg[1]) {
-                        return Err(err(place("twist_deg"), "twist range must be [min, max]"));
-                    }
-                    if cone_tilt_deg.iter().any(|v| !v.is_finite()) {
-                        return Err(err(place("cone_tilt_deg"), "values must be finite"));
-                    }
-                }
-                JointKind::Ball | JointKind::Fixed => {}
-            }
-        }
-        for pair in &self.collision.disabled_pairs {
-            for name in pair {
-                if self.body_index(name).is_none() {
-                    return Err(err(
-                        "collision.disabled_pairs".into(),
-                        &format!("no body is named \"{name}\""),
-                    ));
-                }
-            }
-        }
-        Ok(())
     }
 }
 
 mod anthropometry;
 mod build;
+mod file;
 mod frames;
 mod roles;
+mod validate;
 
 pub use frames::{
     JointAngles, Resolved, ResolvedJoint, find_label, fit_limits_to_pose, start_pose,
@@ -390,75 +277,11 @@ pub use frames::{
 pub(crate) use build::shapes_overlap;
 pub use build::{BuildOptions, build_spec};
 pub use roles::{Roles, recognise_roles};
+pub use validate::{
+    MAX_BODIES, MAX_BODY_KG, MAX_CONE_TILT_DEG, MAX_DISABLED_PAIRS, MAX_JOINT_MASS_RATIO,
+    MAX_JOINTS, MAX_LIMIT_END_DEG, MAX_NAME_BYTES, MAX_OFFSET_M, MAX_SHAPE_M, MAX_SWING_DEG,
+    MIN_BODY_KG, MIN_SHAPE_M, UNIT_QUATERNION_TOLERANCE,
+};
 
-/// Rejects keys a `[[joints]]` table does not have (a misspelt `max_deg` would otherwise be
-/// dropped silently, see [`JointSpec`]): the keys allowed are the joint's own and those its
-/// kind writes when serialised.
-fn check_joint_keys(spec: &RagdollSpec, text: &str, path: &std::path::Path) -> Result<()> {
-    let Ok(raw) = toml::from_str::<toml::Table>(text) else {
-        return Ok(());
-    };
-    let Some(toml::Value::Array(tables)) = raw.get("joints") else {
-        return Ok(());
-    };
-    for (i, (table, joint)) in tables.iter().zip(&spec.joints).enumerate() {
-        let Some(table) = table.as_table() else {
-            continue;
-        };
-        let kind_keys = toml::Table::try_from(joint.kind).unwrap_or_default();
-        let known = |key: &str| {
-            ["name", "parent", "child", "anchor_m", "frame"].contains(&key)
-                || kind_keys.contains_key(key)
-        };
-        if let Some(key) = table.keys().find(|k| !known(k)) {
-            return Err(Error::Parse {
-                path: path.to_path_buf(),
-                line: joint_key_line(text, i, key),
-                message: format!(
-                    "unknown key `{key}` in joint \"{}\" (a {} joint has: {})",
-                    joint.name,
-                    kind_keys
-                        .get("kind")
-                        .and_then(|k| k.as_str())
-                        .unwrap_or("?"),
-                    kind_keys
-                        .keys()
-                        .filter(|k| *k != "kind")
-                        .map(String::as_str)
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ),
-            });
-        }
-    }
-    Ok(())
-}
-
-/// The line of `key` inside the `index`-th `[[joints]]` table of `text` (1-based), or that
-/// table's header line when the key is not found on a line of its own.
-fn joint_key_line(text: &str, index: usize, key: &str) -> usize {
-    let mut seen = 0;
-    let mut header = 1;
-    let mut inside = false;
-    for (n, line) in text.lines().enumerate() {
-        let trimmed = line.trim_start();
-        if trimmed.starts_with('[') {
-            inside = trimmed.starts_with("[[joints]]") && {
-                seen += 1;
-                seen == index + 1
-            };
-            if inside {
-                header = n + 1;
-            }
-            continue;
-        }
-        if inside
-            && trimmed
-                .strip_prefix(key)
-                .is_some_and(|rest| rest.trim_start().starts_with('='))
-        {
-            return n + 1;
-        }
-    }
-    header
-}
+pub(crate) use file::line_at;
+pub(crate) use validate::{check_above, check_length, check_within, show};

@@ -31,6 +31,39 @@ use crate::track::{Metrics, Track};
 /// Standard gravity, m/s².
 pub const STANDARD_GRAVITY: f32 = 9.80665;
 
+/// How far from the origin anything may be placed (characters, charges, pins, the
+/// ground), metres on every axis: 10 km.
+///
+/// f32, which the engines compute in, resolves 1 mm up to 16 km from the origin (its
+/// spacing is 0.98 mm between 8 and 16 km); farther out contacts and joints lose their
+/// millimetres, and a scene position of 2³² m broke the engines outright.
+pub const MAX_COORDINATE_M: f32 = 10_000.0;
+
+/// Longest run, seconds: an hour, as the CLI's `--seconds` and a scene's `duration_s`.
+/// Every event time and key lies within it.
+pub const MAX_SECONDS: f32 = 3600.0;
+
+/// Strongest gravity (and any field's acceleration), m/s²: about 100 g. Jupiter's is
+/// 25 m/s²; at 100 g a humanoid still lands with contacts within 6 cm on both backends.
+pub const MAX_GRAVITY_MPS2: f32 = 1000.0;
+
+/// Shortest and longest fixed step, seconds: 10 kHz (a shorter one only makes a run that
+/// cannot finish) to 10 Hz (a longer one lets a falling body pass through another).
+pub const STEP_RANGE_S: [f32; 2] = [1e-4, 0.1];
+
+/// Highest output frame rate, frames per second.
+pub const MAX_FPS: f32 = 1000.0;
+
+/// Most substeps or iterations of each kind per step.
+pub const MAX_SUBSTEPS: usize = 100;
+
+/// Most joint transforms a run records: frames × skeleton joints, over every character.
+///
+/// Each is 48 bytes in memory, so the tracks stay under about 500 MB (before the glTF
+/// that encodes them): a 60-joint mocap skeleton at 30 fps for the full hour, or 100
+/// humanoids for a minute.
+pub const MAX_TRACK_SAMPLES: u64 = 10_000_000;
+
 /// Violations smaller than this are left to rapier's own (velocity-level) limits, degrees.
 /// Projecting every tiny excess made limbs resting against a limit creep (about 1 cm/s):
 /// each step the solver let them sink a little and the projection turned them back about
@@ -121,20 +154,31 @@ impl Default for WorldSettings {
 }
 
 impl WorldSettings {
-    /// Checks the settings a user can set.
+    /// Checks the settings a user can set: the step within [`STEP_RANGE_S`], the frame
+    /// rate within 1..[`MAX_FPS`], substeps within 1..[`MAX_SUBSTEPS`], gravity within
+    /// [`MAX_GRAVITY_MPS2`] and the ground within [`MAX_COORDINATE_M`].
     pub fn validate(&self) -> Result<()> {
-        let bad = |setting: &str, message: &str| {
-            Err(Error::Setting {
-                setting: setting.into(),
-                message: message.into(),
-            })
-        };
-        if !(self.dt.is_finite() && self.dt > 0.0 && self.dt <= 0.1) {
-            return bad("dt", "the step must be between 0 and 0.1 s");
-        }
-        if !(self.fps.is_finite() && self.fps >= 1.0 && self.fps <= 1000.0) {
-            return bad("fps", "frames per second must be between 1 and 1000");
-        }
+        use crate::spec::{check_length, check_within};
+        let mut checks = vec![
+            (
+                "dt",
+                check_within(self.dt, STEP_RANGE_S[0], STEP_RANGE_S[1], " s"),
+            ),
+            (
+                "fps",
+                check_within(self.fps, 1.0, MAX_FPS, " frames per second"),
+            ),
+            (
+                "gravity",
+                check_length(self.gravity.to_array(), MAX_GRAVITY_MPS2, " m/s²"),
+            ),
+            (
+                "ground",
+                self.ground.map_or(Ok(()), |h| {
+                    check_within(h, -MAX_COORDINATE_M, MAX_COORDINATE_M, " m")
+                }),
+            ),
+        ];
         for (name, v) in [
             ("collision_substeps", self.collision_substeps),
             ("substeps", self.substeps),
@@ -142,12 +186,44 @@ impl WorldSettings {
             ("particle_substeps", self.particle_substeps),
             ("particle_iterations", self.particle_iterations),
         ] {
-            if v == 0 || v > 100 {
-                return bad(name, "must be between 1 and 100");
+            if !(1..=MAX_SUBSTEPS).contains(&v) {
+                checks.push((
+                    name,
+                    Err(format!("must be between 1 and {MAX_SUBSTEPS}, not {v}")),
+                ));
             }
         }
-        if !self.gravity.is_finite() {
-            return bad("gravity", "gravity must be finite");
+        match checks.into_iter().find(|(_, r)| r.is_err()) {
+            Some((setting, Err(message))) => Err(Error::Setting {
+                setting: setting.into(),
+                message,
+            }),
+            _ => Ok(()),
+        }
+    }
+
+    /// Checks a run of `seconds` recording `joints` skeleton joints (over every
+    /// character) at these settings: at most [`MAX_SECONDS`], and at most
+    /// [`MAX_TRACK_SAMPLES`] joint transforms recorded.
+    pub fn validate_run(&self, seconds: f32, joints: usize) -> Result<()> {
+        let bad = |message: String| {
+            Err(Error::Setting {
+                setting: "seconds".into(),
+                message,
+            })
+        };
+        if let Err(m) = crate::spec::check_within(seconds, 0.0, MAX_SECONDS, " s") {
+            return bad(m);
+        }
+        let frames = (seconds as f64 * self.fps as f64).floor() as u64 + 1;
+        let samples = frames.saturating_mul(joints as u64);
+        if samples > MAX_TRACK_SAMPLES {
+            return bad(format!(
+                "{seconds} s at {} fps records {frames} frames of {joints} joints, more than \
+                 the {MAX_TRACK_SAMPLES} joint transforms a run keeps in memory; shorten the \
+                 run, lower the frame rate or use fewer characters",
+                self.fps
+            ));
         }
         Ok(())
     }

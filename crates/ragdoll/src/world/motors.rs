@@ -79,28 +79,13 @@ impl Motors {
         }
     }
 
-    /// Checks the keys: at least one, finite times in order, strengths within 0..1.
+    /// Checks the keys: at least one and at most [`crate::events::MAX_KEYS`], times within
+    /// a run ([`super::MAX_SECONDS`]) and in order, strengths within 0..1.
     pub fn validate(&self) -> Result<()> {
-        if self.strength_keys.is_empty() {
-            return Err(setting_error("powered", "needs at least one strength key"));
-        }
-        if self
-            .strength_keys
-            .iter()
-            .any(|&(t, s)| !(t.is_finite() && s.is_finite() && (0.0..=1.0).contains(&s)))
-        {
-            return Err(setting_error(
-                "powered",
-                "strengths must be between 0 and 1 and times finite",
-            ));
-        }
-        if self.strength_keys.windows(2).any(|w| w[0].0 > w[1].0) {
-            return Err(setting_error(
-                "powered",
-                "strength keys must be in time order",
-            ));
-        }
-        Ok(())
+        let check = crate::events::check_keys(&self.strength_keys, |s| {
+            crate::spec::check_within(s, 0.0, 1.0, "").map_err(|m| format!("strength {m}"))
+        });
+        check.map_err(|m| setting_error("powered", &m))
     }
 
     /// The strength at `t` seconds.
