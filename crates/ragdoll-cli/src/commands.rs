@@ -72,8 +72,7 @@ pub(crate) fn ragdoll_spec(character: &Character, a: &RagdollArgs) -> Result<Rag
             },
         )?);
     };
-    let text = ragdoll::files::read_text_capped(path, ragdoll::files::MAX_SETTINGS_BYTES)?;
-    let mut spec = RagdollSpec::from_toml(&text, path).map_err(|e| in_file(path, e))?;
+    let mut spec = RagdollSpec::load(path).map_err(|e| in_file(path, e))?;
     if let Some(m) = a.mass {
         scale_masses(&mut spec, m);
         spec.validate().map_err(|e| in_file(path, e))?;
@@ -94,8 +93,9 @@ fn scale_masses(spec: &mut RagdollSpec, total_kg: f32) {
 }
 
 fn world_settings(a: &RunArgs, rest_pose: bool) -> Result<WorldSettings> {
-    if !(a.seconds.is_finite() && a.seconds >= 0.0 && a.seconds <= 3600.0) {
-        bail!("--seconds: must be between 0 and 3600, not {}", a.seconds);
+    let max = ragdoll::world::MAX_SECONDS;
+    if !(a.seconds.is_finite() && a.seconds >= 0.0 && a.seconds <= max) {
+        bail!("--seconds: must be between 0 and {max}, not {}", a.seconds);
     }
     let settings = WorldSettings {
         backend: a.backend.backend.kind(),
@@ -227,6 +227,9 @@ fn simulate_character(
     checks::rest_pose(character, &sim.anim)?;
     let (run, anim) = (&sim.run, &sim.anim);
     let settings = world_settings(run, anim.rest_pose)?;
+    settings
+        .validate_run(run.seconds, character.skeleton.len())
+        .map_err(flag_error)?;
     let started = Instant::now();
     let progress = Progress::new(0, "building the ragdoll");
     let (mut world, id) = World::with_ragdoll(character, spec, &settings)?;
