@@ -577,6 +577,21 @@ mod tests {
     }
 
     #[test]
+    fn bvh_line_numbers_are_the_same_for_lf_crlf_and_cr_files() {
+        let text = "HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\nCHANNELS 1 Xrotation\n}\nMOTION\n\
+                    Frames: 2\nFrame Time: 0.1\n1\n";
+        for sep in ["\n", "\r\n", "\r"] {
+            match p(&text.replace('\n', sep)) {
+                Err(Error::Parse { line, message, .. }) => {
+                    assert_eq!(line, 11, "{sep:?}: {message}");
+                    assert!(message.contains("after 1 frames"), "{message}");
+                }
+                other => panic!("{sep:?}: expected a parse error, got {other:?}"),
+            }
+        }
+    }
+
+    #[test]
     fn bvh_errors_name_the_line() {
         let line = |s: &str| match p(s) {
             Err(Error::Parse { line, message, .. }) => (line, message),

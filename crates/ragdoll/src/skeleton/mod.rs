@@ -350,3 +350,81 @@ pub enum Source {
     /// Holds the file read.
     Mesh(std::path::PathBuf),
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn joint(parent: Option<usize>, up: f32) -> Joint {
+        Joint {
+            name: String::new(),
+            parent,
+            rest: Transform::from_translation(Vec3::Y * up),
+            tip: None,
+        }
+    }
+
+    #[test]
+    fn skeletons_past_their_limits_are_refused_naming_the_joint() {
+        let many: Vec<Joint> = (0..=MAX_JOINTS).map(|_| joint(None, 0.0)).collect();
+        let e = Skeleton::new(many).unwrap_err().to_string();
+        assert!(e.contains(&MAX_JOINTS.to_string()), "{e}");
+        // Each step is fine; the sum of them is not.
+        let far: Vec<Joint> = (0..12usize)
+            .map(|i| joint(i.checked_sub(1), 1000.0))
+            .collect();
+        let e = Skeleton::new(far).unwrap_err();
+        assert!(
+            matches!(&e, Error::Skeleton { joint, .. } if joint == "joint10"),
+            "{e}"
+        );
+        // Scales that overflow once composed.
+        let mut big: Vec<Joint> = (0..40usize).map(|i| joint(i.checked_sub(1), 0.0)).collect();
+        for j in &mut big {
+            j.rest.scale = Vec3::splat(1e10);
+        }
+        big[39].rest.translation = Vec3::Y;
+        assert!(Skeleton::new(big).is_err());
+        let mut tip = vec![joint(None, 0.0)];
+        tip[0].tip = Some(Vec3::X * (2.0 * MAX_REACH_M));
+        assert!(Skeleton::new(tip).is_err());
+    }
+
+    #[test]
+    fn clips_out_of_reach_are_found_with_their_frame_and_joint() {
+        let s = Skeleton::new(vec![joint(None, 1.0), joint(Some(0), 1.0)]).unwrap();
+        let rest: Vec<Transform> = s.joints().iter().map(|j| j.rest).collect();
+        let mut gone = rest.clone();
+        gone[1].translation = Vec3::X * 2.0 * MAX_REACH_M;
+        let clip = Clip {
+            name: String::new(),
+            frame_time: 0.1,
+            frames: vec![rest.clone(), rest.clone(), gone],
+        };
+        let (f, j, far) = s.clip_out_of_reach(&clip).unwrap();
+        assert_eq!((f, j), (2, 1));
+        assert!(far > MAX_REACH_M);
+        let mut nan = rest.clone();
+        nan[0].rotation = glam::Quat::from_xyzw(f32::NAN, 0.0, 0.0, 1.0);
+        let clip = Clip {
+            frames: vec![nan],
+            ..clip
+        };
+        assert_eq!(s.clip_out_of_reach(&clip).map(|x| x.0), Some(0));
+    }
+
+    #[test]
+    fn bone_ends_are_the_mean_of_the_children_or_the_tip() {
+        let mut joints = vec![joint(None, 1.0), joint(Some(0), 1.0), joint(Some(0), 3.0)];
+        joints.push(Joint {
+            tip: Some(Vec3::X),
+            ..joint(Some(1), 1.0)
+        });
+        let s = Skeleton::new(joints).unwrap();
+        let ends = s.rest_bone_ends();
+        assert_eq!(ends[0], Some(Vec3::Y * 3.0));
+        assert_eq!(ends[1], Some(Vec3::Y * 3.0));
+        assert_eq!(ends[2], None);
+        assert_eq!(ends[3], Some(Vec3::new(1.0, 3.0, 0.0)));
+    }
+}

@@ -807,6 +807,55 @@ pub(crate) mod tests {
         c.turned(yaw)
     }
 
+    /// A random tree of `n` joints (parents drawn among the earlier ones), some with tips.
+    fn random_tree(seed: u64, n: usize) -> Character {
+        let mut state = seed;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f32 / (1u64 << 53) as f32
+        };
+        let joints = (0..n)
+            .map(|i| crate::skeleton::Joint {
+                name: format!("j{i}"),
+                parent: (i > 0).then(|| (next() * i as f32) as usize),
+                rest: Transform::from_translation(Vec3::new(next(), next(), next()) - 0.5),
+                tip: (next() < 0.3).then(|| Vec3::new(next(), next(), next()) - 0.5),
+            })
+            .collect();
+        Character {
+            name: "random".into(),
+            skeleton: Skeleton::new(joints).unwrap(),
+            meshes: Vec::new(),
+            clips: Vec::new(),
+            source: crate::skeleton::Source::BuiltIn,
+        }
+    }
+
+    #[test]
+    fn spec_roles_subtree_facts_match_the_walks_they_replace() {
+        for seed in 1..20u64 {
+            let c = random_tree(seed * 0x9e37_79b9, 200);
+            let rig = Rig::new(&c);
+            for i in 0..rig.len() {
+                let pts = rig.subtree_points(i);
+                let lo = pts.iter().map(|p| p.y).fold(f32::MAX, f32::min);
+                let hi = pts.iter().map(|p| p.y).fold(f32::MIN, f32::max);
+                assert_eq!(rig.subtree_stats(i), (lo, hi, rig.subtree(i).len()));
+                // The highest sibling, as `max_by` over the parent's other children picks it.
+                let expected = rig.parent(i).and_then(|p| {
+                    rig.children[p]
+                        .iter()
+                        .copied()
+                        .filter(|&c| c != i)
+                        .max_by(|&a, &b| rig.sub_hi[a].total_cmp(&rig.sub_hi[b]))
+                });
+                assert_eq!(rig.highest_sibling[i], expected, "seed {seed} joint {i}");
+            }
+        }
+    }
+
     #[test]
     fn spec_roles_builtin_humanoid_exact() {
         let c = humanoid();
