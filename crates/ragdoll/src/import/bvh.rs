@@ -274,13 +274,17 @@ pub(crate) fn sanitise_names<'a>(names: impl Iterator<Item = &'a str>) -> Vec<St
         })
         .collect();
     let mut used = std::collections::HashSet::new();
+    // The next suffix worth trying per name: suffixes found taken stay taken, so resuming
+    // there gives the same names as counting from 2 each time, without the quadratic cost
+    // of thousands of joints sharing one name.
+    let mut next_suffix: std::collections::HashMap<&str, usize> = Default::default();
     let mut out = Vec::with_capacity(base.len());
     for name in &base {
         let mut candidate = name.clone();
-        let mut k = 2;
+        let k = next_suffix.entry(name.as_str()).or_insert(2);
         while used.contains(&candidate) {
             candidate = format!("{name}_{k}");
-            k += 1;
+            *k += 1;
         }
         used.insert(candidate.clone());
         out.push(candidate);
@@ -539,6 +543,14 @@ mod tests {
     fn bvh_names_are_sanitised() {
         let names = sanitise_names(["", "a b", "x", "x", "x_2", "{"].into_iter());
         assert_eq!(names, ["joint0", "a_b", "x", "x_2", "x_2_2", "_"]);
+        let names = sanitise_names(["x", "x_3", "x", "x", "x", "x_2"].into_iter());
+        assert_eq!(names, ["x", "x_3", "x_2", "x_4", "x_5", "x_2_2"]);
+        // Sixty thousand joints of one name: distinct names, quickly.
+        let same = vec!["j"; 60_000];
+        let names = sanitise_names(same.into_iter());
+        let distinct: std::collections::HashSet<&String> = names.iter().collect();
+        assert_eq!(distinct.len(), 60_000);
+        assert_eq!(names[59_999], "j_60000");
     }
 
     #[test]

@@ -238,14 +238,21 @@ pub(super) fn read_clips(
             .flat_map(|&k| takes[k].2.iter().map(|c| (c.joint, c.property as u8)))
             .all(|t| targets.insert(t));
     if split_take {
+        // One pass (removing each from the list was quadratic in animations): the first
+        // unnamed take gets the others' channels, the last take's first. Every take before
+        // the first unnamed one is named and kept, so it keeps its index.
         let first = unnamed[0];
-        let mut merged = Vec::new();
-        for &k in unnamed.iter().rev() {
-            if k != first {
-                merged.extend(takes.remove(k).2);
+        let mut others = Vec::new();
+        let mut kept = Vec::with_capacity(takes.len());
+        for (k, take) in takes.into_iter().enumerate() {
+            if k != first && take.1.is_empty() {
+                others.push(take.2);
+            } else {
+                kept.push(take);
             }
         }
-        takes[first].2.extend(merged);
+        kept[first].2.extend(others.into_iter().rev().flatten());
+        takes = kept;
     }
     let mut poses_left = MAX_CLIP_POSES;
     takes
