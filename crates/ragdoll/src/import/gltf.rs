@@ -32,9 +32,9 @@
 //!   crate's validation, after our own checks of what that validation itself would index
 //!   unchecked); external buffers are read from the file's folder only
 //!   ([`crate::files::read_inside`]); nothing recurses on the node tree. Memory is bounded
-//!   by [`MAX_JSON_VALUES`], [`MAX_BUFFER_BYTES`], [`MAX_ACCESSOR_COMPONENTS`],
-//!   [`MAX_INFLUENCE_SETS`] and [`crate::skeleton::MAX_CLIP_POSES`], each refused with the
-//!   place it was passed.
+//!   by [`MAX_JSON_VALUES`], [`MAX_JSON_OBJECTS`], [`MAX_BUFFER_BYTES`],
+//!   [`MAX_ACCESSOR_COMPONENTS`], [`MAX_INFLUENCE_SETS`] and
+//!   [`crate::skeleton::MAX_CLIP_POSES`]; a file past one is refused, naming where.
 
 mod clips;
 mod data;
@@ -48,7 +48,7 @@ use gltf::mesh::Semantic;
 use clips::read_clips;
 use data::ReadBudget;
 pub(crate) use data::{AccessorReader, decode_data_uri, format_err, read_external};
-pub use data::{MAX_ACCESSOR_COMPONENTS, MAX_BUFFER_BYTES, MAX_JSON_VALUES};
+pub use data::{MAX_ACCESSOR_COMPONENTS, MAX_BUFFER_BYTES, MAX_JSON_OBJECTS, MAX_JSON_VALUES};
 pub use mesh::MAX_INFLUENCE_SETS;
 use mesh::Reads;
 pub(crate) use mesh::read_influences;
@@ -101,6 +101,7 @@ pub fn load_rigged(path: &Path, rig: &RigOptions) -> Result<Character> {
 ///
 /// This is the entry point for fuzzing: any bytes give a [`Character`] or an error, never
 /// a panic, and memory stays within the limits above ([`MAX_JSON_VALUES`],
+/// [`MAX_JSON_OBJECTS`],
 /// [`MAX_BUFFER_BYTES`], [`MAX_ACCESSOR_COMPONENTS`], [`crate::skeleton::MAX_CLIP_POSES`]).
 /// Give it a `path` in a folder with nothing in it to keep external URIs from reading files.
 pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Character> {

@@ -151,10 +151,17 @@ pub(crate) fn split_container<'a>(bytes: &'a [u8], path: &Path) -> Result<Contai
 /// and count as one.
 pub const MAX_JSON_VALUES: usize = 2_000_000;
 
-/// Refuses a JSON document with more than [`MAX_JSON_VALUES`] values before it is parsed,
-/// counting on the bytes: values are at most the commas plus twice the brackets, plus one.
+/// Most JSON objects (`{…}`) a glTF document may hold: 200,000. A parsed object takes
+/// about 700 bytes however small it is, so objects get a tighter limit than other values;
+/// a scene of 100,000 nodes fits.
+pub const MAX_JSON_OBJECTS: usize = 200_000;
+
+/// Refuses a JSON document past [`MAX_JSON_VALUES`] or [`MAX_JSON_OBJECTS`] before it is
+/// parsed, counting on the bytes: values are at most the commas plus twice the brackets,
+/// plus one.
 pub(crate) fn check_json_size(json: &[u8], path: &Path) -> Result<()> {
-    let (mut count, mut in_string, mut escaped) = (1usize, false, false);
+    let (mut values, mut objects) = (1usize, 0usize);
+    let (mut in_string, mut escaped) = (false, false);
     for &b in json {
         if in_string {
             if escaped {
@@ -168,15 +175,21 @@ pub(crate) fn check_json_size(json: &[u8], path: &Path) -> Result<()> {
         }
         match b {
             b'"' => in_string = true,
-            b',' => count += 1,
-            b'[' | b'{' => count += 2,
+            b',' => values += 1,
+            b'[' => values += 2,
+            b'{' => {
+                values += 2;
+                objects += 1;
+            }
             _ => {}
         }
-        if count > MAX_JSON_VALUES {
+        if values > MAX_JSON_VALUES || objects > MAX_JSON_OBJECTS {
             return Err(format_err(
                 path,
                 "JSON",
-                format!("holds more than the {MAX_JSON_VALUES} values a glTF document may have"),
+                format!(
+                    "holds more than the {MAX_JSON_VALUES} values or {MAX_JSON_OBJECTS} objects a glTF document may have"
+                ),
             ));
         }
     }
@@ -766,6 +779,12 @@ mod tests {
         let many = format!("[{}0]", "0,".repeat(MAX_JSON_VALUES));
         let e = check_json_size(many.as_bytes(), p).unwrap_err();
         assert!(e.to_string().contains("values"), "{e}");
+        // Small objects cost far more parsed than numbers: 660,000 of them took 900 MB.
+        let objects = format!("[{}{{}}]", "{},".repeat(MAX_JSON_OBJECTS));
+        assert!(objects.len() < MAX_JSON_VALUES);
+        assert!(check_json_size(objects.as_bytes(), p).is_err());
+        let fewer = format!("[{}{{}}]", "{},".repeat(MAX_JSON_OBJECTS - 1));
+        assert!(check_json_size(fewer.as_bytes(), p).is_ok());
         // Commas inside a string, escaped quotes included, are not values.
         let text = format!("{{\"s\":\"\\\"{}\"}}", ",".repeat(MAX_JSON_VALUES + 5));
         assert!(check_json_size(text.as_bytes(), p).is_ok());
