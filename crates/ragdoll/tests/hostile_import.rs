@@ -475,7 +475,11 @@ fn import_glb(json: &Value, bin: &[u8]) -> ragdoll::Result<Character> {
 
 #[test]
 fn the_hand_made_gltf_imports() {
-    let (json, bin) = skinned();
+    let (mut json, bin) = skinned();
+    // Application data of any type is allowed, and ignored.
+    json["extras"] = json!([1, 2, 3]);
+    json["nodes"][0]["extras"] = json!("hip");
+    json["accessors"][0]["extras"] = json!({"a": [0]});
     let c = import_glb(&json, &bin).unwrap();
     assert_eq!(c.skeleton.len(), 2);
     assert_eq!(c.meshes.len(), 1);

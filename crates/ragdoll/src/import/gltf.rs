@@ -201,10 +201,11 @@ fn file_stem(path: &Path) -> String {
 /// the typed accessors of [`gltf::Document`] can be used without panicking.
 ///
 /// The check runs on a copy trimmed to what we read (nodes, meshes, skins, animations,
-/// accessors, buffers), because the `gltf` crate, built without its extension features,
-/// refuses things a ragdoll does not care about: any `extensionsRequired` entry (even
-/// `KHR_texture_transform`), textures without a core `source` (KTX2, WebP), and
-/// application-specific vertex attributes such as `_BATCHID`. Materials and images are
+/// accessors, buffers; no `extras` anywhere), because the `gltf` crate, built without its
+/// extension features, refuses things a ragdoll does not care about: any
+/// `extensionsRequired` entry (even `KHR_texture_transform`), textures without a core
+/// `source` (KTX2, WebP), `extras` that are not objects, and application-specific vertex
+/// attributes such as `_BATCHID`. Materials and images are
 /// passed through untouched by the exporter. The crate also leaves animation channel
 /// targets unchecked although its typed accessors panic on a bad one, and its own
 /// validation indexes the accessors with each primitive's `POSITION` before checking it
@@ -222,6 +223,20 @@ pub(crate) fn parse_document(json: &serde_json::Value, path: &Path) -> Result<gl
             "samplers",
         ] {
             o.remove(key);
+        }
+    }
+    // `extras` hold application data of any JSON type; the crate, built without its
+    // `extras` feature, only accepts objects there and refused valid files with an array.
+    // A stack, not recursion (serde_json already caps nesting at 128).
+    let mut stack = vec![&mut json];
+    while let Some(v) = stack.pop() {
+        match v {
+            serde_json::Value::Object(o) => {
+                o.remove("extras");
+                stack.extend(o.values_mut());
+            }
+            serde_json::Value::Array(a) => stack.extend(a.iter_mut()),
+            _ => {}
         }
     }
     if let Some(meshes) = json
