@@ -13,12 +13,16 @@ pub type Result<T, E = Error> = std::result::Result<T, E>;
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
     /// The file could not be read or written at all.
-    #[error("{}: {source}", path.display())]
+    ///
+    /// The operating system's message is part of this error's own sentence and is not
+    /// also exposed as [`std::error::Error::source`]: a caller printing the whole chain
+    /// (anyhow's `{:#}`) would otherwise show it twice.
+    #[error("{}: {error}", path.display())]
     Io {
         /// The file involved.
         path: PathBuf,
         /// What the operating system said.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// A text format (BVH, OBJ, TOML) is malformed at a known line.
     #[error("{}: line {line}: {message}", path.display())]
@@ -83,10 +87,81 @@ pub enum Error {
 
 impl Error {
     /// Wraps an I/O error with the path it happened on.
-    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+    pub fn io(path: impl Into<PathBuf>, error: std::io::Error) -> Self {
         Error::Io {
             path: path.into(),
-            source,
+            error,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::error::Error as _;
+
+    use super::*;
+
+    /// Every variant, so a new one cannot slip past the one-cause rule unnoticed.
+    fn one_of_each() -> Vec<Error> {
+        let path = PathBuf::from("nope.glb");
+        let text = || "what is wrong".to_string();
+        vec![
+            Error::io(
+                &path,
+                std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+            ),
+            Error::Parse {
+                path: path.clone(),
+                line: 3,
+                message: text(),
+            },
+            Error::Format {
+                path: path.clone(),
+                place: "byte 4".into(),
+                message: text(),
+            },
+            Error::Refused {
+                path: path.clone(),
+                message: text(),
+            },
+            Error::UnsupportedFile { path },
+            Error::Skeleton {
+                joint: "hip".into(),
+                message: text(),
+            },
+            Error::Spec {
+                place: "body \"a\".mass_kg".into(),
+                message: text(),
+            },
+            Error::Setting {
+                setting: "--fps".into(),
+                message: text(),
+            },
+        ]
+    }
+
+    #[test]
+    fn every_error_is_one_sentence_with_no_separate_cause() {
+        for e in one_of_each() {
+            assert!(e.source().is_none(), "{e:?} also exposes a source");
+            // What anyhow's `{:#}` prints: the error, then each source after ": ".
+            let mut chain = e.to_string();
+            let mut s = e.source();
+            while let Some(inner) = s {
+                chain += &format!(": {inner}");
+                s = inner.source();
+            }
+            assert_eq!(chain, e.to_string());
+        }
+    }
+
+    #[test]
+    fn a_missing_file_names_the_cause_once() {
+        let err = std::fs::read("/nonexistent-ragdoll-dir/nope.glb")
+            .map_err(|e| Error::io("nope.glb", e))
+            .unwrap_err();
+        let text = err.to_string();
+        assert!(text.starts_with("nope.glb: "), "{text}");
+        assert_eq!(text.matches("os error 2").count(), 1, "{text}");
     }
 }

@@ -4,7 +4,7 @@
 //! the machine's memory.
 
 use std::io::Read;
-use std::path::Path;
+use std::path::{Component, Path};
 
 use crate::error::{Error, Result};
 
@@ -35,22 +35,13 @@ pub const MAX_SETTINGS_BYTES: u64 = 16 << 20;
 /// std::fs::remove_dir_all(&dir).unwrap();
 /// ```
 pub fn read_capped(path: &Path, limit: u64) -> Result<Vec<u8>> {
-    let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
-    if !meta.is_file() {
-        return Err(not_regular(path, &meta));
-    }
-    if meta.len() > limit {
-        return Err(too_large(path, limit));
-    }
-    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-    let mut bytes = Vec::with_capacity(meta.len() as usize);
-    file.take(limit + 1)
-        .read_to_end(&mut bytes)
-        .map_err(|e| Error::io(path, e))?;
-    if bytes.len() as u64 > limit {
-        return Err(too_large(path, limit));
-    }
-    Ok(bytes)
+    read_regular(path, limit).map_err(|r| match r {
+        Refusal::Io(e) => Error::io(path, e),
+        other => Error::Refused {
+            path: path.to_path_buf(),
+            message: other.to_string(),
+        },
+    })
 }
 
 /// Reads a whole regular UTF-8 text file of at most `limit` bytes (see [`read_capped`]);
@@ -64,25 +55,129 @@ pub fn read_text_capped(path: &Path, limit: u64) -> Result<String> {
     })
 }
 
-fn not_regular(path: &Path, meta: &std::fs::Metadata) -> Error {
-    let what = if meta.is_dir() {
-        "a folder"
-    } else {
-        "not a regular file (a device, FIFO or socket)"
-    };
-    Error::Refused {
-        path: path.to_path_buf(),
-        message: format!("is {what}, so it is not read"),
+/// Why a file named inside another file (a glTF's buffer or image) is not read. Its
+/// `Display` is a clause to follow the name, e.g. `climbs out of its folder with ".."…`,
+/// so the caller can say which name in which file it was.
+#[derive(Debug)]
+pub enum Refusal {
+    /// The name is an absolute path.
+    Absolute,
+    /// The name has a `..` component.
+    Climbs,
+    /// The name resolves, through a symbolic link, to somewhere outside the folder.
+    Escapes,
+    /// The name is a folder.
+    Folder,
+    /// The name is a device, FIFO or socket.
+    Special,
+    /// The file is larger than the limit, in bytes.
+    TooLarge(u64),
+    /// The operating system could not resolve or read it.
+    Io(std::io::Error),
+}
+
+impl std::fmt::Display for Refusal {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        const ONLY_INSIDE: &str = "only files in the folder of the file that names them are read";
+        match self {
+            Refusal::Absolute => write!(f, "is an absolute path, and {ONLY_INSIDE}"),
+            Refusal::Climbs => write!(f, "climbs out of its folder with \"..\", and {ONLY_INSIDE}"),
+            Refusal::Escapes => write!(
+                f,
+                "leads out of its folder through a symbolic link, and {ONLY_INSIDE}"
+            ),
+            Refusal::Folder => write!(f, "is a folder, so it is not read"),
+            Refusal::Special => write!(
+                f,
+                "is not a regular file (a device, FIFO or socket), so it is not read"
+            ),
+            Refusal::TooLarge(limit) => write!(
+                f,
+                "is larger than the {} this kind of file may be, so it is not read",
+                size_text(*limit)
+            ),
+            Refusal::Io(e) => write!(f, "cannot be read: {e}"),
+        }
     }
 }
 
-fn too_large(path: &Path, limit: u64) -> Error {
-    Error::Refused {
-        path: path.to_path_buf(),
-        message: format!(
-            "is larger than the {} MiB this kind of file may be, so it is not read",
-            limit >> 20
-        ),
+/// Reads `relative`, a path written inside another file (a glTF buffer or image URI,
+/// already percent-decoded), from `folder`, that file's folder, and from nowhere else.
+///
+/// A file the user opens may name any path; reading it and copying it into an output the
+/// user shares (a .glb) would leak files they never meant to include, and a name such as
+/// `/dev/zero` would exhaust memory. So absolute paths and `..` components are refused,
+/// the result is compared with the folder after resolving symbolic links (a link inside
+/// the folder may point anywhere), and the file must be a regular file of at most `limit`
+/// bytes.
+///
+/// ```
+/// use ragdoll::files::{Refusal, read_inside};
+/// let dir = std::env::temp_dir().join(format!("ragdoll-inside-doc-{}", std::process::id()));
+/// std::fs::create_dir_all(&dir).unwrap();
+/// std::fs::write(dir.join("a.bin"), [1, 2, 3]).unwrap();
+/// assert_eq!(read_inside(&dir, "a.bin", 16).unwrap(), [1, 2, 3]);
+/// assert!(matches!(read_inside(&dir, "../a.bin", 16), Err(Refusal::Climbs)));
+/// assert!(matches!(read_inside(&dir, "/etc/passwd", 16), Err(Refusal::Absolute)));
+/// std::fs::remove_dir_all(&dir).unwrap();
+/// ```
+pub fn read_inside(
+    folder: &Path,
+    relative: &str,
+    limit: u64,
+) -> std::result::Result<Vec<u8>, Refusal> {
+    let rel = Path::new(relative);
+    if rel.has_root() || rel.is_absolute() {
+        return Err(Refusal::Absolute);
+    }
+    if rel
+        .components()
+        .any(|c| !matches!(c, Component::Normal(_) | Component::CurDir))
+    {
+        return Err(Refusal::Climbs);
+    }
+    let folder = if folder.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        folder
+    };
+    let base = folder.canonicalize().map_err(Refusal::Io)?;
+    let file = folder.join(rel).canonicalize().map_err(Refusal::Io)?;
+    if !file.starts_with(&base) {
+        return Err(Refusal::Escapes);
+    }
+    read_regular(&file, limit)
+}
+
+/// [`read_capped`] with the reason kept apart from the path.
+fn read_regular(path: &Path, limit: u64) -> std::result::Result<Vec<u8>, Refusal> {
+    let meta = std::fs::metadata(path).map_err(Refusal::Io)?;
+    if meta.is_dir() {
+        return Err(Refusal::Folder);
+    }
+    if !meta.is_file() {
+        return Err(Refusal::Special);
+    }
+    if meta.len() > limit {
+        return Err(Refusal::TooLarge(limit));
+    }
+    let file = std::fs::File::open(path).map_err(Refusal::Io)?;
+    let mut bytes = Vec::with_capacity(usize::try_from(meta.len()).unwrap_or(0));
+    file.take(limit.saturating_add(1))
+        .read_to_end(&mut bytes)
+        .map_err(Refusal::Io)?;
+    if bytes.len() as u64 > limit {
+        return Err(Refusal::TooLarge(limit));
+    }
+    Ok(bytes)
+}
+
+/// `limit` for a message: whole MiB when it is one, else bytes.
+fn size_text(limit: u64) -> String {
+    if limit >= 1 << 20 && limit % (1 << 20) == 0 {
+        format!("{} MiB", limit >> 20)
+    } else {
+        format!("{limit} bytes")
     }
 }
 
@@ -96,6 +191,52 @@ mod tests {
         assert!(err.to_string().contains("not a regular file"), "{err}");
         let err = read_capped(Path::new("/"), MAX_INPUT_BYTES).unwrap_err();
         assert!(err.to_string().contains("folder"), "{err}");
+    }
+
+    #[test]
+    fn names_inside_a_file_stay_in_its_folder() {
+        let root = std::env::temp_dir().join(format!("ragdoll-inside-{}", std::process::id()));
+        let dir = root.join("model");
+        std::fs::create_dir_all(dir.join("sub")).unwrap();
+        std::fs::write(root.join("secret.bin"), b"secret").unwrap();
+        std::fs::write(dir.join("sub/a.bin"), b"ok").unwrap();
+        assert_eq!(read_inside(&dir, "sub/a.bin", 16).unwrap(), b"ok");
+        assert_eq!(read_inside(&dir, "./sub/a.bin", 16).unwrap(), b"ok");
+        let refused = |name: &str| read_inside(&dir, name, 16).unwrap_err();
+        assert!(matches!(refused("../secret.bin"), Refusal::Climbs));
+        assert!(matches!(refused("sub/../../secret.bin"), Refusal::Climbs));
+        // `..` is refused even when it would come back inside.
+        assert!(matches!(refused("sub/../sub/a.bin"), Refusal::Climbs));
+        assert!(matches!(
+            refused(root.join("secret.bin").to_str().unwrap()),
+            Refusal::Absolute
+        ));
+        assert!(matches!(refused("/dev/zero"), Refusal::Absolute));
+        assert!(matches!(refused("sub"), Refusal::Folder));
+        assert!(matches!(refused(""), Refusal::Folder));
+        assert!(matches!(refused("missing.bin"), Refusal::Io(_)));
+        assert!(matches!(
+            read_inside(&dir, "sub/a.bin", 1),
+            Err(Refusal::TooLarge(1))
+        ));
+        #[cfg(unix)]
+        {
+            std::os::unix::fs::symlink(root.join("secret.bin"), dir.join("link.bin")).unwrap();
+            std::os::unix::fs::symlink("/dev/zero", dir.join("zero.bin")).unwrap();
+            std::os::unix::fs::symlink(dir.join("sub/a.bin"), dir.join("inside.bin")).unwrap();
+            assert!(matches!(refused("link.bin"), Refusal::Escapes));
+            assert!(matches!(refused("zero.bin"), Refusal::Escapes));
+            assert_eq!(read_inside(&dir, "inside.bin", 16).unwrap(), b"ok");
+            let status = std::process::Command::new("mkfifo")
+                .arg(dir.join("fifo.bin"))
+                .status();
+            if status.is_ok_and(|s| s.success()) {
+                assert!(matches!(refused("fifo.bin"), Refusal::Special));
+            }
+        }
+        let text = Refusal::Climbs.to_string();
+        assert!(text.starts_with("climbs out of its folder"), "{text}");
+        std::fs::remove_dir_all(&root).unwrap();
     }
 
     #[test]

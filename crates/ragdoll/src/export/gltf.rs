@@ -35,8 +35,8 @@ use serde_json::{Map, Value, json};
 
 use crate::error::{Error, Result};
 use crate::import::gltf::{
-    AccessorReader, GltfSource, decode_data_uri, external_path, format_err, parse_document,
-    read_influences,
+    AccessorReader, GltfSource, MAX_BUFFER_BYTES, decode_data_uri, format_err, parse_document,
+    read_external, read_influences,
 };
 use crate::math::Transform;
 use crate::skeleton::{Character, Skeleton, Source};
@@ -478,12 +478,15 @@ fn sniff_image(bytes: &[u8]) -> Option<&'static str> {
 }
 
 /// Moves every image given by URI into the binary chunk: a GLB travels alone, and relative
-/// paths would break as soon as it is written somewhere else.
+/// paths would break as soon as it is written somewhere else. Image files are read from the
+/// source's folder only, as the importer reads buffers ([`read_external`]), and together
+/// with `data:` images hold at most [`MAX_BUFFER_BYTES`].
 fn embed_images(obj: &mut Map<String, Value>, bin: &mut Bin, src: &GltfSource) -> Result<()> {
     let path = src.path.as_path();
     let Some(Value::Array(images)) = obj.get_mut("images") else {
         return Ok(());
     };
+    let mut left = MAX_BUFFER_BYTES;
     for (i, image) in images.iter_mut().enumerate() {
         let Some(o) = image.as_object_mut() else {
             continue;
@@ -492,18 +495,15 @@ fn embed_images(obj: &mut Map<String, Value>, bin: &mut Bin, src: &GltfSource) -
             continue;
         };
         let place = format!("image {i}");
-        let (bytes, declared) = match decode_data_uri(&uri) {
+        let (bytes, declared) = match decode_data_uri(&uri, left) {
             Some(Ok(x)) => x,
             Some(Err(m)) => return Err(format_err(path, place, m)),
-            None => {
-                let file =
-                    external_path(&src.dir, &uri).map_err(|m| format_err(path, &place, m))?;
-                (
-                    std::fs::read(&file).map_err(|e| Error::io(file, e))?,
-                    String::new(),
-                )
-            }
+            None => (
+                read_external(&src.dir, &uri, left).map_err(|m| format_err(path, &place, m))?,
+                String::new(),
+            ),
         };
+        left = left.saturating_sub(bytes.len() as u64);
         let mime = match sniff_image(&bytes) {
             Some(m) => m.to_string(),
             None if declared.starts_with("image/") => declared,

@@ -3,19 +3,26 @@
 //!
 //! # What is accepted
 //!
-//! Any joint names and counts, several `ROOT`s, any `CHANNELS` list on any joint (positions
-//! on non-root joints, rotations only, fewer than three, any order), `End Site` in any case,
-//! tabs, CRLF (or CR-only) line ends, blank lines anywhere, and `Frames:` / `Frame Time:`
-//! with or without spaces around the colon. One frame is one line; its value count must
-//! equal the channel count of the hierarchy.
+//! Any joint names, up to [`MAX_JOINTS`] joints, several `ROOT`s, any `CHANNELS` list on
+//! any joint (positions on non-root joints, rotations only, fewer than three, any order, at
+//! most [`MAX_CHANNELS_PER_JOINT`]), `End Site` in any case, tabs, CRLF (or CR-only) line
+//! ends, blank lines anywhere, and `Frames:` / `Frame Time:` with or without spaces around
+//! the colon. One frame is one line; its value count must equal the channel count of the
+//! hierarchy.
 //!
 //! Everything else is an [`Error::Parse`] naming the file and the 1-based line: a missing
 //! brace or `OFFSET` (blamed on the line where the hierarchy ends, or the joint's line), an
-//! unknown keyword or channel, a value that is not a finite number, a frame line with the
-//! wrong value count, a missing `MOTION` / `Frames:` / `Frame Time:` (which must be
-//! positive), more frame lines than `Frames:` announces, or fewer (blamed on the line where
-//! the data ran out). An `End Site` whose offset is all zeros gives no [`Joint::tip`] (it
+//! unknown keyword or channel, a value that is not a finite number or lies beyond
+//! ±[`MAX_VALUE`], a frame line with the wrong value count, a missing `MOTION` / `Frames:`
+//! / `Frame Time:` (which must lie in [`FRAME_TIME_RANGE_S`]), more frames than
+//! [`MAX_CLIP_POSES`] allows, more frame lines than `Frames:` announces, or fewer (blamed on
+//! the line where the data ran out), or a frame that moves a joint past
+//! [`MAX_REACH_M`]. An `End Site` whose offset is all zeros gives no [`Joint::tip`] (it
 //! says nothing about where the bone ends), but is kept in the layout.
+//!
+//! The parser streams: the hierarchy is read a word at a time with an explicit stack of
+//! open joints (no recursion on the nesting), and each frame is converted as its line is
+//! read, so memory is the skeleton and the clip, never a copy of the text.
 //!
 //! # Channel semantics
 //!
@@ -47,19 +54,28 @@
 //!
 //! # Conversion
 //!
-//! The [`Character`] is in metres with Y up. The up-axis rotation `C` (identity, or −90°
-//! about X for Z-up files) goes into the root joints only: root rest = `C · T(offset·s)`,
+//! The [`Character`](crate::skeleton::Character) is in metres with Y up. The up-axis
+//! rotation `C` (identity, or −90° about X for Z-up files) goes into the root joints only:
+//! root rest = `C · T(offset·s)`,
 //! root in a frame = `C · T(p·s) · R`. Other joints keep their rotations; their translations
 //! are scaled to metres. Everything needed to write the file back is kept in [`BvhLayout`].
 
-use std::path::Path;
+mod motion;
+mod parse;
 
 use glam::{DMat3, DQuat, DVec3, Vec3};
 
-use super::{ImportOptions, UpAxis};
-use crate::error::{Error, Result};
-use crate::math::Transform;
-use crate::skeleton::{Character, Clip, Joint, Skeleton, Source};
+#[cfg(doc)]
+use crate::{
+    error::Error,
+    import::ImportOptions,
+    skeleton::{Joint, MAX_CLIP_POSES, MAX_JOINTS, MAX_REACH_M},
+};
+
+pub use parse::{load, parse};
+
+use super::UpAxis;
+use crate::skeleton::Skeleton;
 
 /// Metres per unit of the CMU motion capture ASF skeletons, `(1/0.45) · 2.54 / 100`, which
 /// many BVH conversions of that database kept; a height of about 31 of them is a person.
@@ -71,9 +87,19 @@ const TYPICAL_HEIGHT_M: f64 = 1.7;
 /// Unit candidates for detection, metres per file unit.
 const UNIT_CANDIDATES: [f64; 5] = [1.0, CMU_UNIT_M as f64, 0.0254, 0.01, 0.001];
 
-/// Most joint poses (frames × joints) one clip may hold: 50 million is about 2 GB, far above
-/// any real capture (a 20-minute take at 120 fps of 60 joints is 8.6 million).
-const MAX_CLIP_TRANSFORMS: usize = 50_000_000;
+/// Largest absolute value of a number in a BVH file (offsets and positions in file units,
+/// angles in degrees): one million. That is 10 km in centimetres and 2,800 turns; a larger
+/// value is a broken file, and would only blow up later, in the physics.
+pub const MAX_VALUE: f64 = 1e6;
+
+/// Most channels one joint may list: 64. A joint has at most six meaningful ones (three
+/// positions, three rotations); a few exporters repeat axes.
+pub const MAX_CHANNELS_PER_JOINT: usize = 64;
+
+/// Shortest and longest `Frame Time` accepted, seconds: 10 kHz to one frame per 10 s.
+/// Outside that, rates and durations computed from it stop making sense (a frame time of
+/// 1e-30 would ask playback for 1e30 frames a second).
+pub const FRAME_TIME_RANGE_S: [f64; 2] = [1e-4, 10.0];
 
 /// Below this sine or cosine of the middle angle, Euler decomposition treats the middle
 /// angle as gimbal-locked and puts the whole remaining turn into the last angle.
@@ -248,13 +274,17 @@ pub(crate) fn sanitise_names<'a>(names: impl Iterator<Item = &'a str>) -> Vec<St
         })
         .collect();
     let mut used = std::collections::HashSet::new();
+    // The next suffix worth trying per name: suffixes found taken stay taken, so resuming
+    // there gives the same names as counting from 2 each time, without the quadratic cost
+    // of thousands of joints sharing one name.
+    let mut next_suffix: std::collections::HashMap<&str, usize> = Default::default();
     let mut out = Vec::with_capacity(base.len());
     for name in &base {
         let mut candidate = name.clone();
-        let mut k = 2;
+        let k = next_suffix.entry(name.as_str()).or_insert(2);
         while used.contains(&candidate) {
             candidate = format!("{name}_{k}");
-            k += 1;
+            *k += 1;
         }
         used.insert(candidate.clone());
         out.push(candidate);
@@ -362,148 +392,6 @@ fn euler3(q: DQuat, i: Axis, j: Axis, k: Axis) -> [f64; 3] {
     [a, b, c]
 }
 
-/// Loads a BVH file; see the module docs for what is detected and how it is converted.
-pub fn load(path: &Path, opts: &ImportOptions) -> Result<Character> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let text = String::from_utf8_lossy(&bytes);
-    parse(&text, path, opts)
-}
-
-/// Parses BVH text; `path` is only used to name the file in errors and the character.
-pub fn parse(text: &str, path: &Path, opts: &ImportOptions) -> Result<Character> {
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let lines = split_lines(text);
-    let motion_line = lines.iter().position(|l| {
-        l.split_whitespace()
-            .next()
-            .is_some_and(|t| t.eq_ignore_ascii_case("MOTION"))
-    });
-    // Where a truncated file ends: its last line with anything on it.
-    let last_content_line = lines
-        .iter()
-        .rposition(|l| !l.trim().is_empty())
-        .map_or(1, |i| i + 1);
-    let hierarchy_end = motion_line.unwrap_or(lines.len());
-    let mut parser = Parser {
-        path,
-        tokens: tokenize(&lines[..hierarchy_end]),
-        pos: 0,
-        eof_line: motion_line.map_or(last_content_line, |i| i + 1),
-    };
-    let joints = parser.hierarchy()?;
-    let Some(motion_line) = motion_line else {
-        return Err(parse_error(
-            path,
-            last_content_line,
-            "the file ends without a MOTION section",
-        ));
-    };
-    let motion = parse_motion(path, &lines, motion_line, &joints)?;
-
-    let positions = rest_positions(&joints);
-    let up = opts.up.unwrap_or_else(|| detect_up(&positions));
-    let metres_per_unit = match opts.units {
-        Some(u) => f64::from(u.to_metres()),
-        None => detect_metres_per_unit(&positions, up),
-    };
-    let c = up_rotation(up);
-    let s = metres_per_unit;
-
-    let to_transform = |parent: Option<usize>, t: DVec3, r: DQuat| -> Transform {
-        let (t, r) = match parent {
-            None => (c * (t * s), c * r),
-            Some(_) => (t * s, r),
-        };
-        Transform::new(t.as_vec3(), r.normalize().as_quat())
-    };
-
-    let skel_joints: Vec<Joint> = joints
-        .iter()
-        .map(|j| Joint {
-            name: j.name.clone(),
-            parent: j.parent,
-            rest: to_transform(j.parent, j.offset, DQuat::IDENTITY),
-            // An all-zero End Site says nothing about where the bone ends.
-            tip: j
-                .end_site
-                .filter(|e| *e != DVec3::ZERO)
-                .map(|e| (e * s).as_vec3()),
-        })
-        .collect();
-    let skeleton = Skeleton::new(skel_joints)?;
-
-    let frames: Vec<Vec<Transform>> = motion
-        .values
-        .chunks(motion.channels.max(1))
-        .take(motion.frames)
-        .map(|row| {
-            let mut col = 0;
-            joints
-                .iter()
-                .map(|j| {
-                    let n = j.channels.len();
-                    let vals = row.get(col..col + n).unwrap_or(&[]);
-                    col += n;
-                    let (t, r) = joint_motion(j, vals);
-                    to_transform(j.parent, t, r)
-                })
-                .collect()
-        })
-        .collect();
-    let frames = if motion.channels == 0 {
-        let rest: Vec<Transform> = skeleton.joints().iter().map(|j| j.rest).collect();
-        vec![rest; motion.frames]
-    } else {
-        frames
-    };
-    if let Some((f, _)) = frames
-        .iter()
-        .enumerate()
-        .find(|(_, fr)| fr.iter().any(|t| !t.is_finite()))
-    {
-        return Err(parse_error(
-            path,
-            motion.frame_lines.get(f).copied().unwrap_or(1),
-            "the frame's values overflow once converted",
-        ));
-    }
-
-    let frame_time = motion.frame_time as f32;
-    let clips = if frames.is_empty() {
-        Vec::new()
-    } else {
-        vec![Clip {
-            name: String::new(),
-            frame_time,
-            frames,
-        }]
-    };
-    let layout = BvhLayout {
-        joints: joints
-            .iter()
-            .map(|j| BvhJoint {
-                name: j.name.clone(),
-                channels: j.channels.clone(),
-                end_site: j.end_site.map(|e| e.as_vec3()),
-            })
-            .collect(),
-        metres_per_unit: metres_per_unit as f32,
-        up,
-        frame_time,
-    };
-    let name = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "bvh".into());
-    Ok(Character {
-        name,
-        skeleton,
-        meshes: Vec::new(),
-        clips,
-        source: Source::Bvh(layout),
-    })
-}
-
 /// The rotation taking the file's axes to Y up (identity, or −90° about X for Z up).
 pub(crate) fn up_rotation(up: UpAxis) -> DQuat {
     match up {
@@ -512,537 +400,15 @@ pub(crate) fn up_rotation(up: UpAxis) -> DQuat {
     }
 }
 
-/// A joint's local translation and rotation in one frame, in file units and axes.
-fn joint_motion(j: &PJoint, vals: &[f64]) -> (DVec3, DQuat) {
-    let mut t = j.offset;
-    let mut axes = Vec::with_capacity(3);
-    let mut angles = Vec::with_capacity(3);
-    for (ch, &v) in j.channels.iter().zip(vals) {
-        match ch {
-            Channel::Position(a) => t[a.index()] = v,
-            Channel::Rotation(a) => {
-                axes.push(*a);
-                angles.push(v.to_radians());
-            }
-        }
-    }
-    (t, compose_rotation(&axes, &angles))
-}
-
-fn parse_error(path: &Path, line: usize, message: impl Into<String>) -> Error {
-    Error::Parse {
-        path: path.to_path_buf(),
-        line,
-        message: message.into(),
-    }
-}
-
-/// Splits on `\n`, `\r\n`, or lone `\r` (old Mac files), so line numbers match editors.
-fn split_lines(text: &str) -> Vec<&str> {
-    if text.contains('\n') {
-        text.split('\n')
-            .map(|l| l.strip_suffix('\r').unwrap_or(l))
-            .collect()
-    } else {
-        text.split('\r').collect()
-    }
-}
-
-/// A hierarchy word with its 1-based line.
-#[derive(Clone, Copy, Debug)]
-struct Tok<'a> {
-    line: usize,
-    text: &'a str,
-}
-
-fn tokenize<'a>(lines: &[&'a str]) -> Vec<Tok<'a>> {
-    lines
-        .iter()
-        .enumerate()
-        .flat_map(|(i, l)| {
-            l.split_whitespace()
-                .map(move |text| Tok { line: i + 1, text })
-        })
-        .collect()
-}
-
-/// A joint as read from the hierarchy, in file units.
-#[derive(Clone, Debug)]
-struct PJoint {
-    name: String,
-    parent: Option<usize>,
-    line: usize,
-    offset: DVec3,
-    has_offset: bool,
-    channels: Vec<Channel>,
-    has_channels: bool,
-    end_site: Option<DVec3>,
-}
-
-struct Parser<'a, 'p> {
-    path: &'p Path,
-    tokens: Vec<Tok<'a>>,
-    pos: usize,
-    /// The line to blame when the hierarchy runs out.
-    eof_line: usize,
-}
-
-impl<'a> Parser<'a, '_> {
-    fn err(&self, line: usize, message: impl Into<String>) -> Error {
-        parse_error(self.path, line, message)
-    }
-
-    fn peek(&self) -> Option<Tok<'a>> {
-        self.tokens.get(self.pos).copied()
-    }
-
-    fn next(&mut self, expected: &str) -> Result<Tok<'a>> {
-        match self.peek() {
-            Some(t) => {
-                self.pos += 1;
-                Ok(t)
-            }
-            None => Err(self.err(
-                self.eof_line,
-                format!("the hierarchy ends here, but {expected} was expected"),
-            )),
-        }
-    }
-
-    fn expect(&mut self, word: &str) -> Result<Tok<'a>> {
-        let t = self.next(&format!("\"{word}\""))?;
-        if t.text.eq_ignore_ascii_case(word) {
-            Ok(t)
-        } else {
-            Err(self.err(t.line, format!("expected \"{word}\", found \"{}\"", t.text)))
-        }
-    }
-
-    fn number(&mut self, what: &str) -> Result<f64> {
-        let t = self.next(what)?;
-        parse_number(t.text)
-            .ok_or_else(|| self.err(t.line, format!("expected {what}, found \"{}\"", t.text)))
-    }
-
-    /// The rest of the keyword's line (a joint name may contain spaces), minus a trailing
-    /// `{` some writers put on the same line.
-    fn name_after(&mut self, keyword: Tok<'a>) -> String {
-        let mut words = Vec::new();
-        while let Some(t) = self.peek() {
-            if t.line != keyword.line || t.text == "{" {
-                break;
-            }
-            words.push(t.text);
-            self.pos += 1;
-        }
-        words.join(" ")
-    }
-
-    fn offset(&mut self) -> Result<DVec3> {
-        let x = self.number("the OFFSET's X value")?;
-        let y = self.number("the OFFSET's Y value")?;
-        let z = self.number("the OFFSET's Z value")?;
-        Ok(DVec3::new(x, y, z))
-    }
-
-    fn hierarchy(&mut self) -> Result<Vec<PJoint>> {
-        match self.peek() {
-            Some(t) if t.text.eq_ignore_ascii_case("HIERARCHY") => self.pos += 1,
-            Some(t) => {
-                return Err(self.err(
-                    t.line,
-                    format!(
-                        "expected \"HIERARCHY\" at the start of a BVH file, found \"{}\"",
-                        t.text
-                    ),
-                ));
-            }
-            None => {
-                return Err(self.err(self.eof_line, "the file has no HIERARCHY section"));
-            }
-        }
-        let mut joints: Vec<PJoint> = Vec::new();
-        let mut open: Vec<usize> = Vec::new();
-        loop {
-            let Some(tok) = self.peek() else {
-                if let Some(&j) = open.last() {
-                    return Err(self.err(
-                        self.eof_line,
-                        format!(
-                            "the hierarchy ends here, but joint \"{}\" (line {}) has no closing \"}}\"",
-                            joints[j].name, joints[j].line
-                        ),
-                    ));
-                }
-                if joints.is_empty() {
-                    return Err(self.err(self.eof_line, "the hierarchy has no ROOT joint"));
-                }
-                return Ok(joints);
-            };
-            self.pos += 1;
-            let word = tok.text;
-            let Some(&current) = open.last() else {
-                if word.eq_ignore_ascii_case("ROOT") {
-                    let name = self.name_after(tok);
-                    self.expect("{")?;
-                    joints.push(new_joint(name, None, tok.line));
-                    open.push(joints.len() - 1);
-                    continue;
-                }
-                return Err(self.err(
-                    tok.line,
-                    format!("expected \"ROOT\" or \"MOTION\", found \"{word}\""),
-                ));
-            };
-            if word.eq_ignore_ascii_case("OFFSET") {
-                if joints[current].has_offset {
-                    return Err(self.err(
-                        tok.line,
-                        format!("joint \"{}\" has a second OFFSET", joints[current].name),
-                    ));
-                }
-                joints[current].offset = self.offset()?;
-                joints[current].has_offset = true;
-            } else if word.eq_ignore_ascii_case("CHANNELS") {
-                if joints[current].has_channels {
-                    return Err(self.err(
-                        tok.line,
-                        format!(
-                            "joint \"{}\" has a second CHANNELS line",
-                            joints[current].name
-                        ),
-                    ));
-                }
-                let t = self.next("the channel count")?;
-                let n: usize = t.text.parse().map_err(|_| {
-                    self.err(
-                        t.line,
-                        format!(
-                            "expected the channel count after CHANNELS, found \"{}\"",
-                            t.text
-                        ),
-                    )
-                })?;
-                let mut channels = Vec::with_capacity(n.min(16));
-                for k in 0..n {
-                    let t = self.next(&format!("channel {} of {n}", k + 1))?;
-                    let ch = Channel::parse(t.text).ok_or_else(|| {
-                        self.err(
-                            t.line,
-                            format!(
-                                "expected channel {} of {n} (such as Xposition or Zrotation), found \"{}\"",
-                                k + 1,
-                                t.text
-                            ),
-                        )
-                    })?;
-                    channels.push(ch);
-                }
-                joints[current].channels = channels;
-                joints[current].has_channels = true;
-            } else if word.eq_ignore_ascii_case("JOINT") {
-                let name = self.name_after(tok);
-                self.expect("{")?;
-                joints.push(new_joint(name, Some(current), tok.line));
-                open.push(joints.len() - 1);
-            } else if word.eq_ignore_ascii_case("End") {
-                if self
-                    .peek()
-                    .is_some_and(|t| t.text.eq_ignore_ascii_case("Site"))
-                {
-                    self.pos += 1;
-                }
-                if joints[current].end_site.is_some() {
-                    return Err(self.err(
-                        tok.line,
-                        format!("joint \"{}\" has a second End Site", joints[current].name),
-                    ));
-                }
-                self.expect("{")?;
-                self.expect("OFFSET")?;
-                let off = self.offset()?;
-                self.expect("}")?;
-                joints[current].end_site = Some(off);
-            } else if word == "}" {
-                if !joints[current].has_offset {
-                    return Err(self.err(
-                        joints[current].line,
-                        format!("joint \"{}\" has no OFFSET", joints[current].name),
-                    ));
-                }
-                open.pop();
-            } else {
-                return Err(self.err(
-                    tok.line,
-                    format!(
-                        "unexpected \"{word}\" inside joint \"{}\" (expected OFFSET, CHANNELS, JOINT, End Site or \"}}\")",
-                        joints[current].name
-                    ),
-                ));
-            }
-        }
-    }
-}
-
-fn new_joint(name: String, parent: Option<usize>, line: usize) -> PJoint {
-    PJoint {
-        name,
-        parent,
-        line,
-        offset: DVec3::ZERO,
-        has_offset: false,
-        channels: Vec::new(),
-        has_channels: false,
-        end_site: None,
-    }
-}
-
-/// A finite number that also fits an `f32` (the crate's working precision).
-fn parse_number(s: &str) -> Option<f64> {
-    let v: f64 = s.parse().ok()?;
-    (v.is_finite() && (v as f32).is_finite()).then_some(v)
-}
-
-/// Case-insensitive ASCII prefix strip that cannot split a UTF-8 character.
-fn strip_prefix_ci<'s>(s: &'s str, prefix: &str) -> Option<&'s str> {
-    let head = s.get(..prefix.len())?;
-    head.eq_ignore_ascii_case(prefix)
-        .then(|| s.get(prefix.len()..))
-        .flatten()
-}
-
-/// The value after `key` on a header line such as `Frames: 12` or `Frame Time:\t0.01`.
-fn header_value<'s>(line: &'s str, key: &[&str]) -> Option<&'s str> {
-    let mut rest = line.trim();
-    for (i, word) in key.iter().enumerate() {
-        if i > 0 {
-            rest = rest.trim_start();
-        }
-        rest = strip_prefix_ci(rest, word)?;
-    }
-    let rest = rest.trim_start();
-    let rest = rest.strip_prefix(':').unwrap_or(rest);
-    Some(rest.trim())
-}
-
-struct Motion {
-    frames: usize,
-    frame_time: f64,
-    channels: usize,
-    /// All values, frame after frame.
-    values: Vec<f64>,
-    /// 1-based line of each frame.
-    frame_lines: Vec<usize>,
-}
-
-fn parse_motion(
-    path: &Path,
-    lines: &[&str],
-    motion_line: usize,
-    joints: &[PJoint],
-) -> Result<Motion> {
-    let channels: usize = joints.iter().map(|j| j.channels.len()).sum();
-    let mut rest = lines
-        .iter()
-        .enumerate()
-        .skip(motion_line + 1)
-        .filter(|(_, l)| !l.trim().is_empty());
-    let Some((i, line)) = rest.next() else {
-        return Err(parse_error(
-            path,
-            motion_line + 1,
-            "the file ends after MOTION; expected \"Frames: <count>\"",
-        ));
-    };
-    let frames: usize = header_value(line, &["Frames"])
-        .ok_or_else(|| {
-            parse_error(
-                path,
-                i + 1,
-                format!("expected \"Frames: <count>\", found \"{}\"", line.trim()),
-            )
-        })?
-        .parse()
-        .map_err(|_| {
-            parse_error(
-                path,
-                i + 1,
-                format!("the frame count is not a whole number: \"{}\"", line.trim()),
-            )
-        })?;
-    let frames_line = i + 1;
-    // The clip holds frames × joints transforms; refuse sizes that would exhaust memory
-    // (a crash, not an error) rather than trust the count or a pathological hierarchy.
-    if frames.saturating_mul(joints.len()) > MAX_CLIP_TRANSFORMS {
-        return Err(parse_error(
-            path,
-            frames_line,
-            format!(
-                "{frames} frames of {} joints exceed the {MAX_CLIP_TRANSFORMS} joint poses this importer holds in memory",
-                joints.len()
-            ),
-        ));
-    }
-
-    let Some((i, line)) = rest.next() else {
-        return Err(parse_error(
-            path,
-            frames_line,
-            "the file ends before \"Frame Time: <seconds>\"",
-        ));
-    };
-    let frame_time = header_value(line, &["Frame", "Time"]).ok_or_else(|| {
-        parse_error(
-            path,
-            i + 1,
-            format!(
-                "expected \"Frame Time: <seconds>\", found \"{}\"",
-                line.trim()
-            ),
-        )
-    })?;
-    let frame_time = parse_number(frame_time)
-        .filter(|t| *t > 0.0)
-        .ok_or_else(|| {
-            parse_error(
-                path,
-                i + 1,
-                format!(
-                    "the frame time is not a positive number: \"{}\"",
-                    line.trim()
-                ),
-            )
-        })?;
-    let mut last_line = i + 1;
-
-    // Each value takes at least two bytes of text, which bounds what is worth reserving.
-    let text_bytes: usize = lines.iter().skip(motion_line).map(|l| l.len() + 1).sum();
-    let mut values = Vec::with_capacity(frames.saturating_mul(channels).min(text_bytes / 2));
-    let mut frame_lines = Vec::with_capacity(frames.min(lines.len()));
-    for (i, line) in rest {
-        let line_no = i + 1;
-        if frame_lines.len() >= frames {
-            return Err(parse_error(
-                path,
-                line_no,
-                format!(
-                    "more frame lines than the {frames} that \"Frames:\" (line {frames_line}) announces"
-                ),
-            ));
-        }
-        let n = line.split_whitespace().count();
-        if n != channels {
-            return Err(parse_error(
-                path,
-                line_no,
-                format!(
-                    "frame {} has {n} values, but the hierarchy has {channels} channels",
-                    frame_lines.len() + 1
-                ),
-            ));
-        }
-        for (k, word) in line.split_whitespace().enumerate() {
-            let v = parse_number(word).ok_or_else(|| {
-                parse_error(
-                    path,
-                    line_no,
-                    format!(
-                        "value {} of frame {} is not a finite number: \"{word}\"",
-                        k + 1,
-                        frame_lines.len() + 1
-                    ),
-                )
-            })?;
-            values.push(v);
-        }
-        frame_lines.push(line_no);
-        last_line = line_no;
-    }
-    if frame_lines.len() < frames && channels > 0 {
-        return Err(parse_error(
-            path,
-            last_line + 1,
-            format!(
-                "the motion data ends after {} frames, but \"Frames:\" (line {frames_line}) announces {frames}",
-                frame_lines.len()
-            ),
-        ));
-    }
-    Ok(Motion {
-        frames,
-        frame_time,
-        channels,
-        values,
-        frame_lines,
-    })
-}
-
-/// Rest-pose positions of every joint and End Site, in file units and axes.
-fn rest_positions(joints: &[PJoint]) -> Vec<DVec3> {
-    let mut world: Vec<DVec3> = Vec::with_capacity(joints.len());
-    let mut out = Vec::with_capacity(joints.len() * 2);
-    for j in joints {
-        let base = j
-            .parent
-            .and_then(|p| world.get(p).copied())
-            .unwrap_or(DVec3::ZERO);
-        let p = base + j.offset;
-        world.push(p);
-        out.push(p);
-        if let Some(e) = j.end_site {
-            out.push(p + e);
-        }
-    }
-    out
-}
-
-fn extent(points: &[DVec3]) -> DVec3 {
-    let (lo, hi) = points.iter().fold(
-        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-    );
-    if points.is_empty() {
-        DVec3::ZERO
-    } else {
-        hi - lo
-    }
-}
-
-/// Z up when the rest pose is more than twice as tall along Z as along Y (module docs).
-fn detect_up(points: &[DVec3]) -> UpAxis {
-    let e = extent(points);
-    if e.z > 2.0 * e.y {
-        UpAxis::Z
-    } else {
-        UpAxis::Y
-    }
-}
-
-/// Metres per unit making the height closest to [`TYPICAL_HEIGHT_M`] (module docs).
-fn detect_metres_per_unit(points: &[DVec3], up: UpAxis) -> f64 {
-    let e = extent(points);
-    let along_up = match up {
-        UpAxis::Y => e.y,
-        UpAxis::Z => e.z,
-    };
-    let h = if along_up > 1e-9 {
-        along_up
-    } else {
-        e.max_element()
-    };
-    if !(h > 1e-9 && h.is_finite()) {
-        return 0.01;
-    }
-    let miss = |u: f64| (h * u / TYPICAL_HEIGHT_M).ln().abs();
-    UNIT_CANDIDATES
-        .into_iter()
-        .min_by(|a, b| miss(*a).total_cmp(&miss(*b)))
-        .unwrap_or(0.01)
-}
-
 #[cfg(test)]
 mod tests {
+    use std::path::Path;
+
+    use super::parse::detect_metres_per_unit;
     use super::*;
+    use crate::error::{Error, Result};
+    use crate::import::ImportOptions;
+    use crate::skeleton::Character;
     use glam::{EulerRot, Quat};
 
     const ALL_ORDERS: [[Axis; 3]; 6] = [
@@ -1177,6 +543,14 @@ mod tests {
     fn bvh_names_are_sanitised() {
         let names = sanitise_names(["", "a b", "x", "x", "x_2", "{"].into_iter());
         assert_eq!(names, ["joint0", "a_b", "x", "x_2", "x_2_2", "_"]);
+        let names = sanitise_names(["x", "x_3", "x", "x", "x", "x_2"].into_iter());
+        assert_eq!(names, ["x", "x_3", "x_2", "x_4", "x_5", "x_2_2"]);
+        // Sixty thousand joints of one name: distinct names, quickly.
+        let same = vec!["j"; 60_000];
+        let names = sanitise_names(same.into_iter());
+        let distinct: std::collections::HashSet<&String> = names.iter().collect();
+        assert_eq!(distinct.len(), 60_000);
+        assert_eq!(names[59_999], "j_60000");
     }
 
     #[test]
@@ -1212,6 +586,21 @@ mod tests {
         let hierarchy_only =
             "HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\n}\nMOTION\nFrames: 3\nFrame Time: 0.1\n";
         assert_eq!(p(hierarchy_only).unwrap().clips[0].frames.len(), 3);
+    }
+
+    #[test]
+    fn bvh_line_numbers_are_the_same_for_lf_crlf_and_cr_files() {
+        let text = "HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\nCHANNELS 1 Xrotation\n}\nMOTION\n\
+                    Frames: 2\nFrame Time: 0.1\n1\n";
+        for sep in ["\n", "\r\n", "\r"] {
+            match p(&text.replace('\n', sep)) {
+                Err(Error::Parse { line, message, .. }) => {
+                    assert_eq!(line, 11, "{sep:?}: {message}");
+                    assert!(message.contains("after 1 frames"), "{message}");
+                }
+                other => panic!("{sep:?}: expected a parse error, got {other:?}"),
+            }
+        }
     }
 
     #[test]

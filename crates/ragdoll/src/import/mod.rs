@@ -1,5 +1,20 @@
 //! Importers: files in, [`Character`]s out, in metres with Y up. Each importer knows
 //! nothing of physics; unit and up-axis conversion happens here, at the edge.
+//!
+//! # Hostile files
+//!
+//! Any bytes give a character or an error sentence naming the file and the place (line,
+//! byte, accessor, node), never a panic, a hang or unbounded memory: files are read with
+//! [`crate::files::read_capped`] (regular files of at most 1 GiB), nothing recurses on a
+//! file's nesting, no count in a file reserves memory before the data behind it has been
+//! read, and each importer documents its limits (`bvh::MAX_VALUE`,
+//! `gltf::MAX_ACCESSOR_COMPONENTS`, `obj::MAX_VERTICES`…; and for all of them
+//! [`crate::skeleton::MAX_JOINTS`], [`crate::skeleton::MAX_REACH_M`],
+//! [`crate::skeleton::MAX_CLIP_POSES`]).
+//!
+//! The entry points that take bytes, for tests and fuzzing: [`bvh::parse`] and
+//! [`obj::parse`] (text: `String::from_utf8_lossy` of the bytes, as their `load` does) and
+//! [`gltf::from_bytes`] (a path in an empty folder keeps external URIs from finding files).
 
 pub mod bvh;
 pub mod gltf;

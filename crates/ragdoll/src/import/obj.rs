@@ -18,6 +18,9 @@
 //!   area-weighted normal of the faces around it.
 //! - **Units and up axis**: OBJ says neither; metres and Y up unless the caller's
 //!   [`ImportOptions`] say otherwise.
+//! - **Limits**: coordinates within ±[`MAX_COORDINATE`], at most [`MAX_VERTICES`] vertices
+//!   (and as many normals) and [`MAX_TRIANGLES`] triangles, each refused with its line; the
+//!   file itself is read with [`crate::files::read_capped`].
 
 use std::path::Path;
 
@@ -28,9 +31,22 @@ use crate::error::{Error, Result};
 use crate::rig::{RigOptions, rig};
 use crate::skeleton::{Character, SkinnedMesh, Source};
 
+/// Largest absolute coordinate a `v` or `vn` line may have, in file units: one million
+/// (1,000 km in metres, 1 km in millimetres). A larger value is a broken file, and would
+/// only blow up later, in the rig or the physics.
+pub const MAX_COORDINATE: f32 = 1e6;
+
+/// Most vertices (`v` lines), and most normals (`vn` lines), an OBJ may have: 8 million.
+/// With its normals, triangles and the automatic skin, such a mesh takes about 1 GB; a
+/// 27,000-face scan is small next to it. Decimate larger scans first.
+pub const MAX_VERTICES: usize = 8_000_000;
+
+/// Most triangles an OBJ may have once its polygons are fanned: 16 million.
+pub const MAX_TRIANGLES: usize = 16_000_000;
+
 /// Loads an OBJ file and rigs it with `rig_opts` (see [`crate::rig`]).
 pub fn load(path: &Path, opts: &ImportOptions, rig_opts: &RigOptions) -> Result<Character> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::files::read_capped(path, crate::files::MAX_INPUT_BYTES)?;
     let text = String::from_utf8_lossy(&bytes);
     let mesh = parse(&text, path, opts)?;
     let name = path
@@ -74,6 +90,9 @@ fn parse_err(path: &Path, line: usize, message: impl Into<String>) -> Error {
 }
 
 /// Parses OBJ text into one triangle mesh (no skin yet), converted to metres and Y up.
+///
+/// This is the entry point for fuzzing (through `String::from_utf8_lossy` of the bytes):
+/// any text gives a mesh or an [`Error`] naming a line, never a panic.
 pub fn parse(text: &str, path: &Path, opts: &ImportOptions) -> Result<SkinnedMesh> {
     let mut positions: Vec<Vec3> = Vec::new();
     let mut file_normals: Vec<Vec3> = Vec::new();
@@ -110,6 +129,27 @@ pub fn parse(text: &str, path: &Path, opts: &ImportOptions) -> Result<SkinnedMes
                                 format!("`{keyword}`: {w:?} is not a finite number"),
                             )
                         })?;
+                    if c.abs() > MAX_COORDINATE {
+                        return Err(parse_err(
+                            path,
+                            line_no,
+                            format!(
+                                "`{keyword}`: {w} is beyond the ±{MAX_COORDINATE} a coordinate may be"
+                            ),
+                        ));
+                    }
+                }
+                let count = if keyword == "v" {
+                    positions.len()
+                } else {
+                    file_normals.len()
+                };
+                if count >= MAX_VERTICES {
+                    return Err(parse_err(
+                        path,
+                        line_no,
+                        format!("`{keyword}`: more than the {MAX_VERTICES} an OBJ may have"),
+                    ));
                 }
                 if keyword == "v" {
                     positions.push(Vec3::from_array(xyz));
@@ -136,6 +176,15 @@ pub fn parse(text: &str, path: &Path, opts: &ImportOptions) -> Result<SkinnedMes
                         path,
                         line_no,
                         format!("a face needs at least 3 corners, found {}", corners.len()),
+                    ));
+                }
+                if indices.len() / 3 + (corners.len() - 2) > MAX_TRIANGLES {
+                    return Err(parse_err(
+                        path,
+                        line_no,
+                        format!(
+                            "the faces so far make more than the {MAX_TRIANGLES} triangles an OBJ may have"
+                        ),
                     ));
                 }
                 for k in 1..corners.len() - 1 {

@@ -12,6 +12,20 @@ use glam::{Vec3, Vec4};
 use crate::error::{Error, Result};
 use crate::math::Transform;
 
+/// Farthest a joint may be from the origin, in the rest pose or any animation frame,
+/// metres: 10 km. Characters are a few metres tall; past this, f32 positions lose
+/// millimetres and an absurd value in a file (a BVH offset of 2^31) would only blow up
+/// later, in the physics.
+pub const MAX_REACH_M: f32 = 10_000.0;
+
+/// Most joint poses (frames × joints, over all clips) one imported character holds: 20
+/// million, about 800 MB. A 20-minute take at 120 fps of 60 joints is 8.6 million.
+pub const MAX_CLIP_POSES: usize = 20_000_000;
+
+/// Most joints a skeleton may have: 65,536, as many as a skinned mesh's 16-bit joint
+/// indices can name. Real characters have tens to a few hundred (a face rig, a thousand).
+pub const MAX_JOINTS: usize = 1 << 16;
+
 /// One joint of a [`Skeleton`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct Joint {
@@ -38,12 +52,22 @@ pub struct Skeleton {
 }
 
 impl Skeleton {
-    /// Checks the parent ordering and that every rest transform is finite.
+    /// Checks the parent ordering, and that every rest transform is finite and keeps the
+    /// joint (and its tip) within [`MAX_REACH_M`] of the origin.
     pub fn new(joints: Vec<Joint>) -> Result<Self> {
         if joints.is_empty() {
             return Err(Error::Skeleton {
                 joint: String::new(),
                 message: "the skeleton has no joints".into(),
+            });
+        }
+        if joints.len() > MAX_JOINTS {
+            return Err(Error::Skeleton {
+                joint: label(&joints[MAX_JOINTS].name, MAX_JOINTS),
+                message: format!(
+                    "the skeleton has {} joints; at most {MAX_JOINTS} are supported",
+                    joints.len()
+                ),
             });
         }
         for (i, j) in joints.iter().enumerate() {
@@ -62,7 +86,24 @@ impl Skeleton {
                 });
             }
         }
-        Ok(Skeleton { joints })
+        let skeleton = Skeleton { joints };
+        for (i, w) in skeleton.rest_world().iter().enumerate() {
+            let j = &skeleton.joints[i];
+            let tip = j.tip.map(|t| w.transform_point(t));
+            let far = std::iter::once(w.translation)
+                .chain(tip)
+                .map(Vec3::length)
+                .fold(0.0f32, f32::max);
+            if !(far <= MAX_REACH_M && w.is_finite()) {
+                return Err(Error::Skeleton {
+                    joint: label(&j.name, i),
+                    message: format!(
+                        "the rest pose puts it {far} m from the origin, past the {MAX_REACH_M} m a skeleton may reach"
+                    ),
+                });
+            }
+        }
+        Ok(skeleton)
     }
 
     /// All joints, parents before children.
@@ -85,7 +126,8 @@ impl Skeleton {
         self.joints[i].parent
     }
 
-    /// Indices of the direct children of joint `i`, in order.
+    /// Indices of the direct children of joint `i`, in order. Scans the joints after `i`;
+    /// code visiting every joint's children builds the lists once instead.
     pub fn children(&self, i: usize) -> impl Iterator<Item = usize> + '_ {
         self.joints
             .iter()
@@ -128,6 +170,26 @@ impl Skeleton {
         }
     }
 
+    /// The first frame and joint of `clip` that lie past [`MAX_REACH_M`] from the origin (or
+    /// are not finite), with that distance (infinite when not finite): what an importer
+    /// checks before handing a clip on. Frames of the wrong length are skipped.
+    pub fn clip_out_of_reach(&self, clip: &Clip) -> Option<(usize, usize, f32)> {
+        let mut world = vec![Transform::IDENTITY; self.len()];
+        for (f, locals) in clip.frames.iter().enumerate() {
+            if locals.len() != self.len() {
+                continue;
+            }
+            self.world_from_local(locals, &mut world);
+            for (j, w) in world.iter().enumerate() {
+                let d = w.translation.length();
+                if !(d <= MAX_REACH_M && w.is_finite()) {
+                    return Some((f, j, if d.is_finite() { d } else { f32::INFINITY }));
+                }
+            }
+        }
+        None
+    }
+
     /// Inverse kinematics of the hierarchy: local transforms from world ones.
     pub fn local_from_world(&self, worlds: &[Transform], out: &mut [Transform]) {
         assert_eq!(worlds.len(), self.len());
@@ -159,9 +221,15 @@ impl Skeleton {
     /// children's positions, or its tip, or `None` for a leaf without a tip.
     pub fn rest_bone_ends(&self) -> Vec<Option<Vec3>> {
         let world = self.rest_world();
+        let mut children = vec![Vec::new(); self.len()];
+        for (i, j) in self.joints.iter().enumerate() {
+            if let Some(p) = j.parent {
+                children[p].push(i);
+            }
+        }
         (0..self.len())
             .map(|i| {
-                let kids: Vec<usize> = self.children(i).collect();
+                let kids = &children[i];
                 if !kids.is_empty() {
                     let sum: Vec3 = kids.iter().map(|&c| world[c].translation).sum();
                     Some(sum / kids.len() as f32)
@@ -281,4 +349,82 @@ pub enum Source {
     /// [`crate::rig`]: its exporters write a fresh glTF of the mesh and its automatic skin.
     /// Holds the file read.
     Mesh(std::path::PathBuf),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn joint(parent: Option<usize>, up: f32) -> Joint {
+        Joint {
+            name: String::new(),
+            parent,
+            rest: Transform::from_translation(Vec3::Y * up),
+            tip: None,
+        }
+    }
+
+    #[test]
+    fn skeletons_past_their_limits_are_refused_naming_the_joint() {
+        let many: Vec<Joint> = (0..=MAX_JOINTS).map(|_| joint(None, 0.0)).collect();
+        let e = Skeleton::new(many).unwrap_err().to_string();
+        assert!(e.contains(&MAX_JOINTS.to_string()), "{e}");
+        // Each step is fine; the sum of them is not.
+        let far: Vec<Joint> = (0..12usize)
+            .map(|i| joint(i.checked_sub(1), 1000.0))
+            .collect();
+        let e = Skeleton::new(far).unwrap_err();
+        assert!(
+            matches!(&e, Error::Skeleton { joint, .. } if joint == "joint10"),
+            "{e}"
+        );
+        // Scales that overflow once composed.
+        let mut big: Vec<Joint> = (0..40usize).map(|i| joint(i.checked_sub(1), 0.0)).collect();
+        for j in &mut big {
+            j.rest.scale = Vec3::splat(1e10);
+        }
+        big[39].rest.translation = Vec3::Y;
+        assert!(Skeleton::new(big).is_err());
+        let mut tip = vec![joint(None, 0.0)];
+        tip[0].tip = Some(Vec3::X * (2.0 * MAX_REACH_M));
+        assert!(Skeleton::new(tip).is_err());
+    }
+
+    #[test]
+    fn clips_out_of_reach_are_found_with_their_frame_and_joint() {
+        let s = Skeleton::new(vec![joint(None, 1.0), joint(Some(0), 1.0)]).unwrap();
+        let rest: Vec<Transform> = s.joints().iter().map(|j| j.rest).collect();
+        let mut gone = rest.clone();
+        gone[1].translation = Vec3::X * 2.0 * MAX_REACH_M;
+        let clip = Clip {
+            name: String::new(),
+            frame_time: 0.1,
+            frames: vec![rest.clone(), rest.clone(), gone],
+        };
+        let (f, j, far) = s.clip_out_of_reach(&clip).unwrap();
+        assert_eq!((f, j), (2, 1));
+        assert!(far > MAX_REACH_M);
+        let mut nan = rest.clone();
+        nan[0].rotation = glam::Quat::from_xyzw(f32::NAN, 0.0, 0.0, 1.0);
+        let clip = Clip {
+            frames: vec![nan],
+            ..clip
+        };
+        assert_eq!(s.clip_out_of_reach(&clip).map(|x| x.0), Some(0));
+    }
+
+    #[test]
+    fn bone_ends_are_the_mean_of_the_children_or_the_tip() {
+        let mut joints = vec![joint(None, 1.0), joint(Some(0), 1.0), joint(Some(0), 3.0)];
+        joints.push(Joint {
+            tip: Some(Vec3::X),
+            ..joint(Some(1), 1.0)
+        });
+        let s = Skeleton::new(joints).unwrap();
+        let ends = s.rest_bone_ends();
+        assert_eq!(ends[0], Some(Vec3::Y * 3.0));
+        assert_eq!(ends[1], Some(Vec3::Y * 3.0));
+        assert_eq!(ends[2], None);
+        assert_eq!(ends[3], Some(Vec3::new(1.0, 3.0, 0.0)));
+    }
 }

@@ -14,6 +14,8 @@
 //!   the world builds it), so the cone centre is `Ry(ty) · Rz(tz) · X` in the joint frame.
 //!   [`cone_centre`] computes it.
 
+use std::collections::{HashMap, HashSet};
+
 use glam::{Mat3, Quat, Vec3};
 
 use super::anthropometry::*;
@@ -81,6 +83,11 @@ const MAX_LINKED_MASS_RATIO: f32 = 5.0;
 /// Two bodies closer than this (plus their radii) in the rest pose never collide: they
 /// touch or nearly touch at rest and would push apart on the first step.
 const COLLISION_MARGIN_M: f32 = 0.01;
+/// Most pairs of bodies a built spec may list as not colliding: about a million. A character
+/// gets a few per body; a chain of thousands of bodies thicker than their spacing (every
+/// body overlapping hundreds of others) would otherwise list tens of millions, each pair
+/// two names in memory, and exhaust it.
+pub(crate) const MAX_DISABLED_PAIRS: usize = 1 << 20;
 /// A swing cone always contains the rest direction with this margin, so an odd rest pose
 /// never starts outside its limits.
 const REST_MARGIN_DEG: f32 = 5.0;
@@ -108,7 +115,7 @@ pub fn build_spec(character: &Character, opts: &BuildOptions) -> Result<RagdollS
     let roles = recognise_roles(character);
     let rig = Rig::new(character);
     let b = Builder::new(&rig, &roles, opts);
-    let mut spec = b.spec(character);
+    let mut spec = b.spec(character)?;
     // The ragdoll starts in the first animation frame; limits give way where that pose
     // lies outside them (see `fit_limits_to_pose`).
     let start = super::start_pose(character, true);
@@ -127,26 +134,146 @@ fn filter_start_overlaps(
     start: &[crate::math::Transform],
 ) -> Result<()> {
     let poses = super::Resolved::new(spec, character)?.body_poses(start);
-    let n = spec.bodies.len();
-    for a in 0..n {
-        for b in a + 1..n {
-            let (na, nb) = (&spec.bodies[a].name, &spec.bodies[b].name);
-            if !spec.collision.is_disabled(na, nb)
-                && shapes_overlap(
-                    &poses[a],
-                    &spec.bodies[a].shape,
-                    &poses[b],
-                    &spec.bodies[b].shape,
-                    COLLISION_MARGIN_M,
-                )
-            {
-                let pair = [na.clone(), nb.clone()];
-                spec.collision.disabled_pairs.push(pair);
+    let solids: Vec<Solid> = spec
+        .bodies
+        .iter()
+        .zip(&poses)
+        .map(|(b, pose)| solid(&b.shape, pose.translation, pose.rotation))
+        .collect();
+    // What `CollisionSpec::is_disabled` answers, as a set: the pairs are looked up once per
+    // nearby pair of bodies, and a scan of the list each time made this quadratic in pairs.
+    let mut disabled: HashSet<(&str, &str)> = spec
+        .collision
+        .disabled_pairs
+        .iter()
+        .map(|[a, b]| name_pair(a, b))
+        .collect();
+    let mut found = Vec::new();
+    for (a, b) in nearby_pairs(&solids, COLLISION_MARGIN_M)? {
+        let (na, nb) = (spec.bodies[a].name.as_str(), spec.bodies[b].name.as_str());
+        if !disabled.contains(&name_pair(na, nb))
+            && shapes_overlap(
+                &poses[a],
+                &spec.bodies[a].shape,
+                &poses[b],
+                &spec.bodies[b].shape,
+                COLLISION_MARGIN_M,
+            )
+        {
+            disabled.insert(name_pair(na, nb));
+            found.push([na.to_string(), nb.to_string()]);
+        }
+    }
+    if spec.collision.disabled_pairs.len() + found.len() > MAX_DISABLED_PAIRS {
+        return Err(too_many_pairs());
+    }
+    spec.collision.disabled_pairs.extend(found);
+    Ok(())
+}
+
+/// A pair of body names in a fixed order, so `(a, b)` and `(b, a)` are one key.
+fn name_pair<'s>(a: &'s str, b: &'s str) -> (&'s str, &'s str) {
+    if a <= b { (a, b) } else { (b, a) }
+}
+
+/// Every pair `(i, j)`, `i < j`, in increasing order, whose solids might come within
+/// `margin` of each other: the pairs whose bounding boxes (grown by the radii, the margin
+/// and a rounding allowance) overlap. A superset of the pairs the exact test accepts, in
+/// the order a loop over all pairs would visit them, found through a uniform grid so the
+/// cost follows the pairs that are close rather than all pairs. Solids that are not finite
+/// are left out: the exact test refuses them anyway. More than a few times
+/// [`MAX_DISABLED_PAIRS`] candidates is an error rather than a list that size.
+fn nearby_pairs(solids: &[Solid], margin: f32) -> Result<Vec<(usize, usize)>> {
+    let boxes: Vec<Option<(Vec3, Vec3)>> = solids
+        .iter()
+        .map(|s| {
+            let grow = s.r + 0.5 * margin;
+            let (lo, hi) = (s.a.min(s.b), s.a.max(s.b));
+            let slack = 1e-4 * (1.0 + lo.abs().max(hi.abs()).max_element() + grow.abs());
+            let g = Vec3::splat(grow + slack);
+            let (lo, hi) = (lo - g, hi + g);
+            (lo.is_finite() && hi.is_finite()).then_some((lo, hi))
+        })
+        .collect();
+    let overlap = |i: usize, j: usize| match (boxes[i], boxes[j]) {
+        (Some((la, ha)), Some((lb, hb))) => la.cmple(hb).all() && lb.cmple(ha).all(),
+        _ => false,
+    };
+    // Cells as large as a typical box; a box spanning many cells is checked against all.
+    let mut sizes: Vec<f32> = boxes
+        .iter()
+        .flatten()
+        .map(|(lo, hi)| (*hi - *lo).max_element())
+        .collect();
+    sizes.sort_by(f32::total_cmp);
+    let cell = sizes
+        .get(sizes.len() / 2)
+        .copied()
+        .filter(|c| *c > 0.0)
+        .unwrap_or(1.0);
+    // Cell coordinates, monotone in the position (saturating far away), so boxes that
+    // overlap always share a cell.
+    let key = |v: Vec3| (v.as_dvec3() / f64::from(cell)).floor();
+    let mut grid: HashMap<glam::I64Vec3, Vec<usize>> = HashMap::new();
+    let mut big = Vec::new();
+    for (i, b) in boxes.iter().enumerate() {
+        let Some((lo, hi)) = b else { continue };
+        let (kl, kh) = (key(*lo), key(*hi));
+        let span = kh - kl + glam::DVec3::ONE;
+        if span.x * span.y * span.z > MAX_CELLS_PER_BODY {
+            big.push(i);
+            continue;
+        }
+        let (kl, kh) = (kl.as_i64vec3(), kh.as_i64vec3());
+        for x in kl.x..=kh.x {
+            for y in kl.y..=kh.y {
+                for z in kl.z..=kh.z {
+                    grid.entry(glam::I64Vec3::new(x, y, z)).or_default().push(i);
+                }
             }
         }
     }
-    Ok(())
+    let mut pairs = Vec::new();
+    let mut add = |i: usize, j: usize| {
+        if overlap(i, j) {
+            pairs.push((i.min(j), i.max(j)));
+            if pairs.len() > MAX_CANDIDATE_PAIRS {
+                return Err(too_many_pairs());
+            }
+        }
+        Ok(())
+    };
+    for members in grid.values() {
+        for (k, &i) in members.iter().enumerate() {
+            for &j in &members[k + 1..] {
+                add(i, j)?;
+            }
+        }
+    }
+    for &i in &big {
+        for j in (0..solids.len()).filter(|&j| j != i) {
+            add(i, j)?;
+        }
+    }
+    pairs.sort_unstable();
+    pairs.dedup();
+    Ok(pairs)
 }
+
+/// Candidate pairs [`nearby_pairs`] may hold (a pair can be found in several cells).
+const MAX_CANDIDATE_PAIRS: usize = 8 * MAX_DISABLED_PAIRS;
+
+fn too_many_pairs() -> Error {
+    Error::Spec {
+        place: "collision.disabled_pairs".into(),
+        message: format!(
+            "more than {MAX_DISABLED_PAIRS} pairs of bodies touch in the rest pose (bodies far thicker than the bones between them); this is not a ragdoll that can be built"
+        ),
+    }
+}
+
+/// Grid cells one solid may be entered in before it is compared with every solid instead.
+const MAX_CELLS_PER_BODY: f64 = 64.0;
 
 /// How far inside a widened limit the starting pose ends up, degrees: enough that the
 /// first steps' small motions do not already press on the limit.
@@ -204,9 +331,13 @@ impl<'a> Builder<'a> {
             joints.remove(k);
             joints.insert(0, p);
         }
+        let mut body_of = vec![None; n];
+        for (b, &j) in joints.iter().enumerate() {
+            body_of[j] = Some(b);
+        }
         let mut owner = vec![0usize; n];
         for j in 0..n {
-            owner[j] = match joints.iter().position(|&b| b == j) {
+            owner[j] = match body_of[j] {
                 Some(b) => b,
                 None => rig.parent(j).map_or(0, |p| owner[p]),
             };
@@ -244,7 +375,7 @@ impl<'a> Builder<'a> {
         }
     }
 
-    fn spec(&self, character: &Character) -> RagdollSpec {
+    fn spec(&self, character: &Character) -> Result<RagdollSpec> {
         let plans: Vec<Plan> = (0..self.joints.len()).map(|b| self.plan(b)).collect();
         let parents: Vec<usize> = (0..plans.len())
             .map(|b| match b {
@@ -255,11 +386,13 @@ impl<'a> Builder<'a> {
         let masses = self.masses(&plans, &parents);
 
         let mut names: Vec<String> = Vec::new();
+        let mut taken = HashSet::new();
         for p in &plans {
             let mut name = p.name.clone();
-            if names.contains(&name) {
+            if taken.contains(&name) {
                 name = format!("{}#{}", p.name, p.joint);
             }
+            taken.insert(name.clone());
             names.push(name);
         }
         let bodies: Vec<BodySpec> = plans
@@ -296,14 +429,14 @@ impl<'a> Builder<'a> {
                 }
             })
             .collect();
-        let collision = collision_filter(&plans, &parents, &names);
-        RagdollSpec {
+        let collision = collision_filter(&plans, &parents, &names)?;
+        Ok(RagdollSpec {
             format_version: SPEC_FORMAT_VERSION,
             name: character.name.clone(),
             bodies,
             joints,
             collision,
-        }
+        })
     }
 
     fn role_joint(&self, role: Role) -> Option<usize> {
@@ -1000,29 +1133,32 @@ pub(crate) fn solid(shape: &Shape, centre: Vec3, rotation: Quat) -> Solid {
 /// Jointed pairs, then every other pair whose solids come within [`COLLISION_MARGIN_M`] of
 /// each other in the rest pose (what Jolt's `DisableParentChildCollisions` does with its
 /// joint matrices).
-fn collision_filter(plans: &[Plan], parents: &[usize], names: &[String]) -> CollisionSpec {
+fn collision_filter(plans: &[Plan], parents: &[usize], names: &[String]) -> Result<CollisionSpec> {
     let mut pairs: Vec<(usize, usize)> = (1..plans.len()).map(|c| (parents[c], c)).collect();
+    let jointed: HashSet<(usize, usize)> =
+        pairs.iter().map(|&(a, b)| (a.min(b), a.max(b))).collect();
     let solids: Vec<Solid> = plans
         .iter()
         .map(|p| solid(&p.shape, p.centre, p.rotation))
         .collect();
-    for i in 0..plans.len() {
-        for j in i + 1..plans.len() {
-            if pairs.contains(&(i, j)) || pairs.contains(&(j, i)) {
-                continue;
-            }
-            let (s, t) = (solids[i], solids[j]);
-            if segment_distance(s.a, s.b, t.a, t.b) < s.r + t.r + COLLISION_MARGIN_M {
-                pairs.push((i, j));
-            }
+    for (i, j) in nearby_pairs(&solids, COLLISION_MARGIN_M)? {
+        if jointed.contains(&(i, j)) {
+            continue;
+        }
+        let (s, t) = (solids[i], solids[j]);
+        if segment_distance(s.a, s.b, t.a, t.b) < s.r + t.r + COLLISION_MARGIN_M {
+            pairs.push((i, j));
         }
     }
-    CollisionSpec {
+    if pairs.len() > MAX_DISABLED_PAIRS {
+        return Err(too_many_pairs());
+    }
+    Ok(CollisionSpec {
         disabled_pairs: pairs
             .into_iter()
             .map(|(i, j)| [names[i].clone(), names[j].clone()])
             .collect(),
-    }
+    })
 }
 
 /// Whether two shapes at these poses come within `margin` metres of each other (boxes are
@@ -1473,6 +1609,40 @@ mod tests {
         for c in 1..4 {
             let (a, b) = (m[c], m[parents[c]]);
             assert!(a.max(b) / a.min(b) <= 5.0 * 1.0001, "{m:?}");
+        }
+    }
+
+    #[test]
+    fn spec_build_nearby_pairs_holds_every_touching_pair_in_loop_order() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f32 / (1u64 << 53) as f32
+        };
+        for round in 0..20 {
+            // Clusters, long thin solids, huge ones spanning many cells, points.
+            let spread = [0.5, 3.0, 30.0][round % 3];
+            let solids: Vec<Solid> = (0..300)
+                .map(|k| {
+                    let a = Vec3::new(next(), next(), next()) * spread;
+                    let long = if k % 17 == 0 { 20.0 } else { 0.3 };
+                    let b = a + (Vec3::new(next(), next(), next()) - 0.5) * long;
+                    let r = if k % 5 == 0 { 0.0 } else { next() * 0.2 };
+                    Solid { a, b, r }
+                })
+                .collect();
+            let got = nearby_pairs(&solids, COLLISION_MARGIN_M).unwrap();
+            assert!(got.windows(2).all(|w| w[0] < w[1]), "sorted and unique");
+            for i in 0..solids.len() {
+                for j in i + 1..solids.len() {
+                    let (s, t) = (solids[i], solids[j]);
+                    if segment_distance(s.a, s.b, t.a, t.b) < s.r + t.r + COLLISION_MARGIN_M {
+                        assert!(got.binary_search(&(i, j)).is_ok(), "round {round}: {i} {j}");
+                    }
+                }
+            }
         }
     }
 

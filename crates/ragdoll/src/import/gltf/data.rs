@@ -5,13 +5,14 @@
 //! checked instead, so a truncated or hostile file gives an [`Error::Format`] that says where,
 //! never a panic. The exporter reuses these readers to renormalise skin weights.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use base64::Engine;
 use glam::Mat4;
 use gltf::accessor::{DataType, Dimensions};
 
 use crate::error::{Error, Result};
+use crate::files::{MAX_INPUT_BYTES, Refusal};
 
 /// Builds an [`Error::Format`] for `path`.
 pub(crate) fn format_err(
@@ -143,6 +144,58 @@ pub(crate) fn split_container<'a>(bytes: &'a [u8], path: &Path) -> Result<Contai
     })
 }
 
+/// Most JSON values (numbers, strings, arrays, objects…) a glTF document may hold: 2 million.
+/// The largest character in our data has 26 thousand; parsed, a value takes tens of bytes
+/// and the document is held more than once, so a JSON chunk of a gigabyte of `[0,0,…]`
+/// would otherwise take tens of gigabytes. Embedded `data:` buffers are single strings
+/// and count as one.
+pub const MAX_JSON_VALUES: usize = 2_000_000;
+
+/// Most JSON objects (`{…}`) a glTF document may hold: 200,000. A parsed object takes
+/// about 700 bytes however small it is, so objects get a tighter limit than other values;
+/// a scene of 100,000 nodes fits.
+pub const MAX_JSON_OBJECTS: usize = 200_000;
+
+/// Refuses a JSON document past [`MAX_JSON_VALUES`] or [`MAX_JSON_OBJECTS`] before it is
+/// parsed, counting on the bytes: values are at most the commas plus twice the brackets,
+/// plus one.
+pub(crate) fn check_json_size(json: &[u8], path: &Path) -> Result<()> {
+    let (mut values, mut objects) = (1usize, 0usize);
+    let (mut in_string, mut escaped) = (false, false);
+    for &b in json {
+        if in_string {
+            if escaped {
+                escaped = false;
+            } else if b == b'\\' {
+                escaped = true;
+            } else if b == b'"' {
+                in_string = false;
+            }
+            continue;
+        }
+        match b {
+            b'"' => in_string = true,
+            b',' => values += 1,
+            b'[' => values += 2,
+            b'{' => {
+                values += 2;
+                objects += 1;
+            }
+            _ => {}
+        }
+        if values > MAX_JSON_VALUES || objects > MAX_JSON_OBJECTS {
+            return Err(format_err(
+                path,
+                "JSON",
+                format!(
+                    "holds more than the {MAX_JSON_VALUES} values or {MAX_JSON_OBJECTS} objects a glTF document may have"
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Decodes `%XX` escapes, as glTF URIs are URI-encoded (`my%20model.bin`).
 pub(crate) fn percent_decode(s: &str) -> Vec<u8> {
     let b = s.as_bytes();
@@ -173,8 +226,12 @@ fn hex(c: u8) -> Option<u8> {
 }
 
 /// Decodes a `data:` URI into its bytes and media type (empty when the URI gives none);
-/// `None` when `uri` is not a data URI.
-pub(crate) fn decode_data_uri(uri: &str) -> Option<std::result::Result<(Vec<u8>, String), String>> {
+/// `None` when `uri` is not a data URI. A URI whose bytes could exceed `limit` is refused
+/// before it is decoded.
+pub(crate) fn decode_data_uri(
+    uri: &str,
+    limit: u64,
+) -> Option<std::result::Result<(Vec<u8>, String), String>> {
     let rest = uri.strip_prefix("data:")?;
     let Some((header, payload)) = rest.split_once(',') else {
         return Some(Err("a data: URI without a comma".into()));
@@ -184,6 +241,17 @@ pub(crate) fn decode_data_uri(uri: &str) -> Option<std::result::Result<(Vec<u8>,
         None => (header, false),
     };
     let mime = mime.split(';').next().unwrap_or("").to_string();
+    // Base64 holds 3 bytes in 4 characters; percent-encoding at most one per character.
+    let most = if is_base64 {
+        payload.len() / 4 * 3 + 3
+    } else {
+        payload.len()
+    };
+    if most as u64 > limit {
+        return Some(Err(format!(
+            "a data: URI of up to {most} bytes, more than the {limit} bytes still allowed ({BUDGET_NOTE})"
+        )));
+    }
     if is_base64 {
         let cleaned: String = payload
             .chars()
@@ -200,25 +268,45 @@ pub(crate) fn decode_data_uri(uri: &str) -> Option<std::result::Result<(Vec<u8>,
     }
 }
 
-/// Where an external URI points, relative to the glTF file's folder. Only relative paths
-/// are accepted: a file that reaches out to the network or elsewhere on disk is refused.
-pub(crate) fn external_path(dir: &Path, uri: &str) -> std::result::Result<PathBuf, String> {
+/// Most bytes a glTF's buffers may hold together, and, when it is exported, its images
+/// together: [`MAX_INPUT_BYTES`] (1 GiB), so that many buffers naming one large file (or
+/// the GLB binary chunk) cannot multiply it in memory.
+pub const MAX_BUFFER_BYTES: u64 = MAX_INPUT_BYTES;
+
+const BUDGET_NOTE: &str = "a glTF's buffers, and its images, may hold 1024 MiB together";
+
+/// Reads the file an external URI names, from `dir` (the glTF's folder) and nowhere else
+/// (see [`crate::files::read_inside`]), at most `limit` bytes; the error is a sentence
+/// naming the URI.
+pub(crate) fn read_external(
+    dir: &Path,
+    uri: &str,
+    limit: u64,
+) -> std::result::Result<Vec<u8>, String> {
     let has_scheme = uri.split_once(':').is_some_and(|(s, _)| {
         !s.is_empty()
             && s.chars()
                 .all(|c| c.is_ascii_alphanumeric() || "+-.".contains(c))
     });
     if has_scheme {
-        return Err(format!("the URI \"{uri}\" is not a relative file path"));
+        return Err(format!(
+            "the URI \"{uri}\" is not a relative file path, so it is not read"
+        ));
     }
     let decoded = String::from_utf8(percent_decode(uri))
         .map_err(|_| format!("the URI \"{uri}\" is not valid UTF-8 once decoded"))?;
-    Ok(dir.join(decoded))
+    crate::files::read_inside(dir, &decoded, limit).map_err(|r| match r {
+        Refusal::TooLarge(_) => format!(
+            "the URI \"{uri}\" names a file larger than the {limit} bytes still allowed ({BUDGET_NOTE})"
+        ),
+        other => format!("the URI \"{uri}\" {other}"),
+    })
 }
 
-/// Resolves every buffer: the GLB binary chunk, `data:` URIs, or files next to the glTF.
-/// Each result is cut to the buffer's declared `byteLength`, so later bounds checks hold
-/// against what the file promised.
+/// Resolves every buffer: the GLB binary chunk, `data:` URIs, or files in the glTF's
+/// folder. Each result is cut to the buffer's declared `byteLength`, so later bounds checks
+/// hold against what the file promised, and together they hold at most
+/// [`MAX_BUFFER_BYTES`].
 pub(crate) fn resolve_buffers(
     doc: &gltf::Document,
     bin: Option<&[u8]>,
@@ -226,11 +314,22 @@ pub(crate) fn resolve_buffers(
     path: &Path,
 ) -> Result<Vec<Vec<u8>>> {
     let mut out = Vec::new();
+    let mut left = MAX_BUFFER_BYTES;
     for buffer in doc.buffers() {
         let place = format!("buffer {}", buffer.index());
+        let declared = buffer.length();
+        if declared as u64 > left {
+            return Err(format_err(
+                path,
+                place,
+                format!(
+                    "declares {declared} bytes, more than the {left} bytes still allowed ({BUDGET_NOTE})"
+                ),
+            ));
+        }
         let mut data = match buffer.source() {
             gltf::buffer::Source::Bin => match bin {
-                Some(b) => b.to_vec(),
+                Some(b) => b.get(..declared).unwrap_or(b).to_vec(),
                 None => {
                     return Err(format_err(
                         path,
@@ -239,16 +338,12 @@ pub(crate) fn resolve_buffers(
                     ));
                 }
             },
-            gltf::buffer::Source::Uri(uri) => match decode_data_uri(uri) {
+            gltf::buffer::Source::Uri(uri) => match decode_data_uri(uri, left) {
                 Some(Ok((bytes, _))) => bytes,
                 Some(Err(message)) => return Err(format_err(path, place, message)),
-                None => {
-                    let file = external_path(dir, uri).map_err(|m| format_err(path, &place, m))?;
-                    std::fs::read(&file).map_err(|e| Error::io(file, e))?
-                }
+                None => read_external(dir, uri, left).map_err(|m| format_err(path, &place, m))?,
             },
         };
-        let declared = buffer.length();
         if data.len() < declared {
             return Err(format_err(
                 path,
@@ -260,14 +355,51 @@ pub(crate) fn resolve_buffers(
             ));
         }
         data.truncate(declared);
+        data.shrink_to_fit();
+        left -= declared as u64;
         out.push(data);
     }
     Ok(out)
 }
 
-/// Largest number of components an accessor without a buffer view may ask for: such an
-/// accessor is all zeros and costs no file bytes, so its count alone must not be trusted.
-const MAX_ZERO_COMPONENTS: usize = 1 << 26;
+/// Most accessor components (a `VEC3` has three) read from one glTF file in all: 64 Mi,
+/// about 512 MB while being decoded. A million-vertex skinned mesh with normals and
+/// triangles needs about 20 Mi; the limit stops a small file from naming one large accessor
+/// many times (a mesh instanced by thousands of nodes) or asking for a huge accessor that
+/// has no data at all (one without a buffer view is all zeros).
+pub const MAX_ACCESSOR_COMPONENTS: usize = 64 << 20;
+
+/// What is left of [`MAX_ACCESSOR_COMPONENTS`] for one import; every read is charged
+/// before it allocates anything.
+pub(crate) struct ReadBudget {
+    left: std::cell::Cell<usize>,
+}
+
+impl ReadBudget {
+    pub fn new() -> Self {
+        ReadBudget {
+            left: std::cell::Cell::new(MAX_ACCESSOR_COMPONENTS),
+        }
+    }
+
+    /// Takes `a`'s components from the budget, or says which accessor went past it.
+    pub fn charge(&self, reader: &AccessorReader, a: &gltf::Accessor) -> Result<()> {
+        let (cols, rows, _) = layout(a.dimensions(), 1);
+        let want = a.count().saturating_mul(cols * rows);
+        match self.left.get().checked_sub(want) {
+            Some(rest) => {
+                self.left.set(rest);
+                Ok(())
+            }
+            None => Err(reader.err(
+                a,
+                format!(
+                    "{want} more components would pass the {MAX_ACCESSOR_COMPONENTS} that one import reads in all (every use of an accessor counts)"
+                ),
+            )),
+        }
+    }
+}
 
 /// Reads accessors with bounds checks against the resolved buffers.
 pub(crate) struct AccessorReader<'a> {
@@ -362,7 +494,15 @@ impl AccessorReader<'_> {
         let count = a.count();
         let total = count
             .checked_mul(comps)
-            .ok_or_else(|| self.err(a, format!("count {count} is too large")))?;
+            .filter(|&t| t <= MAX_ACCESSOR_COMPONENTS)
+            .ok_or_else(|| {
+                self.err(
+                    a,
+                    format!(
+                        "count {count} is too large: more than the {MAX_ACCESSOR_COMPONENTS} components an import reads"
+                    ),
+                )
+            })?;
         let read_into = |out: &mut [f64], data: &[u8], base: usize| {
             for c in 0..cols {
                 for r in 0..rows {
@@ -409,12 +549,6 @@ impl AccessorReader<'_> {
                 );
             }
         } else {
-            if total > MAX_ZERO_COMPONENTS {
-                return Err(self.err(
-                    a,
-                    format!("count {count} is too large for an accessor without data"),
-                ));
-            }
             out = vec![0.0; total];
         }
         if let Some(sparse) = a.sparse() {
@@ -591,18 +725,68 @@ mod tests {
 
     #[test]
     fn data_uris_and_percent_escapes_decode() {
-        let (bytes, mime) = decode_data_uri("data:application/octet-stream;base64,AAEC")
+        let (bytes, mime) = decode_data_uri("data:application/octet-stream;base64,AAEC", 16)
             .unwrap()
             .unwrap();
         assert_eq!(bytes, vec![0, 1, 2]);
         assert_eq!(mime, "application/octet-stream");
-        assert!(decode_data_uri("data:;base64,@@@").unwrap().is_err());
-        assert!(decode_data_uri("model.bin").is_none());
+        assert!(decode_data_uri("data:;base64,@@@", 16).unwrap().is_err());
+        assert!(decode_data_uri("model.bin", 16).is_none());
         assert_eq!(percent_decode("a%20b%2"), b"a b%2");
-        assert!(external_path(Path::new("/d"), "https://example.com/x.bin").is_err());
-        assert_eq!(
-            external_path(Path::new("/d"), "my%20x.bin").unwrap(),
-            Path::new("/d/my x.bin")
-        );
+    }
+
+    #[test]
+    fn data_uris_past_the_budget_are_refused_before_decoding() {
+        let uri = format!("data:;base64,{}", "AAAA".repeat(100));
+        assert!(decode_data_uri(&uri, 303).unwrap().is_ok());
+        let e = decode_data_uri(&uri, 200).unwrap().unwrap_err();
+        assert!(e.contains("more than the 200 bytes still allowed"), "{e}");
+        let e = decode_data_uri("data:,abcdef", 5).unwrap().unwrap_err();
+        assert!(e.contains("6 bytes"), "{e}");
+    }
+
+    #[test]
+    fn external_uris_stay_in_the_folder_and_name_the_uri() {
+        let root = std::env::temp_dir().join(format!("ragdoll-uri-{}", std::process::id()));
+        let dir = root.join("m");
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("my x.bin"), [1u8, 2]).unwrap();
+        std::fs::write(root.join("secret.bin"), [9u8]).unwrap();
+        assert_eq!(read_external(&dir, "my%20x.bin", 16).unwrap(), [1, 2]);
+        for (uri, says) in [
+            ("https://example.com/x.bin", "not a relative file path"),
+            ("../secret.bin", "climbs out of its folder"),
+            ("%2E%2E/secret.bin", "climbs out of its folder"),
+            ("/etc/passwd", "absolute path"),
+            ("%2Fetc%2Fpasswd", "absolute path"),
+            ("missing.bin", "cannot be read"),
+        ] {
+            let e = read_external(&dir, uri, 16).unwrap_err();
+            assert!(
+                e.contains(&format!("\"{uri}\"")) && e.contains(says),
+                "{uri}: {e}"
+            );
+        }
+        let e = read_external(&dir, "my%20x.bin", 1).unwrap_err();
+        assert!(e.contains("larger than the 1 bytes still allowed"), "{e}");
+        std::fs::remove_dir_all(&root).unwrap();
+    }
+
+    #[test]
+    fn json_with_too_many_values_is_refused_before_parsing() {
+        let p = Path::new("big.gltf");
+        assert!(check_json_size(br#"{"a":[1,2,3],"s":"[,,,,]"}"#, p).is_ok());
+        let many = format!("[{}0]", "0,".repeat(MAX_JSON_VALUES));
+        let e = check_json_size(many.as_bytes(), p).unwrap_err();
+        assert!(e.to_string().contains("values"), "{e}");
+        // Small objects cost far more parsed than numbers: 660,000 of them took 900 MB.
+        let objects = format!("[{}{{}}]", "{},".repeat(MAX_JSON_OBJECTS));
+        assert!(objects.len() < MAX_JSON_VALUES);
+        assert!(check_json_size(objects.as_bytes(), p).is_err());
+        let fewer = format!("[{}{{}}]", "{},".repeat(MAX_JSON_OBJECTS - 1));
+        assert!(check_json_size(fewer.as_bytes(), p).is_ok());
+        // Commas inside a string, escaped quotes included, are not values.
+        let text = format!("{{\"s\":\"\\\"{}\"}}", ",".repeat(MAX_JSON_VALUES + 5));
+        assert!(check_json_size(text.as_bytes(), p).is_ok());
     }
 }
