@@ -83,13 +83,7 @@ pub fn inspect(a: &InspectArgs) -> Result<()> {
                 depth[i] = depth[p] + 1;
             }
             let role = roles.per_joint[i].map_or("-".to_string(), |r| r.as_str().to_string());
-            writeln!(
-                out,
-                "{}{}  [{}]",
-                "  ".repeat(depth[i]),
-                s.joint_label(i),
-                role
-            )?;
+            writeln!(out, "{}{}  [{}]", indent(depth[i]), s.joint_label(i), role)?;
         }
         writeln!(out, "\nbodies:")?;
         for b in &spec.bodies {
@@ -132,4 +126,17 @@ pub fn inspect(a: &InspectArgs) -> Result<()> {
     use std::io::Write;
     std::io::stdout().write_all(out.as_bytes())?;
     Ok(())
+}
+
+/// Deepest joint level drawn by indentation; deeper ones (a 60,000-joint chain would
+/// otherwise print gigabytes of spaces) say their depth instead.
+const MAX_INDENT: usize = 32;
+
+/// The indentation of a joint `depth` levels below its root.
+fn indent(depth: usize) -> String {
+    if depth <= MAX_INDENT {
+        "  ".repeat(depth)
+    } else {
+        format!("{}(depth {depth}) ", "  ".repeat(MAX_INDENT))
+    }
 }

@@ -425,9 +425,16 @@ fn from_source(character: &Character, src: &GltfSource, track: &Track) -> Result
                 "refers to a missing buffer",
             )
         })?;
-        let offset = v.get("byteOffset").and_then(Value::as_u64).unwrap_or(0) as usize;
+        let offset = v.get("byteOffset").and_then(Value::as_u64).unwrap_or(0);
+        let moved = (base as u64).checked_add(offset).ok_or_else(|| {
+            format_err(
+                path,
+                format!("bufferView {i}"),
+                "byteOffset is past any buffer",
+            )
+        })?;
         v["buffer"] = json!(0);
-        v["byteOffset"] = json!(base + offset);
+        v["byteOffset"] = json!(moved);
     }
     bin.accessors = take_array(obj, "accessors");
     embed_images(obj, &mut bin, src)?;

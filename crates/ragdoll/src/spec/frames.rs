@@ -258,9 +258,25 @@ impl Resolved {
     /// skeleton does not have.
     pub fn new(spec: &RagdollSpec, character: &Character) -> Result<Self> {
         let skeleton = &character.skeleton;
+        let mut joint_named: std::collections::HashMap<&str, usize> =
+            std::collections::HashMap::with_capacity(skeleton.len());
+        for (i, j) in skeleton.joints().iter().enumerate().rev() {
+            joint_named.insert(j.name.as_str(), i);
+        }
+        let mut body_named: std::collections::HashMap<&str, usize> =
+            std::collections::HashMap::with_capacity(spec.bodies.len());
+        for (i, b) in spec.bodies.iter().enumerate().rev() {
+            body_named.insert(b.name.as_str(), i);
+        }
+        let find = |label: &str| {
+            joint_named.get(label).copied().or_else(|| {
+                let i: usize = label.strip_prefix("joint")?.parse().ok()?;
+                (i < skeleton.len() && skeleton.joints()[i].name.is_empty()).then_some(i)
+            })
+        };
         let mut bone_of_body = Vec::with_capacity(spec.bodies.len());
         for b in &spec.bodies {
-            let j = find_label(character, &b.bone).ok_or_else(|| Error::Spec {
+            let j = find(&b.bone).ok_or_else(|| Error::Spec {
                 place: format!("body \"{}\".bone", b.name),
                 message: format!("the skeleton has no joint named \"{}\"", b.bone),
             })?;
@@ -282,14 +298,20 @@ impl Resolved {
             .collect();
         let mut joints = Vec::with_capacity(spec.joints.len());
         for j in &spec.joints {
-            let parent = spec.body_index(&j.parent).ok_or_else(|| Error::Spec {
-                place: format!("joint \"{}\".parent", j.name),
-                message: "no body has this name".into(),
-            })?;
-            let child = spec.body_index(&j.child).ok_or_else(|| Error::Spec {
-                place: format!("joint \"{}\".child", j.name),
-                message: "no body has this name".into(),
-            })?;
+            let parent = body_named
+                .get(j.parent.as_str())
+                .copied()
+                .ok_or_else(|| Error::Spec {
+                    place: format!("joint \"{}\".parent", j.name),
+                    message: "no body has this name".into(),
+                })?;
+            let child = body_named
+                .get(j.child.as_str())
+                .copied()
+                .ok_or_else(|| Error::Spec {
+                    place: format!("joint \"{}\".child", j.name),
+                    message: "no body has this name".into(),
+                })?;
             // Frames are taken in the rest pose, so every angle is zero at rest (but for the
             // cone's tilt).
             let frame_world = unscaled(&rest[bone_of_body[child]]).mul(&Transform::new(
