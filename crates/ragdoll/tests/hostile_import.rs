@@ -320,18 +320,32 @@ fn assert_one_body_per_joint(c: &Character, spec: &RagdollSpec) {
 }
 
 #[test]
-fn ten_thousand_joints_deep_or_wide_build_a_ragdoll() {
-    // Timed by hand (see the report); here, only that the result is right.
+fn ten_thousand_joints_deep_or_wide_are_read_and_refused_past_the_body_limit() {
+    // Timed by hand (see the report); here, only that the result is right. Roles are found
+    // on any size; a ragdoll has at most spec::MAX_BODIES bodies, so past that the builder
+    // says so instead of building one.
     let c = snake(10_000);
-    let spec = build_spec(&c, &BuildOptions::default()).unwrap();
-    assert_one_body_per_joint(&c, &spec);
-    // Bones 10 cm apart, 0.5 cm thick or so: only the jointed pairs touch.
-    assert_eq!(spec.collision.disabled_pairs.len(), c.skeleton.len() - 1);
-
+    let roles = recognise_roles(&c);
+    assert!(!roles.humanoid);
+    let err = build_spec(&c, &BuildOptions::default()).unwrap_err();
+    assert!(
+        err.to_string().contains("at most 512 bodies, not 10000"),
+        "{err}"
+    );
     let c = wide_tree(10, 4);
     assert_eq!(c.skeleton.len(), 11_111);
     let roles = recognise_roles(&c);
     assert!(!roles.humanoid);
+    assert!(build_spec(&c, &BuildOptions::default()).is_err());
+
+    // Just inside the limit the whole chain and the whole tree become ragdolls.
+    let c = snake(ragdoll::spec::MAX_BODIES);
+    let spec = build_spec(&c, &BuildOptions::default()).unwrap();
+    assert_one_body_per_joint(&c, &spec);
+    // Bones 10 cm apart, 0.5 cm thick or so: only the jointed pairs touch.
+    assert_eq!(spec.collision.disabled_pairs.len(), c.skeleton.len() - 1);
+    let c = wide_tree(7, 3);
+    assert_eq!(c.skeleton.len(), 400);
     let spec = build_spec(&c, &BuildOptions::default()).unwrap();
     assert_one_body_per_joint(&c, &spec);
 }
