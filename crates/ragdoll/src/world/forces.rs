@@ -30,6 +30,8 @@ pub(crate) struct ActivePin {
     pub pin: Pin,
     pub body: usize,
     pub local: Vec3,
+    /// The pinned body's mass, kg (a soft pin is a spring per unit of it).
+    pub mass: f32,
     /// The backend's pin index once created (pins start with the world).
     pub handle: Option<usize>,
     pub released: bool,
@@ -230,6 +232,7 @@ impl super::World {
             pin,
             body,
             local,
+            mass: self.body_mass(body),
             handle: None,
             released: false,
         });
@@ -297,10 +300,12 @@ impl super::World {
             damping_ratio,
             release_s: None,
         };
+        let mass = inst.masses[body];
         self.pins.push(ActivePin {
             pin,
             body: inst.first_body + body,
             local,
+            mass,
             handle: None,
             released: false,
         });
@@ -422,8 +427,7 @@ impl super::World {
                 }
             }
         }
-        let masses: Vec<f32> = self.pins.iter().map(|p| self.body_mass(p.body)).collect();
-        for (p, mass) in self.pins.iter_mut().zip(masses) {
+        for p in &mut self.pins {
             if p.released {
                 continue;
             }
@@ -452,7 +456,7 @@ impl super::World {
                     let omega = std::f32::consts::TAU * hz;
                     let accel = (target - point) * omega * omega
                         - point_velocity * (2.0 * p.pin.damping_ratio * omega);
-                    let impulse = accel * mass * (t1 - t0) as f32;
+                    let impulse = accel * p.mass * (t1 - t0) as f32;
                     self.backend.apply_impulse_at_point(p.body, impulse, point);
                 }
             }

@@ -11,6 +11,7 @@ use glam::Vec3;
 mod blast;
 mod forces;
 mod motors;
+mod overlap;
 mod playback;
 
 pub use crate::backend::BackendKind;
@@ -20,6 +21,7 @@ pub use playback::Activation;
 
 use crate::backend::particle::{ParticleBackend, ParticleSettings};
 use crate::backend::rigid::{RigidBackend, RigidSettings};
+use crate::backend::tree::JointTree;
 use crate::backend::{AnyBackend, Backend, BodyDesc, BodyState, JointDesc};
 use crate::error::{Error, Result};
 use crate::events::{Projectile, ProjectileReport};
@@ -172,10 +174,8 @@ struct Instance {
     name: String,
     body_names: Vec<String>,
     first_body: usize,
-    /// Joint indices ordered parents first.
-    joint_order: Vec<usize>,
-    /// For each joint, the bodies its child carries (the child and its descendants).
-    subtrees: Vec<Vec<usize>>,
+    /// Joints parents first, and the bodies each joint's child carries.
+    tree: JointTree,
     /// Each body's shape.
     shapes: Vec<Shape>,
     masses: Vec<f32>,
@@ -215,6 +215,11 @@ pub struct World {
     pushes: Vec<forces::ActivePush>,
     fields: Vec<crate::events::Field>,
     pins: Vec<forces::ActivePin>,
+    /// Every ragdoll's bodies at the start, until the first step (see `overlap.rs`).
+    start_index: overlap::StartIndex,
+    /// Whether a body's state went non-finite: the world then stops stepping (see
+    /// [`World::step`]).
+    halted: bool,
 }
 
 impl World {
@@ -256,6 +261,8 @@ impl World {
             pushes: Vec::new(),
             fields: Vec::new(),
             pins: Vec::new(),
+            start_index: overlap::StartIndex::default(),
+            halted: false,
         })
     }
 
@@ -273,7 +280,10 @@ impl World {
     /// Adds a ragdoll built from `spec`, placed by `placement` (a rigid transform applied
     /// to the whole character), lifted so that no body starts below the ground.
     ///
-    /// Must be called before the first step.
+    /// Must be called before the first step. Fails when one of its bodies would start
+    /// inside a body of a ragdoll already added (one body's axis inside the other; see
+    /// `overlap.rs`), or inside more than 32 bodies of its own; pairs of its own bodies
+    /// that start so are kept from colliding.
     pub fn add_ragdoll(
         &mut self,
         character: &Character,
@@ -326,12 +336,52 @@ impl World {
                 kind: j.kind,
             })
             .collect();
-        let disabled: Vec<(usize, usize)> = spec
+        let mut disabled: Vec<(usize, usize)> = spec
             .collision
             .disabled_pairs
             .iter()
             .filter_map(|[a, b]| Some((spec.body_index(a)?, spec.body_index(b)?)))
             .collect();
+        // 2b. Nothing may start inside another ragdoll; its own parts that do stop
+        //     colliding (see `overlap.rs`).
+        let solids: Vec<overlap::Solid> = body_start
+            .iter()
+            .zip(&spec.bodies)
+            .map(|(p, b)| overlap::Solid::new(p, &b.shape))
+            .collect();
+        if let Some(c) = self.start_index.clash(&solids) {
+            let other = &self.instances[c.other];
+            return Err(Error::Setting {
+                setting: "placement".into(),
+                message: format!(
+                    "ragdoll {} \"{}\" would start inside ragdoll {} \"{}\": its body \"{}\" \
+                     and their body \"{}\" are {:.3} m apart at their axes, within {:.3} m; \
+                     place the characters apart",
+                    self.instances.len(),
+                    character.name,
+                    c.other,
+                    other.name,
+                    spec.bodies[c.body].name,
+                    other.body_names[c.other_body],
+                    c.gap_m,
+                    c.radius_m,
+                ),
+            });
+        }
+        match overlap::deep_pairs(&solids) {
+            Ok(pairs) => disabled.extend(pairs),
+            Err((body, count)) => {
+                return Err(Error::Spec {
+                    place: format!("body \"{}\"", spec.bodies[body].name),
+                    message: format!(
+                        "starts inside {count} other bodies of its ragdoll (one's axis inside \
+                         the other), more than the {} a body may: rapier's cost for a pile \
+                         grows with the cube of its size; spread the bodies out",
+                        overlap::MAX_DEEP_OVERLAPS
+                    ),
+                });
+            }
+        }
         // 3. Skeleton joints ride on their own or their nearest ancestor's body, with the
         //    offset they have at the start (so the hand-over pose is kept exactly).
         let root_body = (0..spec.bodies.len())
@@ -372,8 +422,10 @@ impl World {
             })
             .collect();
         let first_body = self.backend.add_ragdoll(&bodies, &joint_descs, &disabled);
+        self.start_index.insert(&solids);
         let joints = resolved.joints;
-        let (joint_order, subtrees) = joint_tree(&joints, spec.bodies.len());
+        let links: Vec<(usize, usize)> = joints.iter().map(|j| (j.parent, j.child)).collect();
+        let tree = JointTree::new(spec.bodies.len(), &links);
         let playback = character
             .clips
             .first()
@@ -402,8 +454,7 @@ impl World {
             name: character.name.clone(),
             body_names: spec.bodies.iter().map(|b| b.name.clone()).collect(),
             first_body,
-            joint_order,
-            subtrees,
+            tree,
             shapes: spec.bodies.iter().map(|b| b.shape).collect(),
             masses: spec.bodies.iter().map(|b| b.mass_kg).collect(),
             joints,
@@ -505,24 +556,46 @@ impl World {
     pub fn run(&mut self, seconds: f32) {
         let end = self.time + seconds.max(0.0) as f64;
         let dt = self.settings.dt as f64;
-        if self.frames_recorded == 0 {
-            self.backend.body_states(&mut self.states);
-            self.prev_states.clone_from(&self.states);
-            self.record_frames_until(0.0);
-        }
+        self.begin();
         while self.time + 0.5 * dt <= end + 1e-9 {
             self.step();
         }
     }
 
-    /// One fixed step, then whatever output frames fall inside it.
-    pub fn step(&mut self) {
+    /// Records the starting frame, once: from then on no ragdoll can be added.
+    fn begin(&mut self) {
         if self.frames_recorded == 0 {
             self.backend.body_states(&mut self.states);
             self.prev_states.clone_from(&self.states);
             self.record_frames_until(0.0);
+            self.start_index = overlap::StartIndex::default();
         }
+    }
+
+    /// Whether every body's pose and velocities are finite now (and the backend has hidden
+    /// no non-finite body).
+    fn states_finite(&self) -> bool {
+        !self.backend.went_non_finite()
+            && self
+                .states
+                .iter()
+                .all(|s| s.pose.is_finite() && s.linvel.is_finite() && s.angvel.is_finite())
+    }
+
+    /// One fixed step, then whatever output frames fall inside it.
+    ///
+    /// When a body's state stops being finite (forces past what f32 can hold), the world
+    /// sets [`Metrics::nan`], keeps the last finite states and from then on only advances
+    /// the clock: the frames that follow hold the last good pose instead of garbage, and a
+    /// caller sees the flag (the CLI exits non-zero on it).
+    pub fn step(&mut self) {
+        self.begin();
         self.prev_states.clone_from(&self.states);
+        if self.halted {
+            self.time += self.settings.dt as f64;
+            self.record_frames_until(self.time);
+            return;
+        }
         let n = self.settings.collision_substeps;
         let h = self.settings.dt / n as f32;
         for i in 0..n {
@@ -556,11 +629,19 @@ impl World {
                 self.apply_motors(t0, h);
             }
             self.backend.step(h);
+            // Checked every substep: a non-finite body must not reach the next substep's
+            // events or the backend's queries.
+            self.backend.body_states(&mut self.states);
+            if !self.states_finite() {
+                self.halt();
+                return;
+            }
             // After the step: rapier's scene queries see the bodies only once a step has
             // updated them; the shot lands at most one substep (1/240 s) late.
             self.fire_projectiles(t0 + h as f64);
         }
         self.time += self.settings.dt as f64;
+        // Read again: the last substep's shots changed velocities after the check.
         self.backend.body_states(&mut self.states);
         self.blast_after_step();
         if self.settings.project_limits && !self.backend.enforces_limits() {
@@ -568,6 +649,27 @@ impl World {
         }
         self.measure_step();
         self.record_frames_until(self.time);
+    }
+
+    /// Stops the run at the last finite states (see [`World::step`]), recording this
+    /// step's frames from them.
+    fn halt(&mut self) {
+        self.metrics.nan = true;
+        self.halted = true;
+        self.states.clone_from(&self.prev_states);
+        self.time += self.settings.dt as f64;
+        self.record_frames_until(self.time);
+    }
+
+    /// Grid entries and hash buckets of the particle backend's last search for colliding
+    /// pairs (`None` on the rigid backend): for tests that its memory follows the number
+    /// of bodies, not their size.
+    #[doc(hidden)]
+    pub fn broad_phase_footprint(&self) -> Option<(usize, usize)> {
+        match &self.backend {
+            AnyBackend::Particle(p) => Some(p.broad_phase_footprint()),
+            AnyBackend::Rigid(_) => None,
+        }
     }
 
     /// Worst-case quality metrics so far.
@@ -699,7 +801,7 @@ impl World {
         }
         for inst in self.instances.iter().filter(|i| i.active) {
             let base = inst.first_body;
-            for &k in &inst.joint_order {
+            for &k in &inst.tree.order {
                 let j = &inst.joints[k];
                 let parent = self.states[base + j.parent].pose;
                 let child = self.states[base + j.child].pose;
@@ -717,12 +819,12 @@ impl World {
                         (delta * p.rotation).normalize(),
                     )
                 };
-                let subtree = &inst.subtrees[k];
+                let subtree = inst.tree.subtree(k);
                 let (turned, delta) = if subtree.iter().all(|&b| !held[base + b]) {
-                    (subtree.clone(), full)
+                    (subtree.to_vec(), full)
                 } else {
                     let rest: Vec<usize> = (0..inst.shapes.len())
-                        .filter(|b| !subtree.contains(b))
+                        .filter(|&b| !inst.tree.in_subtree(k, b))
                         .collect();
                     if rest.iter().any(|&b| held[base + b]) {
                         // Held on both sides: the holders decide.
@@ -851,48 +953,6 @@ fn setting_error(setting: &str, message: &str) -> Error {
         setting: setting.into(),
         message: message.into(),
     }
-}
-
-/// Joint indices ordered parents first, and for each joint the bodies under its child.
-fn joint_tree(joints: &[ResolvedJoint], bodies: usize) -> (Vec<usize>, Vec<Vec<usize>>) {
-    let mut parent_joint = vec![None; bodies];
-    for (k, j) in joints.iter().enumerate() {
-        parent_joint[j.child] = Some(k);
-    }
-    let depth = |mut b: usize| {
-        let mut d = 0;
-        while let Some(k) = parent_joint[b] {
-            b = joints[k].parent;
-            d += 1;
-            if d > bodies {
-                break; // a cycle: validate() does not forbid it, so do not loop forever
-            }
-        }
-        d
-    };
-    let mut order: Vec<usize> = (0..joints.len()).collect();
-    order.sort_by_key(|&k| depth(joints[k].child));
-    let subtrees = joints
-        .iter()
-        .map(|j| {
-            (0..bodies)
-                .filter(|&b| {
-                    let mut x = b;
-                    for _ in 0..=bodies {
-                        if x == j.child {
-                            return true;
-                        }
-                        match parent_joint[x] {
-                            Some(k) => x = joints[k].parent,
-                            None => return false,
-                        }
-                    }
-                    false
-                })
-                .collect()
-        })
-        .collect();
-    (order, subtrees)
 }
 
 /// Bones shorter than this are left out of the stretch, metres: a zero-length bone (two

@@ -297,9 +297,10 @@ impl ParticleBackend {
         }
     }
 
-    /// Whether something outside the ragdoll holds body `b`: a kinematic particle or a pin.
+    /// Whether something outside the ragdoll holds body `b`: a kinematic particle or a pin
+    /// (`pinned`, filled by `project_limits`).
     fn held(&self, b: usize) -> bool {
-        !self.body_free(b) || self.pins.iter().any(|p| p.active && p.body as usize == b)
+        !self.body_free(b) || self.pinned.get(b).is_some_and(|&p| p)
     }
 
     /// After the substeps, turns each joint still more than `PROJECT_TOLERANCE` past its
@@ -312,6 +313,16 @@ impl ParticleBackend {
     /// from its frame, snapping away small distortions that the next step's distances turn
     /// into velocity (1.5 % energy in a flat drop).
     fn project_limits(&mut self) {
+        // Which bodies a pin holds, once (thousands of pins made each test a search).
+        let mut pinned = std::mem::take(&mut self.pinned);
+        pinned.clear();
+        pinned.resize(self.bodies.len(), false);
+        for p in self.pins.iter().filter(|p| p.active) {
+            if let Some(flag) = pinned.get_mut(p.body as usize) {
+                *flag = true;
+            }
+        }
+        self.pinned = pinned;
         for idx in 0..self.joint_order.len() {
             let k = self.joint_order[idx] as usize;
             let j = &self.joints[k];
@@ -335,8 +346,9 @@ impl ParticleBackend {
             let all = f.first_body as usize..(f.first_body + f.bodies) as usize;
             self.epoch = self.epoch.wrapping_add(1);
             let epoch = self.epoch;
-            for &b in &self.subtrees[k] {
-                self.body_stamp[b as usize] = epoch;
+            let (first_joint, tree) = &self.trees[self.bodies[c].ragdoll as usize];
+            for &b in tree.subtree(k - *first_joint as usize) {
+                self.body_stamp[f.first_body as usize + b] = epoch;
             }
             // The subtree turns, or the rest of the ragdoll the other way: whichever is
             // free and would not sink into the floor (a limb past its stop on the floor
