@@ -313,7 +313,115 @@ fn a_charge_at_the_pelvis_loads_every_other_part_harder_than_from_a_metre_away()
 }
 
 // ---------------------------------------------------------------------------------------
+// Far away
+// ---------------------------------------------------------------------------------------
+
+#[test]
+fn positions_beyond_ten_kilometres_are_refused() {
+    // Hostile but valid before: a ragdoll placed 1,000 km out came apart on the particle
+    // backend (f32 positions there are 6 cm apart); one at 2^32 m made non-finite frames.
+    use ragdoll::events::Pin;
+    use ragdoll::world::MAX_COORDINATE_M;
+    let character = humanoid();
+    let spec = humanoid_spec();
+    let far = Vec3::new(1.0e6, 0.0, 0.0);
+    let mut world = World::new(&WorldSettings::default()).unwrap();
+    let err = world
+        .add_ragdoll(&character, &spec, Transform::from_translation(far))
+        .expect_err("1,000 km out")
+        .to_string();
+    assert!(err.contains("body \"") && err.contains("10000 m"), "{err}");
+    let near = Vec3::new(MAX_COORDINATE_M - 10.0, 0.0, 0.0);
+    let id = world
+        .add_ragdoll(&character, &spec, Transform::from_translation(near))
+        .unwrap();
+    let pin = Pin {
+        target: "head".into(),
+        keys: vec![(0.0, far)],
+        stiffness_hz: Some(5.0),
+        damping_ratio: 1.0,
+        release_s: None,
+    };
+    assert!(world.add_pin(id, pin).is_err());
+    assert!(world.add_blast(Blast::new(1.0, far, 0.0)).is_err());
+    let shot = Projectile {
+        origin: far,
+        direction: -Vec3::X,
+        mass_kg: 0.01,
+        speed_mps: 300.0,
+        time_s: 0.0,
+    };
+    assert!(world.add_projectile(shot).is_err());
+    // Ten kilometres out the rigid ground is still there (it was 1 km across: the
+    // ragdoll fell through the floor forever), and the collapse ends on it.
+    world.run(1.0);
+    assert!(!world.metrics().nan);
+    let pelvis = world.body_poses(id)[0].translation;
+    assert!(
+        pelvis.y > 0.1 && pelvis.y < 0.8,
+        "the pelvis ended at {pelvis:?}"
+    );
+}
+
+#[test]
+fn a_hard_pin_a_kilometre_away_hauls_the_particle_ragdoll_without_blowing_it_up() {
+    // The particle backend moved the pinned point onto a target 1 km away in one
+    // projection; the distances that followed blew the ragdoll up (NaN). It is hauled.
+    use ragdoll::events::Pin;
+    let character = humanoid();
+    let spec = humanoid_spec();
+    let settings = WorldSettings {
+        backend: BackendKind::Particle,
+        ..Default::default()
+    };
+    let (mut world, id) = World::with_ragdoll(&character, &spec, &settings).unwrap();
+    let pin = Pin {
+        target: "head".into(),
+        keys: vec![(0.0, Vec3::new(1000.0, 1.7, 0.0))],
+        stiffness_hz: None,
+        damping_ratio: 1.0,
+        release_s: None,
+    };
+    world.add_pin(id, pin).unwrap();
+    world.run(0.5);
+    assert!(!world.metrics().nan, "{:?}", world.metrics());
+    let poses = world.body_poses(id);
+    let head = poses[spec.body_index("head").unwrap()].translation;
+    assert!(head.x > 100.0, "the head only got to {head:?}");
+    // Dragged, not torn apart: every body within a body-length of the head.
+    assert!(poses.iter().all(|p| (p.translation - head).length() < 2.5));
+}
+
+// ---------------------------------------------------------------------------------------
 // Runs that go non-finite
+
+#[test]
+fn a_milligram_humanoid_collapses_without_going_non_finite() {
+    // Hostile but valid: the particle backend floored a body's inertia about its bone at
+    // 1e-9 kg·m², more than a milligram hand's whole tensor: its anchors got negative
+    // masses and the run went NaN on its fourth step.
+    let character = humanoid();
+    let options = BuildOptions {
+        total_mass_kg: Some(1.0e-6),
+        ..Default::default()
+    };
+    let spec = build_spec(&character, &options).unwrap();
+    for backend in [BackendKind::Rigid, BackendKind::Particle] {
+        let settings = WorldSettings {
+            backend,
+            ..Default::default()
+        };
+        let (mut world, id) = World::with_ragdoll(&character, &spec, &settings).unwrap();
+        let start = world.body_poses(id)[0].translation.y;
+        world.run(1.0);
+        assert!(!world.metrics().nan, "{backend:?}: {:?}", world.metrics());
+        let pelvis = world.body_poses(id)[0].translation.y;
+        assert!(
+            pelvis < start - 0.2 && pelvis > 0.0,
+            "{backend:?}: pelvis at {pelvis} m"
+        );
+    }
+}
 // ---------------------------------------------------------------------------------------
 
 #[test]

@@ -81,9 +81,11 @@ impl RigidBackend {
         world.integration_parameters.num_solver_iterations = settings.substeps.max(1);
         world.integration_parameters.num_internal_pgs_iterations = settings.iterations.max(1);
         if let Some(y) = settings.ground {
-            // A thick box rather than a half-space, so fast bodies cannot tunnel under it.
-            let ground = ColliderBuilder::cuboid(500.0, 1.0, 500.0)
-                .translation(Vec3::new(0.0, y - 1.0, 0.0))
+            // A half-space: no edge to fall off (it was a box 1 km across, and a character
+            // placed 600 m out fell forever on this backend, not the other) and no
+            // underside to tunnel through.
+            let ground = ColliderBuilder::new(SharedShape::halfspace(Vec3::Y))
+                .translation(Vec3::new(0.0, y, 0.0))
                 .friction(FRICTION)
                 .user_data(GROUND_KEY)
                 .build();

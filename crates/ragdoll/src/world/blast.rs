@@ -211,6 +211,9 @@ impl super::World {
     /// the blast front reaches it.
     pub fn add_blast(&mut self, blast: Blast) -> Result<()> {
         blast.validate()?;
+        if !super::within_world(blast.position) {
+            return Err(super::beyond_world("at", "the charge", blast.position));
+        }
         self.blasts.push(ActiveBlast {
             blast,
             parts: Vec::new(),

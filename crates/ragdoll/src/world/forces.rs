@@ -227,6 +227,9 @@ impl super::World {
                 "stiffness must be positive Hz, damping zero or positive, release a time",
             ));
         }
+        if let Some((_, p)) = pin.keys.iter().find(|(_, p)| !super::within_world(*p)) {
+            return Err(super::beyond_world("pin", "a pin's target", *p));
+        }
         let (body, local) = self.resolve_target(id, &pin.target)?;
         self.pins.push(ActivePin {
             pin,
@@ -280,8 +283,8 @@ impl super::World {
                 &format!("{} has no body number {body}", inst.name),
             ));
         };
-        if !(local.is_finite() && target.is_finite()) {
-            return Err(setting_error("drag", "the point and target must be finite"));
+        if !(super::within_world(local) && super::within_world(target)) {
+            return Err(super::beyond_world("drag", "the drag's target", target));
         }
         let spring_ok = stiffness_hz.is_finite()
             && stiffness_hz > 0.0
@@ -315,8 +318,8 @@ impl super::World {
     /// Moves a drag's target (world space, metres); takes effect from the next step.
     /// Errors when the drag has ended or the target is not finite.
     pub fn drag_move(&mut self, drag: DragId, target: Vec3) -> Result<()> {
-        if !target.is_finite() {
-            return Err(setting_error("drag", "the target must be finite"));
+        if !super::within_world(target) {
+            return Err(super::beyond_world("drag", "the drag's target", target));
         }
         match self.pins.get_mut(drag.0) {
             Some(p) if !p.released => {

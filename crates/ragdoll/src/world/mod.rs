@@ -33,6 +33,30 @@ use crate::track::{Metrics, Track};
 /// Standard gravity, m/s².
 pub const STANDARD_GRAVITY: f32 = 9.80665;
 
+/// Farthest any position given to a world may lie from the origin along an axis, metres:
+/// bodies at the start, pins and drags, charges, shots. f32 positions keep about a
+/// millimetre there (the spacing of f32 at 10 km is 1 mm); a ragdoll placed at 1,000 km
+/// came apart on the particle backend (6 cm spacing), and one at 2^32 m made non-finite
+/// frames.
+pub const MAX_COORDINATE_M: f32 = 1.0e4;
+
+/// Whether `p` is finite and within [`MAX_COORDINATE_M`] of the origin along every axis.
+pub(crate) fn within_world(p: Vec3) -> bool {
+    p.is_finite() && p.abs().max_element() <= MAX_COORDINATE_M
+}
+
+/// The error for a position outside the world.
+fn beyond_world(setting: &str, what: &str, p: Vec3) -> Error {
+    setting_error(
+        setting,
+        &format!(
+            "{what} at [{}, {}, {}] is beyond {MAX_COORDINATE_M} m from the origin along an \
+             axis, where positions lose millimetres; keep the scene nearer the origin",
+            p.x, p.y, p.z
+        ),
+    )
+}
+
 /// Violations smaller than this are left to rapier's own (velocity-level) limits, degrees.
 /// Projecting every tiny excess made limbs resting against a limit creep (about 1 cm/s):
 /// each step the solver let them sink a little and the projection turned them back about
@@ -342,6 +366,19 @@ impl World {
             .iter()
             .filter_map(|[a, b]| Some((spec.body_index(a)?, spec.body_index(b)?)))
             .collect();
+        if let Some((b, p)) = body_start
+            .iter()
+            .enumerate()
+            .find(|(_, p)| !within_world(p.translation))
+        {
+            let what = format!(
+                "ragdoll {} \"{}\"'s body \"{}\"",
+                self.instances.len(),
+                character.name,
+                spec.bodies[b].name
+            );
+            return Err(beyond_world("placement", &what, p.translation));
+        }
         // 2b. Nothing may start inside another ragdoll; its own parts that do stop
         //     colliding (see `overlap.rs`).
         let solids: Vec<overlap::Solid> = body_start
@@ -481,6 +518,13 @@ impl World {
     /// Adds a projectile; it hits at its time    /// Adds a projectile; it hits at its time (see [`Projectile`]).
     pub fn add_projectile(&mut self, projectile: Projectile) -> Result<()> {
         projectile.validate()?;
+        if !within_world(projectile.origin) {
+            return Err(beyond_world(
+                "from",
+                "the projectile's origin",
+                projectile.origin,
+            ));
+        }
         self.projectiles.push((projectile, None));
         Ok(())
     }

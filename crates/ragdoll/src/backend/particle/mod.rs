@@ -267,6 +267,18 @@ fn inertia_of(shape: &Shape, mass: f32) -> Mat3 {
     }
 }
 
+/// Inverse of an inertia tensor, scaled by its trace first: a body of micrograms has a
+/// tensor whose determinant underflows f32 (about 1e-39), and the plain inverse was
+/// infinite (a 1 mg humanoid went NaN on its third step).
+fn inverse_inertia(inertia: Mat3) -> Mat3 {
+    let trace = inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z;
+    if !(trace > 0.0 && trace.is_finite()) {
+        return Mat3::ZERO;
+    }
+    let _ = trace;
+    inertia.inverse()
+}
+
 /// The orthonormal frame of three points: X along `x1 − x0`, Y toward `x2` in their plane.
 fn triad_frame(x0: Vec3, x1: Vec3, x2: Vec3) -> Quat {
     let u = (x1 - x0).normalize_or(Vec3::X);
@@ -463,7 +475,7 @@ impl ParticleBackend {
             inertia += Mat3::IDENTITY * (1.0e-6 * trace + 1.0e-12);
             let body = &mut self.bodies[b];
             body.com = c;
-            body.inv_inertia = inertia.inverse();
+            body.inv_inertia = inverse_inertia(inertia);
             body.inv_mass = 1.0 / msum.max(1e-12);
         }
         // 4. Joints, with global body indices.
@@ -588,7 +600,14 @@ impl ParticleBackend {
             // A stick: the three-point rule about the centre's foot on the bone.
             let t = ((-rest[0]).dot(dir) / extent).clamp(0.05, 0.95);
             let (p, q) = (t * extent, (1.0 - t) * extent);
-            let axial = dir.dot(inertia * dir).max(1e-9);
+            // Floors relative to the body's own inertia: an absolute one (1e-9 kg·m²) was
+            // larger than a milligram hand's whole tensor, which made its anchors' masses
+            // negative and the run NaN.
+            let trace = inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z;
+            let axial = dir
+                .dot(inertia * dir)
+                .max(1e-9 * trace)
+                .max(f32::MIN_POSITIVE);
             let across = 0.5 * (inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z - axial);
             let (mut ma, mut mb) = (across / (p * (p + q)), across / (q * (p + q)));
             let room = (1.0 - MIN_CENTRE_SHARE - SIDE_SHARE.1) * mass;
@@ -618,7 +637,7 @@ impl ParticleBackend {
         // The centre goes where the body's centre of mass (its origin) comes out right.
         let moment: Vec3 =
             rest.iter().zip(&shares).map(|(r, s)| *r * *s).sum::<Vec3>() + side_rest * side_share;
-        let want_centre = -moment / centre_share.max(1e-9);
+        let want_centre = -moment / centre_share.max(1e-9 * mass);
         // Rigidity: every pair of anchors and the side particle.
         let mut frame_pts = list.clone();
         frame_pts.push(side);
@@ -801,7 +820,7 @@ impl ParticleBackend {
         }
         let trace = inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z;
         inertia += Mat3::IDENTITY * (1.0e-6 * trace + 1.0e-12);
-        let dw = inertia.inverse() * l;
+        let dw = inverse_inertia(inertia) * l;
         let dv = j / mass;
         for &i in &self.parts[range] {
             let i = i as usize;

@@ -18,6 +18,10 @@ const PROJECT_TOLERANCE: f32 = 3.0 * std::f32::consts::PI / 180.0;
 /// metres (as the world's projection for the rigid backend).
 const PROJECT_GROUND_SLACK_M: f32 = 0.005;
 
+/// Farthest a hard pin moves its point in one substep, metres (0.5 m at the default 720
+/// substeps a second: 360 m/s, far beyond any path a scene keys).
+const MAX_PIN_STEP_M: f32 = 0.5;
+
 /// Steps one search for candidate pairs serves: the search's margin covers the motion of
 /// that many steps, and an impulse or a teleport starts a new search at once.
 const PAIR_REUSE: u32 = 4;
@@ -442,7 +446,10 @@ impl ParticleBackend {
             }
             let c = point - target;
             let lambda = match pin.soft {
-                None => c / wsum,
+                // At most `MAX_PIN_STEP_M` a substep: a target kilometres away dragged the
+                // ragdoll there in one projection, and the distances that followed blew
+                // it up (NaN); now it is hauled at up to 360 m/s.
+                None => c.clamp_length_max(MAX_PIN_STEP_M) / wsum,
                 Some((hz, zeta)) => {
                     let mass = self.bodies[b].mass;
                     let omega = std::f32::consts::TAU * hz;
