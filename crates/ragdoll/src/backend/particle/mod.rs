@@ -267,18 +267,6 @@ fn inertia_of(shape: &Shape, mass: f32) -> Mat3 {
     }
 }
 
-/// Inverse of an inertia tensor, scaled by its trace first: a body of micrograms has a
-/// tensor whose determinant underflows f32 (about 1e-39), and the plain inverse was
-/// infinite (a 1 mg humanoid went NaN on its third step).
-fn inverse_inertia(inertia: Mat3) -> Mat3 {
-    let trace = inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z;
-    if !(trace > 0.0 && trace.is_finite()) {
-        return Mat3::ZERO;
-    }
-    let _ = trace;
-    inertia.inverse()
-}
-
 /// The orthonormal frame of three points: X along `x1 − x0`, Y toward `x2` in their plane.
 fn triad_frame(x0: Vec3, x1: Vec3, x2: Vec3) -> Quat {
     let u = (x1 - x0).normalize_or(Vec3::X);
@@ -475,7 +463,7 @@ impl ParticleBackend {
             inertia += Mat3::IDENTITY * (1.0e-6 * trace + 1.0e-12);
             let body = &mut self.bodies[b];
             body.com = c;
-            body.inv_inertia = inverse_inertia(inertia);
+            body.inv_inertia = inertia.inverse();
             body.inv_mass = 1.0 / msum.max(1e-12);
         }
         // 4. Joints, with global body indices.
@@ -820,7 +808,7 @@ impl ParticleBackend {
         }
         let trace = inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z;
         inertia += Mat3::IDENTITY * (1.0e-6 * trace + 1.0e-12);
-        let dw = inverse_inertia(inertia) * l;
+        let dw = inertia.inverse() * l;
         let dv = j / mass;
         for &i in &self.parts[range] {
             let i = i as usize;
