@@ -325,7 +325,11 @@ fn positions_beyond_ten_kilometres_are_refused() {
     let character = humanoid();
     let spec = humanoid_spec();
     let far = Vec3::new(1.0e6, 0.0, 0.0);
-    let mut world = World::new(&WorldSettings::default()).unwrap();
+    let settings = WorldSettings {
+        backend: BackendKind::Particle,
+        ..Default::default()
+    };
+    let mut world = World::new(&settings).unwrap();
     let err = world
         .add_ragdoll(&character, &spec, Transform::from_translation(far))
         .expect_err("1,000 km out")
@@ -352,10 +356,35 @@ fn positions_beyond_ten_kilometres_are_refused() {
         time_s: 0.0,
     };
     assert!(world.add_projectile(shot).is_err());
-    // Ten kilometres out the rigid ground is still there (it was 1 km across: the
-    // ragdoll fell through the floor forever), and the collapse ends on it.
+    // Ten kilometres out a ragdoll still collapses onto the floor.
     world.run(1.0);
     assert!(!world.metrics().nan);
+    let pelvis = world.body_poses(id)[0].translation;
+    assert!(
+        pelvis.y > 0.1 && pelvis.y < 0.8,
+        "the pelvis ended at {pelvis:?}"
+    );
+}
+
+#[test]
+fn the_rigid_backend_refuses_a_ragdoll_off_the_edge_of_its_ground() {
+    // Its ground is a square 500 m from the origin each way: a character placed 600 m out
+    // fell forever on this backend (and landed on the particle backend's).
+    let character = humanoid();
+    let spec = humanoid_spec();
+    let mut world = World::new(&WorldSettings::default()).unwrap();
+    let out = Transform::from_translation(Vec3::new(0.0, 0.0, 600.0));
+    let err = world
+        .add_ragdoll(&character, &spec, out)
+        .expect_err("off the ground")
+        .to_string();
+    assert!(
+        err.contains("edge") && err.contains("particle backend"),
+        "{err}"
+    );
+    let on = Transform::from_translation(Vec3::new(0.0, 0.0, 490.0));
+    let id = world.add_ragdoll(&character, &spec, on).unwrap();
+    world.run(1.0);
     let pelvis = world.body_poses(id)[0].translation;
     assert!(
         pelvis.y > 0.1 && pelvis.y < 0.8,

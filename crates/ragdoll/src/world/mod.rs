@@ -37,7 +37,7 @@ pub const STANDARD_GRAVITY: f32 = 9.80665;
 /// bodies at the start, pins and drags, charges, shots. f32 positions keep about a
 /// millimetre there (the spacing of f32 at 10 km is 1 mm); a ragdoll placed at 1,000 km
 /// came apart on the particle backend (6 cm spacing), and one at 2^32 m made non-finite
-/// frames.
+/// frames. (On the rigid backend ragdolls must also start on its ground, a 1 km square.)
 pub const MAX_COORDINATE_M: f32 = 1.0e4;
 
 /// Whether `p` is finite and within [`MAX_COORDINATE_M`] of the origin along every axis.
@@ -378,6 +378,23 @@ impl World {
                 spec.bodies[b].name
             );
             return Err(beyond_world("placement", &what, p.translation));
+        }
+        if let (Some(_), BackendKind::Rigid) = (self.settings.ground, self.settings.backend) {
+            let edge = crate::backend::rigid::GROUND_HALF_EXTENT_M;
+            let off = |p: &Transform| p.translation.x.abs().max(p.translation.z.abs()) > edge;
+            if let Some(b) = body_start.iter().position(off) {
+                return Err(setting_error(
+                    "placement",
+                    &format!(
+                        "ragdoll {} \"{}\"'s body \"{}\" would start beyond the edge of the \
+                         rigid backend's ground, a square {edge} m from the origin each way; \
+                         place it nearer, or use the particle backend (its ground has no edge)",
+                        self.instances.len(),
+                        character.name,
+                        spec.bodies[b].name
+                    ),
+                ));
+            }
         }
         // 2b. Nothing may start inside another ragdoll; its own parts that do stop
         //     colliding (see `overlap.rs`).
