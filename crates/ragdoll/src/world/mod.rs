@@ -2,8 +2,9 @@
 //! ground and a backend; it steps at a fixed rate and records a [`Track`] per ragdoll plus
 //! the quality [`Metrics`].
 //!
-//! This file holds creation, stepping, recording and the metrics; each kind of event has
-//! its own file: `blast.rs` (blast loads), `forces.rs` (pushes, fields, pins),
+//! This file holds creation and stepping; `start.rs` and `overlap.rs` say where a ragdoll
+//! may start, `record.rs` records frames and measures the metrics, and each kind of event
+//! has its own file: `blast.rs` (blast loads), `forces.rs` (pushes, fields, pins),
 //! `playback.rs` (clips and the hand-over to physics), `motors.rs` (powered mode).
 
 use glam::Vec3;
@@ -13,11 +14,16 @@ mod forces;
 mod motors;
 mod overlap;
 mod playback;
+mod record;
+mod start;
 
 pub use crate::backend::BackendKind;
 pub use forces::DragId;
 pub use motors::Motors;
 pub use playback::Activation;
+use record::lowest_point;
+pub use start::MAX_COORDINATE_M;
+use start::{beyond_world, within_world};
 
 use crate::backend::particle::{ParticleBackend, ParticleSettings};
 use crate::backend::rigid::{RigidBackend, RigidSettings};
@@ -33,41 +39,8 @@ use crate::track::{Metrics, Track};
 /// Standard gravity, m/s².
 pub const STANDARD_GRAVITY: f32 = 9.80665;
 
-/// Farthest any position given to a world may lie from the origin along an axis, metres:
-/// bodies at the start, pins and drags, charges, shots. f32 positions keep about a
-/// millimetre there (the spacing of f32 at 10 km is 1 mm); a ragdoll placed at 1,000 km
-/// came apart on the particle backend (6 cm spacing), and one at 2^32 m made non-finite
-/// frames. (On the rigid backend ragdolls must also start on its ground, a 1 km square.)
-pub const MAX_COORDINATE_M: f32 = 1.0e4;
-
-/// Whether `p` is finite and within [`MAX_COORDINATE_M`] of the origin along every axis.
-pub(crate) fn within_world(p: Vec3) -> bool {
-    p.is_finite() && p.abs().max_element() <= MAX_COORDINATE_M
-}
-
-/// The error for a position outside the world.
-fn beyond_world(setting: &str, what: &str, p: Vec3) -> Error {
-    setting_error(
-        setting,
-        &format!(
-            "{what} at [{}, {}, {}] is beyond {MAX_COORDINATE_M} m from the origin along an \
-             axis, where positions lose millimetres; keep the scene nearer the origin",
-            p.x, p.y, p.z
-        ),
-    )
-}
-
-/// Violations smaller than this are left to rapier's own (velocity-level) limits, degrees.
-/// Projecting every tiny excess made limbs resting against a limit creep (about 1 cm/s):
-/// each step the solver let them sink a little and the projection turned them back about
-/// the anchor, a ratchet against the floor's friction.
-const PROJECTION_TOLERANCE_DEG: f32 = 1.0;
-
 /// How far inside widened limits the pose at a hand-over ends up, degrees.
 const HANDOVER_LIMIT_MARGIN_DEG: f32 = 5.0;
-
-/// How far below the ground the limit projection may move a body that was above it, metres.
-const PROJECTION_GROUND_SLACK_M: f32 = 0.005;
 
 /// With no ground, blasts are computed as if the ground were this far below the charge,
 /// metres: far enough that any charge counts as a free-air burst.
@@ -366,76 +339,10 @@ impl World {
             .iter()
             .filter_map(|[a, b]| Some((spec.body_index(a)?, spec.body_index(b)?)))
             .collect();
-        if let Some((b, p)) = body_start
-            .iter()
-            .enumerate()
-            .find(|(_, p)| !within_world(p.translation))
-        {
-            let what = format!(
-                "ragdoll {} \"{}\"'s body \"{}\"",
-                self.instances.len(),
-                character.name,
-                spec.bodies[b].name
-            );
-            return Err(beyond_world("placement", &what, p.translation));
-        }
-        if let (Some(_), BackendKind::Rigid) = (self.settings.ground, self.settings.backend) {
-            let edge = crate::backend::rigid::GROUND_HALF_EXTENT_M;
-            let off = |p: &Transform| p.translation.x.abs().max(p.translation.z.abs()) > edge;
-            if let Some(b) = body_start.iter().position(off) {
-                return Err(setting_error(
-                    "placement",
-                    &format!(
-                        "ragdoll {} \"{}\"'s body \"{}\" would start beyond the edge of the \
-                         rigid backend's ground, a square {edge} m from the origin each way; \
-                         place it nearer, or use the particle backend (its ground has no edge)",
-                        self.instances.len(),
-                        character.name,
-                        spec.bodies[b].name
-                    ),
-                ));
-            }
-        }
-        // 2b. Nothing may start inside another ragdoll; its own parts that do stop
-        //     colliding (see `overlap.rs`).
-        let solids: Vec<overlap::Solid> = body_start
-            .iter()
-            .zip(&spec.bodies)
-            .map(|(p, b)| overlap::Solid::new(p, &b.shape))
-            .collect();
-        if let Some(c) = self.start_index.clash(&solids) {
-            let other = &self.instances[c.other];
-            return Err(Error::Setting {
-                setting: "placement".into(),
-                message: format!(
-                    "ragdoll {} \"{}\" would start inside ragdoll {} \"{}\": its body \"{}\" \
-                     and their body \"{}\" are {:.3} m apart at their axes, within {:.3} m; \
-                     place the characters apart",
-                    self.instances.len(),
-                    character.name,
-                    c.other,
-                    other.name,
-                    spec.bodies[c.body].name,
-                    other.body_names[c.other_body],
-                    c.gap_m,
-                    c.radius_m,
-                ),
-            });
-        }
-        match overlap::deep_pairs(&solids) {
-            Ok(pairs) => disabled.extend(pairs),
-            Err((body, count)) => {
-                return Err(Error::Spec {
-                    place: format!("body \"{}\"", spec.bodies[body].name),
-                    message: format!(
-                        "starts inside {count} other bodies of its ragdoll (one's axis inside \
-                         the other), more than the {} a body may: rapier's cost for a pile \
-                         grows with the cube of its size; spread the bodies out",
-                        overlap::MAX_DEEP_OVERLAPS
-                    ),
-                });
-            }
-        }
+        // 2b. Where it starts: within the world, on the ground, not inside another
+        //     ragdoll; its own parts that start inside each other stop colliding.
+        let solids = self.check_start(character, spec, &body_start)?;
+        disabled.extend(start::overlapping_parts(spec, &solids)?);
         // 3. Skeleton joints ride on their own or their nearest ancestor's body, with the
         //    offset they have at the start (so the hand-over pose is kept exactly).
         let root_body = (0..spec.bodies.len())
@@ -780,287 +687,11 @@ impl World {
     pub fn into_tracks(self) -> Vec<Track> {
         self.instances.into_iter().map(|i| i.track).collect()
     }
-
-    fn record_frames_until(&mut self, t: f64) {
-        let fps = self.settings.fps as f64;
-        let dt = self.settings.dt as f64;
-        loop {
-            let ft = self.frames_recorded as f64 / fps;
-            if ft > t + 1e-9 {
-                break;
-            }
-            // Interpolate between the previous and the current step.
-            let alpha = if t <= 0.0 {
-                1.0
-            } else {
-                (((ft - (t - dt)) / dt).clamp(0.0, 1.0)) as f32
-            };
-            let mut stretch = 0.0f32;
-            for inst in &mut self.instances {
-                if !inst.active
-                    && let Some(play) = &inst.playback
-                {
-                    let mut frame = Vec::new();
-                    play.joint_world(ft, &mut frame);
-                    inst.track.frames.push(frame);
-                    continue;
-                }
-                let frame: Vec<Transform> = inst
-                    .riders
-                    .iter()
-                    .map(|r| {
-                        let a = &self.prev_states[inst.first_body + r.body].pose;
-                        let b = &self.states[inst.first_body + r.body].pose;
-                        let pose = Transform::new(
-                            a.translation.lerp(b.translation, alpha),
-                            a.rotation.slerp(b.rotation, alpha),
-                        );
-                        pose.mul(&r.offset)
-                    })
-                    .collect();
-                stretch = stretch.max(bone_stretch(
-                    &inst.joint_parents,
-                    &mut inst.bone_lengths,
-                    &frame,
-                ));
-                inst.track.frames.push(frame);
-            }
-            self.metrics.max_bone_stretch = self.metrics.max_bone_stretch.max(stretch);
-            if !stretch.is_finite() {
-                self.metrics.nan = true;
-            }
-            self.frames_recorded += 1;
-            self.measure_frame_energy();
-        }
-    }
-
-    /// Clamps every joint back into its limits (see [`WorldSettings::project_limits`]).
-    ///
-    /// Where turning a subtree would sink one of its bodies below the ground (deeper than
-    /// it already was, beyond [`PROJECTION_GROUND_SLACK_M`]), the whole ragdoll is lifted
-    /// by that much instead: left to the contacts, such a sink came back as 3-6 cm
-    /// penetrations in our runs; the lift is a few millimetres, once in a while.
-    fn project_limits(&mut self) {
-        let ground = self.settings.ground;
-        // Bodies something outside the ragdoll holds (a pin, a drag, a root kept on its
-        // clip): turning one of them would tear it from its holder, whose constraint then
-        // yanks it back, a fight that flung a pinned dragon's chain tens of metres. The
-        // projection turns the other side of the joint instead.
-        let mut held = vec![false; self.states.len()];
-        for p in self.pins.iter().filter(|p| !p.released) {
-            if let Some(h) = held.get_mut(p.body) {
-                *h = true;
-            }
-        }
-        for inst in &self.instances {
-            if let Some(m) = &inst.motors
-                && m.engaged
-                && m.motors.root_on_clip
-            {
-                held[inst.first_body + m.root] = true;
-            }
-        }
-        for inst in self.instances.iter().filter(|i| i.active) {
-            let base = inst.first_body;
-            for &k in &inst.tree.order {
-                let j = &inst.joints[k];
-                let parent = self.states[base + j.parent].pose;
-                let child = self.states[base + j.child].pose;
-                if j.violation(&parent, &child) < PROJECTION_TOLERANCE_DEG.to_radians() {
-                    continue;
-                }
-                let Some(rotation) = j.clamp_child_rotation(&parent, &child) else {
-                    continue;
-                };
-                let full = rotation * child.rotation.conjugate();
-                let anchor = child.transform_point(j.frame_child.translation);
-                let moved = |p: &Transform, delta: glam::Quat| {
-                    Transform::new(
-                        anchor + delta * (p.translation - anchor),
-                        (delta * p.rotation).normalize(),
-                    )
-                };
-                let subtree = inst.tree.subtree(k);
-                let (turned, delta) = if subtree.iter().all(|&b| !held[base + b]) {
-                    (subtree.to_vec(), full)
-                } else {
-                    let rest: Vec<usize> = (0..inst.shapes.len())
-                        .filter(|&b| !inst.tree.in_subtree(k, b))
-                        .collect();
-                    if rest.iter().any(|&b| held[base + b]) {
-                        // Held on both sides: the holders decide.
-                        continue;
-                    }
-                    (rest, full.conjugate())
-                };
-                // How far the turned bodies would sink below the ground beyond the slack
-                // (and beyond where they already were): the whole ragdoll is lifted by
-                // that much, so the limit wins without pushing a body into the floor.
-                let mut lift = 0.0f32;
-                if let Some(g) = ground {
-                    for &b in &turned {
-                        let shape = &inst.shapes[b];
-                        let before = lowest_point(&self.states[base + b].pose, shape);
-                        let after = lowest_point(&moved(&self.states[base + b].pose, delta), shape);
-                        let floor = (g - PROJECTION_GROUND_SLACK_M).min(before);
-                        lift = lift.max(floor - after);
-                    }
-                }
-                for &b in &turned {
-                    let pose = moved(&self.states[base + b].pose, delta);
-                    self.states[base + b].pose = pose;
-                    self.backend.set_body_pose(base + b, &pose);
-                }
-                // A held ragdoll is not lifted: its holder would pull it straight back.
-                let any_held = (0..inst.shapes.len()).any(|b| held[base + b]);
-                if lift > 0.0 && !any_held {
-                    for b in 0..inst.shapes.len() {
-                        self.states[base + b].pose.translation.y += lift;
-                        let pose = self.states[base + b].pose;
-                        self.backend.set_body_pose(base + b, &pose);
-                    }
-                }
-            }
-        }
-    }
-
-    fn measure_step(&mut self) {
-        let m = &mut self.metrics;
-        m.max_penetration_m = m.max_penetration_m.max(self.backend.max_penetration());
-        for s in &self.states {
-            if !(s.pose.is_finite() && s.linvel.is_finite() && s.angvel.is_finite()) {
-                m.nan = true;
-            }
-        }
-        for inst in self.instances.iter().filter(|i| i.active) {
-            let states = &self.states[inst.first_body..inst.first_body + inst.masses.len()];
-            for j in &inst.joints {
-                let (p, c) = (&states[j.parent].pose, &states[j.child].pose);
-                m.max_joint_separation_m = m.max_joint_separation_m.max(j.separation(p, c));
-                m.max_limit_violation_deg = m
-                    .max_limit_violation_deg
-                    .max(j.violation(p, c).to_degrees());
-            }
-        }
-    }
-
-    /// Whether every blast has gone off and passed every body part (DESIGN §5 measures
-    /// the energy drift only after the last event).
-    fn events_done(&self) -> bool {
-        use crate::events::Field;
-        let t = self.time;
-        // Pins hold until released; pushes and fields until their windows end; gravity
-        // fields change what potential energy means, so they never end.
-        let forces_done = self.pins.iter().all(|p| p.released)
-            && self.pushes.iter().all(|p| p.done)
-            && self.fields.iter().all(|f| match f {
-                Field::Gravity { .. } => false,
-                Field::Radial { end_s, .. }
-                | Field::Drag { end_s, .. }
-                | Field::Wind { end_s, .. } => (*end_s as f64) <= t,
-            });
-        // Motors put energy in on purpose until they have faded out for good.
-        let motors_done = self.instances.iter().all(|i| {
-            i.motors.as_ref().is_none_or(|m| {
-                let keys = &m.motors.strength_keys;
-                keys.last()
-                    .is_some_and(|&(time, strength)| strength == 0.0 && (time as f64) <= t)
-            })
-        });
-        forces_done
-            && motors_done
-            && self.instances.iter().all(|i| i.active)
-            && self.blasts.iter().all(|b| {
-                let reached_all = b.parts.len() == self.instances.len()
-                    && b.parts
-                        .iter()
-                        .all(|parts| parts.iter().all(|r| r.arrival_s.is_some()));
-                reached_all && b.parts.iter().flatten().all(|r| r.passed_s <= self.time)
-            })
-    }
-
-    fn measure_frame_energy(&mut self) {
-        if !self.events_done() {
-            // Events put energy in on purpose; measure from the first frame after them.
-            self.start_energy = None;
-            self.last_frame_energy = None;
-            return;
-        }
-        let g = self.settings.gravity;
-        let ground = self.settings.ground.unwrap_or(0.0);
-        let mut potential = 0.0f64;
-        for inst in &self.instances {
-            for (i, &m) in inst.masses.iter().enumerate() {
-                let p = self.states[inst.first_body + i].pose.translation - Vec3::Y * ground;
-                potential += -(m as f64) * g.dot(p) as f64;
-            }
-        }
-        let e = potential + self.backend.kinetic_energy();
-        let e0 = *self.start_energy.get_or_insert(e);
-        if let Some(last) = self.last_frame_energy {
-            let rise = (e - last) / e0.abs().max(1e-9);
-            if rise.is_finite() {
-                self.metrics.energy_drift = self.metrics.energy_drift.max(rise.max(0.0) as f32);
-            } else {
-                self.metrics.nan = true;
-            }
-        }
-        self.last_frame_energy = Some(e);
-    }
 }
 
 fn setting_error(setting: &str, message: &str) -> Error {
     Error::Setting {
         setting: setting.into(),
         message: message.into(),
-    }
-}
-
-/// Bones shorter than this are left out of the stretch, metres: a zero-length bone (two
-/// joints at one place) has no relative change.
-const MIN_BONE_M: f32 = 1.0e-3;
-
-/// Largest relative change of a bone's length in `frame` from `lengths` (taken from this
-/// frame when empty): what [`Metrics::max_bone_stretch`] records. Backend-independent, so
-/// it measures both backends alike.
-fn bone_stretch(parents: &[Option<usize>], lengths: &mut Vec<f32>, frame: &[Transform]) -> f32 {
-    let length = |j: usize| {
-        parents[j].map_or(0.0, |p| {
-            (frame[j].translation - frame[p].translation).length()
-        })
-    };
-    if lengths.is_empty() {
-        lengths.extend((0..frame.len()).map(length));
-        return 0.0;
-    }
-    let mut worst = 0.0f32;
-    for (j, &l0) in lengths.iter().enumerate() {
-        if l0 > MIN_BONE_M {
-            worst = worst.max((length(j) - l0).abs() / l0);
-        }
-    }
-    worst
-}
-
-/// Lowest world height of a shape at `pose`.
-fn lowest_point(pose: &Transform, shape: &Shape) -> f32 {
-    match *shape {
-        Shape::Capsule { radius_m, length_m } => {
-            let axis = pose.rotation * Vec3::Y * (0.5 * length_m);
-            (pose.translation.y - axis.y.abs()) - radius_m
-        }
-        Shape::Box { size_m } => {
-            let h = Vec3::from_array(size_m) * 0.5;
-            let mut low = f32::INFINITY;
-            for sx in [-1.0, 1.0] {
-                for sy in [-1.0, 1.0] {
-                    for sz in [-1.0, 1.0] {
-                        let c = pose.transform_point(h * Vec3::new(sx, sy, sz));
-                        low = low.min(c.y);
-                    }
-                }
-            }
-            low
-        }
     }
 }
