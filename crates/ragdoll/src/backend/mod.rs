@@ -4,14 +4,17 @@
 //! - `rigid`: rapier3d rigid bodies and impulse joints (the accurate default);
 //! - `particle`: our own position-based particle ragdoll (XPBD-style), for crowds and creatures.
 
+pub(crate) mod broad;
 pub(crate) mod particle;
 pub(crate) mod rigid;
+pub(crate) mod tree;
 
 use serde::{Deserialize, Serialize};
 
 use glam::Vec3;
 
 use crate::math::Transform;
+use crate::spec::Shape;
 
 /// The state of one body after a step: world pose of its centre frame and velocities.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -88,6 +91,11 @@ pub(crate) trait Backend {
     }
     /// Advances the simulation by `dt` seconds, detecting collisions once.
     fn step(&mut self, dt: f32);
+    /// Whether a body's state has gone non-finite in a way [`Backend::body_states`] does
+    /// not show: rapier disables such a body and zeroes its velocities (its quarantine).
+    fn went_non_finite(&self) -> bool {
+        false
+    }
     /// Adds `impulse` (N·s, world) at the world `point` of body `index` (global), waking it.
     fn apply_impulse_at_point(&mut self, index: usize, impulse: Vec3, point: Vec3);
     /// Adds the angular impulse `impulse` (N·m·s, world) to body `index` (global), waking
@@ -136,9 +144,10 @@ pub(crate) trait Backend {
     fn move_pin(&mut self, pin: usize, target: Vec3);
     /// Lets go of pin `pin`.
     fn release_pin(&mut self, pin: usize);
-    /// Whether any of the `count` bodies from global index `first` touches a body outside
-    /// that range (the ground does not count).
-    fn touches_another_ragdoll(&self, first: usize, count: usize) -> bool;
+    /// One flag per body (global order) into `out`: whether it touches a body of another
+    /// ragdoll (the ground does not count). One pass for every ragdoll: asking ragdoll by
+    /// ragdoll went through every contact pair once per waiting character.
+    fn bodies_touching_other_ragdolls(&self, out: &mut Vec<bool>);
     /// Stops bodies `a` and `b` (global) from colliding with each other.
     fn disable_pair(&mut self, a: usize, b: usize);
     /// Moves body `index` (global) to `pose` without changing its velocities.
@@ -161,6 +170,36 @@ pub(crate) trait Backend {
         stiffness: f32,
         damping: f32,
     ) -> bool;
+}
+
+/// Body-frame capsule of a shape, segment ends and radius: the shape itself for a capsule,
+/// the capsule inside a box along its longest edge (radius the smaller of the other two
+/// half edges), so it never reaches past the box.
+pub(crate) fn capsule_of(shape: &Shape) -> ([Vec3; 2], f32) {
+    match *shape {
+        Shape::Capsule { radius_m, length_m } => {
+            let h = Vec3::Y * (0.5 * length_m);
+            ([-h, h], radius_m)
+        }
+        Shape::Box { size_m } => {
+            let s = Vec3::from_array(size_m) * 0.5;
+            let axis = if s.x >= s.y && s.x >= s.z {
+                0
+            } else if s.y >= s.z {
+                1
+            } else {
+                2
+            };
+            let (long, r) = match axis {
+                0 => (s.x, s.y.min(s.z)),
+                1 => (s.y, s.x.min(s.z)),
+                _ => (s.z, s.x.min(s.y)),
+            };
+            let mut h = Vec3::ZERO;
+            h[axis] = (long - r).max(0.0);
+            ([-h, h], r)
+        }
+    }
 }
 
 /// A body to create, in world space.
@@ -235,6 +274,7 @@ impl Backend for AnyBackend {
         mut fn add_ragdoll(bodies: &[BodyDesc], joints: &[JointDesc], disabled_pairs: &[(usize, usize)]) -> usize;
         ref fn enforces_limits() -> bool;
         mut fn step(dt: f32);
+        ref fn went_non_finite() -> bool;
         mut fn apply_impulse_at_point(index: usize, impulse: Vec3, point: Vec3);
         mut fn apply_torque_impulse(index: usize, impulse: Vec3);
         ref fn body_states(out: &mut Vec<BodyState>);
@@ -253,7 +293,7 @@ impl Backend for AnyBackend {
         mut fn add_pin(index: usize, local: Vec3, target: Vec3, soft: Option<(f32, f32)>) -> usize;
         mut fn move_pin(pin: usize, target: Vec3);
         mut fn release_pin(pin: usize);
-        ref fn touches_another_ragdoll(first: usize, count: usize) -> bool;
+        ref fn bodies_touching_other_ragdolls(out: &mut Vec<bool>);
         mut fn disable_pair(a: usize, b: usize);
         mut fn set_body_pose(index: usize, pose: &Transform);
     }

@@ -37,11 +37,22 @@ pub(crate) struct ActiveBlast {
     pub com_velocity: Vec<Option<Vec3>>,
 }
 
-/// The point of a body's surface nearest the charge, and the unit direction from the
-/// charge to the body (the direction the load pushes). A charge inside the body pushes
-/// from the body's centre outward along world up, the one direction that is always
-/// defined.
-pub(crate) fn facing_point(state: &BodyState, shape: &Shape, charge: Vec3) -> (Vec3, Vec3) {
+/// Where a blast loads a body part and how: the point the load acts at, the unit direction
+/// it pushes, and the share of the part's load that is left as a net push (1 outside).
+///
+/// Outside the part: its surface point nearest the charge, pushed along the direction from
+/// the charge to that point.
+///
+/// With the charge inside the part, the part is loaded from within: its bulk on the far
+/// side of the charge is pushed away from the charge, the rest the other way, and the two
+/// cancel for a charge at its centre. So the load acts at the centre, along the direction
+/// from the charge to the centre, with the share `d / D` (`d` the charge's distance from
+/// the centre, `D` the distance from the centre to the surface through the charge): a full
+/// contact load just beneath the surface, continuous with the charge just outside it, and
+/// nothing at the centre. Before, such a part took the full load of a contact charge along
+/// world up (the one direction always defined): a charge at the pelvis threw the whole
+/// body upward, whatever the parts around it received.
+pub(crate) fn facing_point(state: &BodyState, shape: &Shape, charge: Vec3) -> (Vec3, Vec3, f64) {
     let pose = &state.pose;
     let local = pose.rotation.conjugate() * (charge - pose.translation);
     let nearest_local = match *shape {
@@ -69,11 +80,46 @@ pub(crate) fn facing_point(state: &BodyState, shape: &Shape, charge: Vec3) -> (V
         Some(p) => {
             let world = pose.transform_point(p);
             let dir = (world - charge).normalize_or(Vec3::Y);
-            (world, dir)
+            (world, dir, 1.0)
         }
         None => {
+            let offset = local.length();
+            let share = if offset > 0.0 {
+                (offset / centre_to_surface(shape, local / offset)).min(1.0)
+            } else {
+                0.0
+            };
             let dir = (pose.translation - charge).normalize_or(Vec3::Y);
-            (pose.translation, dir)
+            (pose.translation, dir, share as f64)
+        }
+    }
+}
+
+/// Distance from a shape's centre to its surface along the unit direction `u` (shape
+/// frame), metres.
+fn centre_to_surface(shape: &Shape, u: Vec3) -> f32 {
+    match *shape {
+        Shape::Capsule { radius_m, length_m } => {
+            let half = 0.5 * length_m;
+            let across = (u.x * u.x + u.z * u.z).sqrt();
+            if across * half >= radius_m * u.y.abs() {
+                // Leaves through the side.
+                radius_m / across
+            } else {
+                // Through an end cap: |s·u − half·Y| = r.
+                let along = u.y.abs();
+                half * along
+                    + (radius_m * radius_m - half * half * across * across)
+                        .max(0.0)
+                        .sqrt()
+            }
+        }
+        Shape::Box { size_m } => {
+            let h = Vec3::from_array(size_m) * 0.5;
+            (0..3)
+                .filter(|&k| u[k].abs() > 1e-12)
+                .map(|k| h[k] / u[k].abs())
+                .fold(f32::INFINITY, f32::min)
         }
     }
 }
@@ -105,21 +151,24 @@ pub(crate) fn depth_along(state: &BodyState, shape: &Shape, dir: Vec3) -> f32 {
     }
 }
 
-/// The blast at a body part now, and where and along what it pushes.
+/// The blast at a body part now, where and along what it pushes, and the share of its load
+/// that is a net push (see [`facing_point`]).
 pub(crate) fn blast_on_part(
     blast: &Blast,
     state: &BodyState,
     shape: &Shape,
     ground_y: f32,
-) -> (BlastAt, Vec3, Vec3) {
-    let (point, dir) = facing_point(state, shape, blast.position);
+) -> (BlastAt, Vec3, Vec3, f64) {
+    let (point, dir, share) = facing_point(state, shape, blast.position);
+    // Inside the part the charge touches its bulk: the blast of a contact charge.
+    let at_point = if share < 1.0 { blast.position } else { point };
     let at = blast::blast_at(
         blast.tnt_kg as f64,
         blast.position.as_dvec3(),
-        point.as_dvec3(),
+        at_point.as_dvec3(),
         ground_y as f64,
     );
-    (at, point, dir)
+    (at, point, dir, share)
 }
 
 impl ActiveBlast {
@@ -162,6 +211,9 @@ impl super::World {
     /// the blast front reaches it.
     pub fn add_blast(&mut self, blast: Blast) -> Result<()> {
         blast.validate()?;
+        if !super::within_world(blast.position) {
+            return Err(super::beyond_world("at", "the charge", blast.position));
+        }
         self.blasts.push(ActiveBlast {
             blast,
             parts: Vec::new(),
@@ -212,7 +264,7 @@ impl super::World {
                 records.resize_with(inst.shapes.len(), Default::default);
                 for (k, shape) in inst.shapes.iter().enumerate() {
                     let state = &self.states[inst.first_body + k];
-                    let (at, point, dir) = blast_on_part(&b, state, shape, ground);
+                    let (at, point, dir, share) = blast_on_part(&b, state, shape, ground);
                     let record = &mut records[k];
                     let arrival = det + at.arrival_s;
                     record.passed_s = arrival + at.duration_s;
@@ -226,6 +278,7 @@ impl super::World {
                     let area = projected_area(state, shape, dir) as f64;
                     let depth = depth_along(state, shape, dir) as f64;
                     let j = b.scale as f64
+                        * share
                         * crate::events::blast::part_impulse(
                             &at,
                             t0 - det,

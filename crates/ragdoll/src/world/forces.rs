@@ -30,6 +30,8 @@ pub(crate) struct ActivePin {
     pub pin: Pin,
     pub body: usize,
     pub local: Vec3,
+    /// The pinned body's mass, kg (a soft pin is a spring per unit of it).
+    pub mass: f32,
     /// The backend's pin index once created (pins start with the world).
     pub handle: Option<usize>,
     pub released: bool,
@@ -225,11 +227,15 @@ impl super::World {
                 "stiffness must be positive Hz, damping zero or positive, release a time",
             ));
         }
+        if let Some((_, p)) = pin.keys.iter().find(|(_, p)| !super::within_world(*p)) {
+            return Err(super::beyond_world("pin", "a pin's target", *p));
+        }
         let (body, local) = self.resolve_target(id, &pin.target)?;
         self.pins.push(ActivePin {
             pin,
             body,
             local,
+            mass: self.body_mass(body),
             handle: None,
             released: false,
         });
@@ -277,8 +283,8 @@ impl super::World {
                 &format!("{} has no body number {body}", inst.name),
             ));
         };
-        if !(local.is_finite() && target.is_finite()) {
-            return Err(setting_error("drag", "the point and target must be finite"));
+        if !(super::within_world(local) && super::within_world(target)) {
+            return Err(super::beyond_world("drag", "the drag's target", target));
         }
         let spring_ok = stiffness_hz.is_finite()
             && stiffness_hz > 0.0
@@ -297,10 +303,12 @@ impl super::World {
             damping_ratio,
             release_s: None,
         };
+        let mass = inst.masses[body];
         self.pins.push(ActivePin {
             pin,
             body: inst.first_body + body,
             local,
+            mass,
             handle: None,
             released: false,
         });
@@ -310,8 +318,8 @@ impl super::World {
     /// Moves a drag's target (world space, metres); takes effect from the next step.
     /// Errors when the drag has ended or the target is not finite.
     pub fn drag_move(&mut self, drag: DragId, target: Vec3) -> Result<()> {
-        if !target.is_finite() {
-            return Err(setting_error("drag", "the target must be finite"));
+        if !super::within_world(target) {
+            return Err(super::beyond_world("drag", "the drag's target", target));
         }
         match self.pins.get_mut(drag.0) {
             Some(p) if !p.released => {
@@ -422,8 +430,7 @@ impl super::World {
                 }
             }
         }
-        let masses: Vec<f32> = self.pins.iter().map(|p| self.body_mass(p.body)).collect();
-        for (p, mass) in self.pins.iter_mut().zip(masses) {
+        for p in &mut self.pins {
             if p.released {
                 continue;
             }
@@ -452,7 +459,7 @@ impl super::World {
                     let omega = std::f32::consts::TAU * hz;
                     let accel = (target - point) * omega * omega
                         - point_velocity * (2.0 * p.pin.damping_ratio * omega);
-                    let impulse = accel * mass * (t1 - t0) as f32;
+                    let impulse = accel * p.mass * (t1 - t0) as f32;
                     self.backend.apply_impulse_at_point(p.body, impulse, point);
                 }
             }

@@ -2,8 +2,9 @@
 //! ground and a backend; it steps at a fixed rate and records a [`Track`] per ragdoll plus
 //! the quality [`Metrics`].
 //!
-//! This file holds creation, stepping, recording and the metrics; each kind of event has
-//! its own file: `blast.rs` (blast loads), `forces.rs` (pushes, fields, pins),
+//! This file holds creation and stepping; `start.rs` and `overlap.rs` say where a ragdoll
+//! may start, `record.rs` records frames and measures the metrics, and each kind of event
+//! has its own file: `blast.rs` (blast loads), `forces.rs` (pushes, fields, pins),
 //! `playback.rs` (clips and the hand-over to physics), `motors.rs` (powered mode).
 
 use glam::Vec3;
@@ -11,15 +12,22 @@ use glam::Vec3;
 mod blast;
 mod forces;
 mod motors;
+mod overlap;
 mod playback;
+mod record;
+mod start;
 
 pub use crate::backend::BackendKind;
 pub use forces::DragId;
 pub use motors::Motors;
 pub use playback::Activation;
+use record::lowest_point;
+pub use start::MAX_COORDINATE_M;
+use start::{beyond_world, within_world};
 
 use crate::backend::particle::{ParticleBackend, ParticleSettings};
 use crate::backend::rigid::{RigidBackend, RigidSettings};
+use crate::backend::tree::JointTree;
 use crate::backend::{AnyBackend, Backend, BodyDesc, BodyState, JointDesc};
 use crate::error::{Error, Result};
 use crate::events::{Projectile, ProjectileReport};
@@ -30,14 +38,6 @@ use crate::track::{Metrics, Track};
 
 /// Standard gravity, m/s².
 pub const STANDARD_GRAVITY: f32 = 9.80665;
-
-/// How far from the origin anything may be placed (characters, charges, pins, the
-/// ground), metres on every axis: 10 km.
-///
-/// f32, which the engines compute in, resolves 1 mm up to 16 km from the origin (its
-/// spacing is 0.98 mm between 8 and 16 km); farther out contacts and joints lose their
-/// millimetres, and a scene position of 2³² m broke the engines outright.
-pub const MAX_COORDINATE_M: f32 = 10_000.0;
 
 /// Longest run, seconds: an hour, as the CLI's `--seconds` and a scene's `duration_s`.
 /// Every event time and key lies within it.
@@ -64,17 +64,8 @@ pub const MAX_SUBSTEPS: usize = 100;
 /// humanoids for a minute.
 pub const MAX_TRACK_SAMPLES: u64 = 10_000_000;
 
-/// Violations smaller than this are left to rapier's own (velocity-level) limits, degrees.
-/// Projecting every tiny excess made limbs resting against a limit creep (about 1 cm/s):
-/// each step the solver let them sink a little and the projection turned them back about
-/// the anchor, a ratchet against the floor's friction.
-const PROJECTION_TOLERANCE_DEG: f32 = 1.0;
-
 /// How far inside widened limits the pose at a hand-over ends up, degrees.
 const HANDOVER_LIMIT_MARGIN_DEG: f32 = 5.0;
-
-/// How far below the ground the limit projection may move a body that was above it, metres.
-const PROJECTION_GROUND_SLACK_M: f32 = 0.005;
 
 /// With no ground, blasts are computed as if the ground were this far below the charge,
 /// metres: far enough that any charge counts as a free-air burst.
@@ -248,10 +239,8 @@ struct Instance {
     name: String,
     body_names: Vec<String>,
     first_body: usize,
-    /// Joint indices ordered parents first.
-    joint_order: Vec<usize>,
-    /// For each joint, the bodies its child carries (the child and its descendants).
-    subtrees: Vec<Vec<usize>>,
+    /// Joints parents first, and the bodies each joint's child carries.
+    tree: JointTree,
     /// Each body's shape.
     shapes: Vec<Shape>,
     masses: Vec<f32>,
@@ -291,6 +280,11 @@ pub struct World {
     pushes: Vec<forces::ActivePush>,
     fields: Vec<crate::events::Field>,
     pins: Vec<forces::ActivePin>,
+    /// Every ragdoll's bodies at the start, until the first step (see `overlap.rs`).
+    start_index: overlap::StartIndex,
+    /// Whether a body's state went non-finite: the world then stops stepping (see
+    /// [`World::step`]).
+    halted: bool,
 }
 
 impl World {
@@ -332,6 +326,8 @@ impl World {
             pushes: Vec::new(),
             fields: Vec::new(),
             pins: Vec::new(),
+            start_index: overlap::StartIndex::default(),
+            halted: false,
         })
     }
 
@@ -349,7 +345,10 @@ impl World {
     /// Adds a ragdoll built from `spec`, placed by `placement` (a rigid transform applied
     /// to the whole character), lifted so that no body starts below the ground.
     ///
-    /// Must be called before the first step.
+    /// Must be called before the first step. Fails when one of its bodies would start
+    /// inside a body of a ragdoll already added (one body's axis inside the other; see
+    /// `overlap.rs`), or inside more than 32 bodies of its own; pairs of its own bodies
+    /// that start so are kept from colliding.
     pub fn add_ragdoll(
         &mut self,
         character: &Character,
@@ -402,12 +401,16 @@ impl World {
                 kind: j.kind,
             })
             .collect();
-        let disabled: Vec<(usize, usize)> = spec
+        let mut disabled: Vec<(usize, usize)> = spec
             .collision
             .disabled_pairs
             .iter()
             .filter_map(|[a, b]| Some((spec.body_index(a)?, spec.body_index(b)?)))
             .collect();
+        // 2b. Where it starts: within the world, on the ground, not inside another
+        //     ragdoll; its own parts that start inside each other stop colliding.
+        let solids = self.check_start(character, spec, &body_start)?;
+        disabled.extend(start::overlapping_parts(spec, &solids)?);
         // 3. Skeleton joints ride on their own or their nearest ancestor's body, with the
         //    offset they have at the start (so the hand-over pose is kept exactly).
         let root_body = (0..spec.bodies.len())
@@ -448,8 +451,10 @@ impl World {
             })
             .collect();
         let first_body = self.backend.add_ragdoll(&bodies, &joint_descs, &disabled);
+        self.start_index.insert(&solids);
         let joints = resolved.joints;
-        let (joint_order, subtrees) = joint_tree(&joints, spec.bodies.len());
+        let links: Vec<(usize, usize)> = joints.iter().map(|j| (j.parent, j.child)).collect();
+        let tree = JointTree::new(spec.bodies.len(), &links);
         let playback = character
             .clips
             .first()
@@ -478,8 +483,7 @@ impl World {
             name: character.name.clone(),
             body_names: spec.bodies.iter().map(|b| b.name.clone()).collect(),
             first_body,
-            joint_order,
-            subtrees,
+            tree,
             shapes: spec.bodies.iter().map(|b| b.shape).collect(),
             masses: spec.bodies.iter().map(|b| b.mass_kg).collect(),
             joints,
@@ -506,6 +510,13 @@ impl World {
     /// Adds a projectile; it hits at its time    /// Adds a projectile; it hits at its time (see [`Projectile`]).
     pub fn add_projectile(&mut self, projectile: Projectile) -> Result<()> {
         projectile.validate()?;
+        if !within_world(projectile.origin) {
+            return Err(beyond_world(
+                "from",
+                "the projectile's origin",
+                projectile.origin,
+            ));
+        }
         self.projectiles.push((projectile, None));
         Ok(())
     }
@@ -581,24 +592,46 @@ impl World {
     pub fn run(&mut self, seconds: f32) {
         let end = self.time + seconds.max(0.0) as f64;
         let dt = self.settings.dt as f64;
-        if self.frames_recorded == 0 {
-            self.backend.body_states(&mut self.states);
-            self.prev_states.clone_from(&self.states);
-            self.record_frames_until(0.0);
-        }
+        self.begin();
         while self.time + 0.5 * dt <= end + 1e-9 {
             self.step();
         }
     }
 
-    /// One fixed step, then whatever output frames fall inside it.
-    pub fn step(&mut self) {
+    /// Records the starting frame, once: from then on no ragdoll can be added.
+    fn begin(&mut self) {
         if self.frames_recorded == 0 {
             self.backend.body_states(&mut self.states);
             self.prev_states.clone_from(&self.states);
             self.record_frames_until(0.0);
+            self.start_index = overlap::StartIndex::default();
         }
+    }
+
+    /// Whether every body's pose and velocities are finite now (and the backend has hidden
+    /// no non-finite body).
+    fn states_finite(&self) -> bool {
+        !self.backend.went_non_finite()
+            && self
+                .states
+                .iter()
+                .all(|s| s.pose.is_finite() && s.linvel.is_finite() && s.angvel.is_finite())
+    }
+
+    /// One fixed step, then whatever output frames fall inside it.
+    ///
+    /// When a body's state stops being finite (forces past what f32 can hold), the world
+    /// sets [`Metrics::nan`], keeps the last finite states and from then on only advances
+    /// the clock: the frames that follow hold the last good pose instead of garbage, and a
+    /// caller sees the flag (the CLI exits non-zero on it).
+    pub fn step(&mut self) {
+        self.begin();
         self.prev_states.clone_from(&self.states);
+        if self.halted {
+            self.time += self.settings.dt as f64;
+            self.record_frames_until(self.time);
+            return;
+        }
         let n = self.settings.collision_substeps;
         let h = self.settings.dt / n as f32;
         for i in 0..n {
@@ -632,11 +665,19 @@ impl World {
                 self.apply_motors(t0, h);
             }
             self.backend.step(h);
+            // Checked every substep: a non-finite body must not reach the next substep's
+            // events or the backend's queries.
+            self.backend.body_states(&mut self.states);
+            if !self.states_finite() {
+                self.halt();
+                return;
+            }
             // After the step: rapier's scene queries see the bodies only once a step has
             // updated them; the shot lands at most one substep (1/240 s) late.
             self.fire_projectiles(t0 + h as f64);
         }
         self.time += self.settings.dt as f64;
+        // Read again: the last substep's shots changed velocities after the check.
         self.backend.body_states(&mut self.states);
         self.blast_after_step();
         if self.settings.project_limits && !self.backend.enforces_limits() {
@@ -644,6 +685,27 @@ impl World {
         }
         self.measure_step();
         self.record_frames_until(self.time);
+    }
+
+    /// Stops the run at the last finite states (see [`World::step`]), recording this
+    /// step's frames from them.
+    fn halt(&mut self) {
+        self.metrics.nan = true;
+        self.halted = true;
+        self.states.clone_from(&self.prev_states);
+        self.time += self.settings.dt as f64;
+        self.record_frames_until(self.time);
+    }
+
+    /// Grid entries and hash buckets of the particle backend's last search for colliding
+    /// pairs (`None` on the rigid backend): for tests that its memory follows the number
+    /// of bodies, not their size.
+    #[doc(hidden)]
+    pub fn broad_phase_footprint(&self) -> Option<(usize, usize)> {
+        match &self.backend {
+            AnyBackend::Particle(p) => Some(p.broad_phase_footprint()),
+            AnyBackend::Rigid(_) => None,
+        }
     }
 
     /// Worst-case quality metrics so far.
@@ -693,329 +755,11 @@ impl World {
     pub fn into_tracks(self) -> Vec<Track> {
         self.instances.into_iter().map(|i| i.track).collect()
     }
-
-    fn record_frames_until(&mut self, t: f64) {
-        let fps = self.settings.fps as f64;
-        let dt = self.settings.dt as f64;
-        loop {
-            let ft = self.frames_recorded as f64 / fps;
-            if ft > t + 1e-9 {
-                break;
-            }
-            // Interpolate between the previous and the current step.
-            let alpha = if t <= 0.0 {
-                1.0
-            } else {
-                (((ft - (t - dt)) / dt).clamp(0.0, 1.0)) as f32
-            };
-            let mut stretch = 0.0f32;
-            for inst in &mut self.instances {
-                if !inst.active
-                    && let Some(play) = &inst.playback
-                {
-                    let mut frame = Vec::new();
-                    play.joint_world(ft, &mut frame);
-                    inst.track.frames.push(frame);
-                    continue;
-                }
-                let frame: Vec<Transform> = inst
-                    .riders
-                    .iter()
-                    .map(|r| {
-                        let a = &self.prev_states[inst.first_body + r.body].pose;
-                        let b = &self.states[inst.first_body + r.body].pose;
-                        let pose = Transform::new(
-                            a.translation.lerp(b.translation, alpha),
-                            a.rotation.slerp(b.rotation, alpha),
-                        );
-                        pose.mul(&r.offset)
-                    })
-                    .collect();
-                stretch = stretch.max(bone_stretch(
-                    &inst.joint_parents,
-                    &mut inst.bone_lengths,
-                    &frame,
-                ));
-                inst.track.frames.push(frame);
-            }
-            self.metrics.max_bone_stretch = self.metrics.max_bone_stretch.max(stretch);
-            if !stretch.is_finite() {
-                self.metrics.nan = true;
-            }
-            self.frames_recorded += 1;
-            self.measure_frame_energy();
-        }
-    }
-
-    /// Clamps every joint back into its limits (see [`WorldSettings::project_limits`]).
-    ///
-    /// Where turning a subtree would sink one of its bodies below the ground (deeper than
-    /// it already was, beyond [`PROJECTION_GROUND_SLACK_M`]), the whole ragdoll is lifted
-    /// by that much instead: left to the contacts, such a sink came back as 3-6 cm
-    /// penetrations in our runs; the lift is a few millimetres, once in a while.
-    fn project_limits(&mut self) {
-        let ground = self.settings.ground;
-        // Bodies something outside the ragdoll holds (a pin, a drag, a root kept on its
-        // clip): turning one of them would tear it from its holder, whose constraint then
-        // yanks it back, a fight that flung a pinned dragon's chain tens of metres. The
-        // projection turns the other side of the joint instead.
-        let mut held = vec![false; self.states.len()];
-        for p in self.pins.iter().filter(|p| !p.released) {
-            if let Some(h) = held.get_mut(p.body) {
-                *h = true;
-            }
-        }
-        for inst in &self.instances {
-            if let Some(m) = &inst.motors
-                && m.engaged
-                && m.motors.root_on_clip
-            {
-                held[inst.first_body + m.root] = true;
-            }
-        }
-        for inst in self.instances.iter().filter(|i| i.active) {
-            let base = inst.first_body;
-            for &k in &inst.joint_order {
-                let j = &inst.joints[k];
-                let parent = self.states[base + j.parent].pose;
-                let child = self.states[base + j.child].pose;
-                if j.violation(&parent, &child) < PROJECTION_TOLERANCE_DEG.to_radians() {
-                    continue;
-                }
-                let Some(rotation) = j.clamp_child_rotation(&parent, &child) else {
-                    continue;
-                };
-                let full = rotation * child.rotation.conjugate();
-                let anchor = child.transform_point(j.frame_child.translation);
-                let moved = |p: &Transform, delta: glam::Quat| {
-                    Transform::new(
-                        anchor + delta * (p.translation - anchor),
-                        (delta * p.rotation).normalize(),
-                    )
-                };
-                let subtree = &inst.subtrees[k];
-                let (turned, delta) = if subtree.iter().all(|&b| !held[base + b]) {
-                    (subtree.clone(), full)
-                } else {
-                    let rest: Vec<usize> = (0..inst.shapes.len())
-                        .filter(|b| !subtree.contains(b))
-                        .collect();
-                    if rest.iter().any(|&b| held[base + b]) {
-                        // Held on both sides: the holders decide.
-                        continue;
-                    }
-                    (rest, full.conjugate())
-                };
-                // How far the turned bodies would sink below the ground beyond the slack
-                // (and beyond where they already were): the whole ragdoll is lifted by
-                // that much, so the limit wins without pushing a body into the floor.
-                let mut lift = 0.0f32;
-                if let Some(g) = ground {
-                    for &b in &turned {
-                        let shape = &inst.shapes[b];
-                        let before = lowest_point(&self.states[base + b].pose, shape);
-                        let after = lowest_point(&moved(&self.states[base + b].pose, delta), shape);
-                        let floor = (g - PROJECTION_GROUND_SLACK_M).min(before);
-                        lift = lift.max(floor - after);
-                    }
-                }
-                for &b in &turned {
-                    let pose = moved(&self.states[base + b].pose, delta);
-                    self.states[base + b].pose = pose;
-                    self.backend.set_body_pose(base + b, &pose);
-                }
-                // A held ragdoll is not lifted: its holder would pull it straight back.
-                let any_held = (0..inst.shapes.len()).any(|b| held[base + b]);
-                if lift > 0.0 && !any_held {
-                    for b in 0..inst.shapes.len() {
-                        self.states[base + b].pose.translation.y += lift;
-                        let pose = self.states[base + b].pose;
-                        self.backend.set_body_pose(base + b, &pose);
-                    }
-                }
-            }
-        }
-    }
-
-    fn measure_step(&mut self) {
-        let m = &mut self.metrics;
-        m.max_penetration_m = m.max_penetration_m.max(self.backend.max_penetration());
-        for s in &self.states {
-            if !(s.pose.is_finite() && s.linvel.is_finite() && s.angvel.is_finite()) {
-                m.nan = true;
-            }
-        }
-        for inst in self.instances.iter().filter(|i| i.active) {
-            let states = &self.states[inst.first_body..inst.first_body + inst.masses.len()];
-            for j in &inst.joints {
-                let (p, c) = (&states[j.parent].pose, &states[j.child].pose);
-                m.max_joint_separation_m = m.max_joint_separation_m.max(j.separation(p, c));
-                m.max_limit_violation_deg = m
-                    .max_limit_violation_deg
-                    .max(j.violation(p, c).to_degrees());
-            }
-        }
-    }
-
-    /// Whether every blast has gone off and passed every body part (DESIGN §5 measures
-    /// the energy drift only after the last event).
-    fn events_done(&self) -> bool {
-        use crate::events::Field;
-        let t = self.time;
-        // Pins hold until released; pushes and fields until their windows end; gravity
-        // fields change what potential energy means, so they never end.
-        let forces_done = self.pins.iter().all(|p| p.released)
-            && self.pushes.iter().all(|p| p.done)
-            && self.fields.iter().all(|f| match f {
-                Field::Gravity { .. } => false,
-                Field::Radial { end_s, .. }
-                | Field::Drag { end_s, .. }
-                | Field::Wind { end_s, .. } => (*end_s as f64) <= t,
-            });
-        // Motors put energy in on purpose until they have faded out for good.
-        let motors_done = self.instances.iter().all(|i| {
-            i.motors.as_ref().is_none_or(|m| {
-                let keys = &m.motors.strength_keys;
-                keys.last()
-                    .is_some_and(|&(time, strength)| strength == 0.0 && (time as f64) <= t)
-            })
-        });
-        forces_done
-            && motors_done
-            && self.instances.iter().all(|i| i.active)
-            && self.blasts.iter().all(|b| {
-                let reached_all = b.parts.len() == self.instances.len()
-                    && b.parts
-                        .iter()
-                        .all(|parts| parts.iter().all(|r| r.arrival_s.is_some()));
-                reached_all && b.parts.iter().flatten().all(|r| r.passed_s <= self.time)
-            })
-    }
-
-    fn measure_frame_energy(&mut self) {
-        if !self.events_done() {
-            // Events put energy in on purpose; measure from the first frame after them.
-            self.start_energy = None;
-            self.last_frame_energy = None;
-            return;
-        }
-        let g = self.settings.gravity;
-        let ground = self.settings.ground.unwrap_or(0.0);
-        let mut potential = 0.0f64;
-        for inst in &self.instances {
-            for (i, &m) in inst.masses.iter().enumerate() {
-                let p = self.states[inst.first_body + i].pose.translation - Vec3::Y * ground;
-                potential += -(m as f64) * g.dot(p) as f64;
-            }
-        }
-        let e = potential + self.backend.kinetic_energy();
-        let e0 = *self.start_energy.get_or_insert(e);
-        if let Some(last) = self.last_frame_energy {
-            let rise = (e - last) / e0.abs().max(1e-9);
-            if rise.is_finite() {
-                self.metrics.energy_drift = self.metrics.energy_drift.max(rise.max(0.0) as f32);
-            } else {
-                self.metrics.nan = true;
-            }
-        }
-        self.last_frame_energy = Some(e);
-    }
 }
 
 fn setting_error(setting: &str, message: &str) -> Error {
     Error::Setting {
         setting: setting.into(),
         message: message.into(),
-    }
-}
-
-/// Joint indices ordered parents first, and for each joint the bodies under its child.
-fn joint_tree(joints: &[ResolvedJoint], bodies: usize) -> (Vec<usize>, Vec<Vec<usize>>) {
-    let mut parent_joint = vec![None; bodies];
-    for (k, j) in joints.iter().enumerate() {
-        parent_joint[j.child] = Some(k);
-    }
-    let depth = |mut b: usize| {
-        let mut d = 0;
-        while let Some(k) = parent_joint[b] {
-            b = joints[k].parent;
-            d += 1;
-            if d > bodies {
-                break; // a cycle: validate() does not forbid it, so do not loop forever
-            }
-        }
-        d
-    };
-    let mut order: Vec<usize> = (0..joints.len()).collect();
-    order.sort_by_key(|&k| depth(joints[k].child));
-    let subtrees = joints
-        .iter()
-        .map(|j| {
-            (0..bodies)
-                .filter(|&b| {
-                    let mut x = b;
-                    for _ in 0..=bodies {
-                        if x == j.child {
-                            return true;
-                        }
-                        match parent_joint[x] {
-                            Some(k) => x = joints[k].parent,
-                            None => return false,
-                        }
-                    }
-                    false
-                })
-                .collect()
-        })
-        .collect();
-    (order, subtrees)
-}
-
-/// Bones shorter than this are left out of the stretch, metres: a zero-length bone (two
-/// joints at one place) has no relative change.
-const MIN_BONE_M: f32 = 1.0e-3;
-
-/// Largest relative change of a bone's length in `frame` from `lengths` (taken from this
-/// frame when empty): what [`Metrics::max_bone_stretch`] records. Backend-independent, so
-/// it measures both backends alike.
-fn bone_stretch(parents: &[Option<usize>], lengths: &mut Vec<f32>, frame: &[Transform]) -> f32 {
-    let length = |j: usize| {
-        parents[j].map_or(0.0, |p| {
-            (frame[j].translation - frame[p].translation).length()
-        })
-    };
-    if lengths.is_empty() {
-        lengths.extend((0..frame.len()).map(length));
-        return 0.0;
-    }
-    let mut worst = 0.0f32;
-    for (j, &l0) in lengths.iter().enumerate() {
-        if l0 > MIN_BONE_M {
-            worst = worst.max((length(j) - l0).abs() / l0);
-        }
-    }
-    worst
-}
-
-/// Lowest world height of a shape at `pose`.
-fn lowest_point(pose: &Transform, shape: &Shape) -> f32 {
-    match *shape {
-        Shape::Capsule { radius_m, length_m } => {
-            let axis = pose.rotation * Vec3::Y * (0.5 * length_m);
-            (pose.translation.y - axis.y.abs()) - radius_m
-        }
-        Shape::Box { size_m } => {
-            let h = Vec3::from_array(size_m) * 0.5;
-            let mut low = f32::INFINITY;
-            for sx in [-1.0, 1.0] {
-                for sy in [-1.0, 1.0] {
-                    for sz in [-1.0, 1.0] {
-                        let c = pose.transform_point(h * Vec3::new(sx, sy, sz));
-                        low = low.min(c.y);
-                    }
-                }
-            }
-            low
-        }
     }
 }

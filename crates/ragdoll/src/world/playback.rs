@@ -189,6 +189,8 @@ impl super::World {
     /// moment has come (at `t0`, with the clip's velocities), moves the others along the
     /// clip.
     pub(super) fn play_clips(&mut self, t0: f64, t1: f64, h: f64) {
+        // Who touches another ragdoll, asked once for every character waiting for contact.
+        let mut touching: Option<Vec<bool>> = None;
         for c in 0..self.instances.len() {
             let inst = &self.instances[c];
             if inst.active {
@@ -200,9 +202,15 @@ impl super::World {
                 // The first substep that starts at or after the time (1 µs of slack for
                 // the sum of steps).
                 Activation::AtTime(t) => t0 + 1e-6 >= t as f64,
-                Activation::OnContact => self
-                    .backend
-                    .touches_another_ragdoll(inst.first_body, inst.shapes.len()),
+                Activation::OnContact => {
+                    let touching = touching.get_or_insert_with(|| {
+                        let mut flags = Vec::new();
+                        self.backend.bodies_touching_other_ragdolls(&mut flags);
+                        flags
+                    });
+                    let mine = inst.first_body..inst.first_body + inst.shapes.len();
+                    touching.get(mine).is_some_and(|t| t.iter().any(|&x| x))
+                }
                 Activation::OnBlast => self.blasts.iter().any(|active| {
                     let det = active.blast.time_s as f64;
                     if t1 <= det {
@@ -214,7 +222,7 @@ impl super::World {
                         .unwrap_or(active.blast.position.y - super::FREE_AIR_DEPTH_M);
                     inst.shapes.iter().enumerate().any(|(k, shape)| {
                         let state = &self.states[inst.first_body + k];
-                        let (at, _, _) =
+                        let (at, _, _, _) =
                             super::blast::blast_on_part(&active.blast, state, shape, ground);
                         det + at.arrival_s <= t1
                     })
@@ -285,19 +293,22 @@ impl super::World {
     /// body, are what is wrong, and a contact would throw the parts apart.
     pub(super) fn stop_overlapping_pairs(&mut self, c: usize, poses: &[Transform]) {
         let inst = &self.instances[c];
-        for a in 0..poses.len() {
-            for b in a + 1..poses.len() {
-                if crate::spec::shapes_overlap(
-                    &poses[a],
-                    &inst.shapes[a],
-                    &poses[b],
-                    &inst.shapes[b],
-                    0.0,
-                ) {
-                    self.backend
-                        .disable_pair(inst.first_body + a, inst.first_body + b);
-                }
+        let boxes: Vec<_> = poses
+            .iter()
+            .zip(&inst.shapes)
+            .map(|(p, s)| super::overlap::loose_bounds(p, s))
+            .collect();
+        let mut pairs = Vec::new();
+        crate::backend::broad::BroadPhase::default().find(&boxes, |a, b| {
+            let (pa, pb) = (&poses[a], &poses[b]);
+            if crate::spec::shapes_overlap(pa, &inst.shapes[a], pb, &inst.shapes[b], 0.0) {
+                pairs.push((a, b));
             }
+        });
+        pairs.sort_unstable();
+        for (a, b) in pairs {
+            self.backend
+                .disable_pair(inst.first_body + a, inst.first_body + b);
         }
     }
 }

@@ -34,11 +34,14 @@
 //! - **Collision**: each body's capsule (boxes become the capsule along their longest edge,
 //!   the radius the smaller of the other two half edges, so nothing sinks into the floor)
 //!   against the ground plane and against every capsule not filtered out, of its own or
-//!   another ragdoll: a uniform hash grid, run every few steps with a margin for the motion
-//!   in between, gives the candidate pairs. A contact moves each body as one rigid body
-//!   (its particles' mass and inertia at the contact point), with positional friction
-//!   (static up to μ times the depth); a body resting on the floor answers one above it as
-//!   if heavier (mass scaling), so a pile's weight reaches the floor in one pass.
+//!   another ragdoll: a hierarchical hash grid (`backend::broad`, a few cells per body
+//!   whatever its size or speed), run every few steps with a margin for the motion in
+//!   between, gives the candidate pairs, solved from the floor up. A contact moves each
+//!   body as one rigid body (its particles' mass and inertia at the contact point), with
+//!   positional friction (static up to μ times the depth); a body resting on the floor
+//!   answers one above it as if heavier (mass scaling), so a pile's weight reaches the
+//!   floor in one pass.
+//! - **Ray casts** (projectiles) meet each body's own shape, a box as a box.
 //! - Pins and impulses act on points of a body: a pin's correction is spread over the
 //!   body's anchors and centre with the weights of its affine (least-norm) combination of
 //!   them; an impulse changes the body's particles' velocities as a rigid body's.
@@ -60,7 +63,8 @@ mod solve;
 
 use glam::{Mat3, Mat4, Quat, Vec3, Vec4};
 
-use super::{Backend, BodyDesc, BodyState, JointDesc};
+use super::tree::JointTree;
+use super::{Backend, BodyDesc, BodyState, JointDesc, capsule_of};
 use crate::math::Transform;
 use crate::spec::{JointKind, ResolvedJoint, Shape};
 
@@ -108,6 +112,8 @@ struct Body {
     /// Inverse of that frame at rest, in the body frame, and the first one's rest offset.
     tri_inv: Quat,
     tri_origin: Vec3,
+    /// The spec's shape (ray casts hit it; contacts use the capsule below).
+    shape: Shape,
     /// Capsule segment ends in the body frame and radius.
     e: [Vec3; 2],
     radius: f32,
@@ -202,8 +208,8 @@ pub(crate) struct ParticleBackend {
     joints: Vec<ResolvedJoint>,
     /// Each joint's limits as the inside test reads them.
     bounds: Vec<solve::Bounds>,
-    /// Each joint's child and every body below it (global indices).
-    subtrees: Vec<Vec<u32>>,
+    /// Each ragdoll's first joint and its joint tree (each joint's subtree).
+    trees: Vec<(u32, JointTree)>,
     /// Every joint, parents before children.
     joint_order: Vec<u32>,
     /// Marks of the last pass that touched each particle and body (see `project_limits`).
@@ -230,34 +236,8 @@ pub(crate) struct ParticleBackend {
     last_dt: f32,
     /// Weight buffers for pins and contacts.
     scratch: Vec<f32>,
-}
-
-/// Body-frame capsule of a shape: segment ends and radius.
-fn capsule_of(shape: &Shape) -> ([Vec3; 2], f32) {
-    match *shape {
-        Shape::Capsule { radius_m, length_m } => {
-            let h = Vec3::Y * (0.5 * length_m);
-            ([-h, h], radius_m)
-        }
-        Shape::Box { size_m } => {
-            let s = Vec3::from_array(size_m) * 0.5;
-            let axis = if s.x >= s.y && s.x >= s.z {
-                0
-            } else if s.y >= s.z {
-                1
-            } else {
-                2
-            };
-            let (long, r) = match axis {
-                0 => (s.x, s.y.min(s.z)),
-                1 => (s.y, s.x.min(s.z)),
-                _ => (s.z, s.x.min(s.y)),
-            };
-            let mut h = Vec3::ZERO;
-            h[axis] = (long - r).max(0.0);
-            ([-h, h], r)
-        }
-    }
+    /// Which bodies an active pin holds (see `project_limits`).
+    pinned: Vec<bool>,
 }
 
 /// Inertia tensor of a shape about its centre, body frame, kg·m².
@@ -357,7 +337,7 @@ impl ParticleBackend {
             affines: Vec::new(),
             joints: Vec::new(),
             bounds: Vec::new(),
-            subtrees: Vec::new(),
+            trees: Vec::new(),
             joint_order: Vec::new(),
             stamp: Vec::new(),
             body_stamp: Vec::new(),
@@ -375,6 +355,7 @@ impl ParticleBackend {
             penetration: 0.0,
             last_dt: 0.0,
             scratch: Vec::new(),
+            pinned: Vec::new(),
         }
     }
 
@@ -498,38 +479,11 @@ impl ParticleBackend {
             .extend(joint_descs.iter().map(|j| solve::Bounds::of(&j.kind)));
         // Subtrees and a parents-first order of the joints, for the final projection.
         let first_joint = self.joints.len() - joint_descs.len();
-        let mut children: Vec<Vec<usize>> = vec![Vec::new(); n];
-        for j in joint_descs {
-            children[j.parent].push(j.child);
-        }
-        let mut depth = vec![0usize; joint_descs.len()];
-        for (k, j) in joint_descs.iter().enumerate() {
-            let mut sub = vec![j.child];
-            let mut next = 0;
-            while next < sub.len() && sub.len() <= n {
-                let b = sub[next];
-                for &ch in &children[b] {
-                    if !sub.contains(&ch) {
-                        sub.push(ch);
-                    }
-                }
-                next += 1;
-            }
-            self.subtrees
-                .push(sub.iter().map(|&b| (fb + b) as u32).collect());
-            let mut b = j.parent;
-            while let Some(up) = joint_descs.iter().find(|u| u.child == b) {
-                depth[k] += 1;
-                b = up.parent;
-                if depth[k] > n {
-                    break;
-                }
-            }
-        }
-        let mut order: Vec<usize> = (0..joint_descs.len()).collect();
-        order.sort_by_key(|&k| depth[k]);
+        let links: Vec<(usize, usize)> = joint_descs.iter().map(|j| (j.parent, j.child)).collect();
+        let tree = JointTree::new(n, &links);
         self.joint_order
-            .extend(order.iter().map(|&k| (first_joint + k) as u32));
+            .extend(tree.order.iter().map(|&k| (first_joint + k) as u32));
+        self.trees.push((first_joint as u32, tree));
         self.stamp.resize(self.x.len(), 0);
         self.body_stamp.resize(self.bodies.len(), 0);
         // 5. Collision filter: jointed pairs and the spec's pairs.
@@ -547,12 +501,17 @@ impl ParticleBackend {
             self.disable_pair(fb + a, fb + b);
         }
         // Bodies that share a particle would fight over it.
-        for a in fb..fb + n {
-            for b in a + 1..fb + n {
-                let shared = self.parts[self.body_parts(a)]
-                    .iter()
-                    .any(|p| self.parts[self.body_parts(b)].contains(p));
-                if shared {
+        let mut owners: Vec<Vec<usize>> = vec![Vec::new(); self.x.len() - fp];
+        for b in fb..fb + n {
+            for &p in &self.parts[self.body_parts(b)] {
+                if let Some(list) = (p as usize).checked_sub(fp).and_then(|i| owners.get_mut(i)) {
+                    list.push(b);
+                }
+            }
+        }
+        for list in &owners {
+            for (i, &a) in list.iter().enumerate() {
+                for &b in &list[i + 1..] {
                     self.disable_pair(a, b);
                 }
             }
@@ -629,7 +588,14 @@ impl ParticleBackend {
             // A stick: the three-point rule about the centre's foot on the bone.
             let t = ((-rest[0]).dot(dir) / extent).clamp(0.05, 0.95);
             let (p, q) = (t * extent, (1.0 - t) * extent);
-            let axial = dir.dot(inertia * dir).max(1e-9);
+            // Floors relative to the body's own inertia: an absolute one (1e-9 kg·m²) was
+            // larger than a milligram hand's whole tensor, which made its anchors' masses
+            // negative and the run NaN.
+            let trace = inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z;
+            let axial = dir
+                .dot(inertia * dir)
+                .max(1e-9 * trace)
+                .max(f32::MIN_POSITIVE);
             let across = 0.5 * (inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z - axial);
             let (mut ma, mut mb) = (across / (p * (p + q)), across / (q * (p + q)));
             let room = (1.0 - MIN_CENTRE_SHARE - SIDE_SHARE.1) * mass;
@@ -659,7 +625,7 @@ impl ParticleBackend {
         // The centre goes where the body's centre of mass (its origin) comes out right.
         let moment: Vec3 =
             rest.iter().zip(&shares).map(|(r, s)| *r * *s).sum::<Vec3>() + side_rest * side_share;
-        let want_centre = -moment / centre_share.max(1e-9);
+        let want_centre = -moment / centre_share.max(1e-9 * mass);
         // Rigidity: every pair of anchors and the side particle.
         let mut frame_pts = list.clone();
         frame_pts.push(side);
@@ -742,6 +708,7 @@ impl ParticleBackend {
             ],
             tri_inv: triad_frame(tri[0], tri[1], tri[2]).conjugate(),
             tri_origin: tri[0],
+            shape: desc.shape,
             e,
             radius,
             rbar,
@@ -1033,8 +1000,8 @@ impl Backend for ParticleBackend {
         self.pins[pin].active = false;
     }
 
-    fn touches_another_ragdoll(&self, first: usize, count: usize) -> bool {
-        self.touched[first..first + count].iter().any(|&t| t)
+    fn bodies_touching_other_ragdolls(&self, out: &mut Vec<bool>) {
+        out.clone_from(&self.touched);
     }
 
     fn disable_pair(&mut self, a: usize, b: usize) {

@@ -18,6 +18,10 @@ const PROJECT_TOLERANCE: f32 = 3.0 * std::f32::consts::PI / 180.0;
 /// metres (as the world's projection for the rigid backend).
 const PROJECT_GROUND_SLACK_M: f32 = 0.005;
 
+/// Farthest a hard pin moves its point in one substep, metres (0.5 m at the default 720
+/// substeps a second: 360 m/s, far beyond any path a scene keys).
+const MAX_PIN_STEP_M: f32 = 0.5;
+
 /// Steps one search for candidate pairs serves: the search's margin covers the motion of
 /// that many steps, and an impulse or a teleport starts a new search at once.
 const PAIR_REUSE: u32 = 4;
@@ -297,9 +301,10 @@ impl ParticleBackend {
         }
     }
 
-    /// Whether something outside the ragdoll holds body `b`: a kinematic particle or a pin.
+    /// Whether something outside the ragdoll holds body `b`: a kinematic particle or a pin
+    /// (`pinned`, filled by `project_limits`).
     fn held(&self, b: usize) -> bool {
-        !self.body_free(b) || self.pins.iter().any(|p| p.active && p.body as usize == b)
+        !self.body_free(b) || self.pinned.get(b).is_some_and(|&p| p)
     }
 
     /// After the substeps, turns each joint still more than `PROJECT_TOLERANCE` past its
@@ -312,6 +317,16 @@ impl ParticleBackend {
     /// from its frame, snapping away small distortions that the next step's distances turn
     /// into velocity (1.5 % energy in a flat drop).
     fn project_limits(&mut self) {
+        // Which bodies a pin holds, once (thousands of pins made each test a search).
+        let mut pinned = std::mem::take(&mut self.pinned);
+        pinned.clear();
+        pinned.resize(self.bodies.len(), false);
+        for p in self.pins.iter().filter(|p| p.active) {
+            if let Some(flag) = pinned.get_mut(p.body as usize) {
+                *flag = true;
+            }
+        }
+        self.pinned = pinned;
         for idx in 0..self.joint_order.len() {
             let k = self.joint_order[idx] as usize;
             let j = &self.joints[k];
@@ -335,8 +350,9 @@ impl ParticleBackend {
             let all = f.first_body as usize..(f.first_body + f.bodies) as usize;
             self.epoch = self.epoch.wrapping_add(1);
             let epoch = self.epoch;
-            for &b in &self.subtrees[k] {
-                self.body_stamp[b as usize] = epoch;
+            let (first_joint, tree) = &self.trees[self.bodies[c].ragdoll as usize];
+            for &b in tree.subtree(k - *first_joint as usize) {
+                self.body_stamp[f.first_body as usize + b] = epoch;
             }
             // The subtree turns, or the rest of the ragdoll the other way: whichever is
             // free and would not sink into the floor (a limb past its stop on the floor
@@ -430,7 +446,10 @@ impl ParticleBackend {
             }
             let c = point - target;
             let lambda = match pin.soft {
-                None => c / wsum,
+                // At most `MAX_PIN_STEP_M` a substep: a target kilometres away dragged the
+                // ragdoll there in one projection, and the distances that followed blew
+                // it up (NaN); now it is hauled at up to 360 m/s.
+                None => c.clamp_length_max(MAX_PIN_STEP_M) / wsum,
                 Some((hz, zeta)) => {
                     let mass = self.bodies[b].mass;
                     let omega = std::f32::consts::TAU * hz;

@@ -1,0 +1,295 @@
+//! Recording and measuring: output frames from the bodies' states, the rigid backend's
+//! limit projection, and the quality metrics (DESIGN §5).
+
+use glam::Vec3;
+
+use crate::backend::Backend;
+use crate::math::Transform;
+use crate::spec::Shape;
+
+/// Violations smaller than this are left to rapier's own (velocity-level) limits, degrees.
+/// Projecting every tiny excess made limbs resting against a limit creep (about 1 cm/s):
+/// each step the solver let them sink a little and the projection turned them back about
+/// the anchor, a ratchet against the floor's friction.
+const PROJECTION_TOLERANCE_DEG: f32 = 1.0;
+
+/// How far below the ground the limit projection may move a body that was above it, metres.
+const PROJECTION_GROUND_SLACK_M: f32 = 0.005;
+
+impl super::World {
+    pub(super) fn record_frames_until(&mut self, t: f64) {
+        let fps = self.settings.fps as f64;
+        let dt = self.settings.dt as f64;
+        loop {
+            let ft = self.frames_recorded as f64 / fps;
+            if ft > t + 1e-9 {
+                break;
+            }
+            // Interpolate between the previous and the current step.
+            let alpha = if t <= 0.0 {
+                1.0
+            } else {
+                (((ft - (t - dt)) / dt).clamp(0.0, 1.0)) as f32
+            };
+            let mut stretch = 0.0f32;
+            for inst in &mut self.instances {
+                if !inst.active
+                    && let Some(play) = &inst.playback
+                {
+                    let mut frame = Vec::new();
+                    play.joint_world(ft, &mut frame);
+                    inst.track.frames.push(frame);
+                    continue;
+                }
+                let frame: Vec<Transform> = inst
+                    .riders
+                    .iter()
+                    .map(|r| {
+                        let a = &self.prev_states[inst.first_body + r.body].pose;
+                        let b = &self.states[inst.first_body + r.body].pose;
+                        let pose = Transform::new(
+                            a.translation.lerp(b.translation, alpha),
+                            a.rotation.slerp(b.rotation, alpha),
+                        );
+                        pose.mul(&r.offset)
+                    })
+                    .collect();
+                stretch = stretch.max(bone_stretch(
+                    &inst.joint_parents,
+                    &mut inst.bone_lengths,
+                    &frame,
+                ));
+                inst.track.frames.push(frame);
+            }
+            self.metrics.max_bone_stretch = self.metrics.max_bone_stretch.max(stretch);
+            if !stretch.is_finite() {
+                self.metrics.nan = true;
+            }
+            self.frames_recorded += 1;
+            self.measure_frame_energy();
+        }
+    }
+
+    /// Clamps every joint back into its limits (see [`WorldSettings::project_limits`]).
+    ///
+    /// Where turning a subtree would sink one of its bodies below the ground (deeper than
+    /// it already was, beyond [`PROJECTION_GROUND_SLACK_M`]), the whole ragdoll is lifted
+    /// by that much instead: left to the contacts, such a sink came back as 3-6 cm
+    /// penetrations in our runs; the lift is a few millimetres, once in a while.
+    pub(super) fn project_limits(&mut self) {
+        let ground = self.settings.ground;
+        // Bodies something outside the ragdoll holds (a pin, a drag, a root kept on its
+        // clip): turning one of them would tear it from its holder, whose constraint then
+        // yanks it back, a fight that flung a pinned dragon's chain tens of metres. The
+        // projection turns the other side of the joint instead.
+        let mut held = vec![false; self.states.len()];
+        for p in self.pins.iter().filter(|p| !p.released) {
+            if let Some(h) = held.get_mut(p.body) {
+                *h = true;
+            }
+        }
+        for inst in &self.instances {
+            if let Some(m) = &inst.motors
+                && m.engaged
+                && m.motors.root_on_clip
+            {
+                held[inst.first_body + m.root] = true;
+            }
+        }
+        for inst in self.instances.iter().filter(|i| i.active) {
+            let base = inst.first_body;
+            for &k in &inst.tree.order {
+                let j = &inst.joints[k];
+                let parent = self.states[base + j.parent].pose;
+                let child = self.states[base + j.child].pose;
+                if j.violation(&parent, &child) < PROJECTION_TOLERANCE_DEG.to_radians() {
+                    continue;
+                }
+                let Some(rotation) = j.clamp_child_rotation(&parent, &child) else {
+                    continue;
+                };
+                let full = rotation * child.rotation.conjugate();
+                let anchor = child.transform_point(j.frame_child.translation);
+                let moved = |p: &Transform, delta: glam::Quat| {
+                    Transform::new(
+                        anchor + delta * (p.translation - anchor),
+                        (delta * p.rotation).normalize(),
+                    )
+                };
+                let subtree = inst.tree.subtree(k);
+                let (turned, delta) = if subtree.iter().all(|&b| !held[base + b]) {
+                    (subtree.to_vec(), full)
+                } else {
+                    let rest: Vec<usize> = (0..inst.shapes.len())
+                        .filter(|&b| !inst.tree.in_subtree(k, b))
+                        .collect();
+                    if rest.iter().any(|&b| held[base + b]) {
+                        // Held on both sides: the holders decide.
+                        continue;
+                    }
+                    (rest, full.conjugate())
+                };
+                // How far the turned bodies would sink below the ground beyond the slack
+                // (and beyond where they already were): the whole ragdoll is lifted by
+                // that much, so the limit wins without pushing a body into the floor.
+                let mut lift = 0.0f32;
+                if let Some(g) = ground {
+                    for &b in &turned {
+                        let shape = &inst.shapes[b];
+                        let before = lowest_point(&self.states[base + b].pose, shape);
+                        let after = lowest_point(&moved(&self.states[base + b].pose, delta), shape);
+                        let floor = (g - PROJECTION_GROUND_SLACK_M).min(before);
+                        lift = lift.max(floor - after);
+                    }
+                }
+                for &b in &turned {
+                    let pose = moved(&self.states[base + b].pose, delta);
+                    self.states[base + b].pose = pose;
+                    self.backend.set_body_pose(base + b, &pose);
+                }
+                // A held ragdoll is not lifted: its holder would pull it straight back.
+                let any_held = (0..inst.shapes.len()).any(|b| held[base + b]);
+                if lift > 0.0 && !any_held {
+                    for b in 0..inst.shapes.len() {
+                        self.states[base + b].pose.translation.y += lift;
+                        let pose = self.states[base + b].pose;
+                        self.backend.set_body_pose(base + b, &pose);
+                    }
+                }
+            }
+        }
+    }
+
+    pub(super) fn measure_step(&mut self) {
+        let m = &mut self.metrics;
+        m.max_penetration_m = m.max_penetration_m.max(self.backend.max_penetration());
+        for s in &self.states {
+            if !(s.pose.is_finite() && s.linvel.is_finite() && s.angvel.is_finite()) {
+                m.nan = true;
+            }
+        }
+        for inst in self.instances.iter().filter(|i| i.active) {
+            let states = &self.states[inst.first_body..inst.first_body + inst.masses.len()];
+            for j in &inst.joints {
+                let (p, c) = (&states[j.parent].pose, &states[j.child].pose);
+                m.max_joint_separation_m = m.max_joint_separation_m.max(j.separation(p, c));
+                m.max_limit_violation_deg = m
+                    .max_limit_violation_deg
+                    .max(j.violation(p, c).to_degrees());
+            }
+        }
+    }
+
+    /// Whether every blast has gone off and passed every body part (DESIGN §5 measures
+    /// the energy drift only after the last event).
+    fn events_done(&self) -> bool {
+        use crate::events::Field;
+        let t = self.time;
+        // Pins hold until released; pushes and fields until their windows end; gravity
+        // fields change what potential energy means, so they never end.
+        let forces_done = self.pins.iter().all(|p| p.released)
+            && self.pushes.iter().all(|p| p.done)
+            && self.fields.iter().all(|f| match f {
+                Field::Gravity { .. } => false,
+                Field::Radial { end_s, .. }
+                | Field::Drag { end_s, .. }
+                | Field::Wind { end_s, .. } => (*end_s as f64) <= t,
+            });
+        // Motors put energy in on purpose until they have faded out for good.
+        let motors_done = self.instances.iter().all(|i| {
+            i.motors.as_ref().is_none_or(|m| {
+                let keys = &m.motors.strength_keys;
+                keys.last()
+                    .is_some_and(|&(time, strength)| strength == 0.0 && (time as f64) <= t)
+            })
+        });
+        forces_done
+            && motors_done
+            && self.instances.iter().all(|i| i.active)
+            && self.blasts.iter().all(|b| {
+                let reached_all = b.parts.len() == self.instances.len()
+                    && b.parts
+                        .iter()
+                        .all(|parts| parts.iter().all(|r| r.arrival_s.is_some()));
+                reached_all && b.parts.iter().flatten().all(|r| r.passed_s <= self.time)
+            })
+    }
+
+    fn measure_frame_energy(&mut self) {
+        if !self.events_done() {
+            // Events put energy in on purpose; measure from the first frame after them.
+            self.start_energy = None;
+            self.last_frame_energy = None;
+            return;
+        }
+        let g = self.settings.gravity;
+        let ground = self.settings.ground.unwrap_or(0.0);
+        let mut potential = 0.0f64;
+        for inst in &self.instances {
+            for (i, &m) in inst.masses.iter().enumerate() {
+                let p = self.states[inst.first_body + i].pose.translation - Vec3::Y * ground;
+                potential += -(m as f64) * g.dot(p) as f64;
+            }
+        }
+        let e = potential + self.backend.kinetic_energy();
+        let e0 = *self.start_energy.get_or_insert(e);
+        if let Some(last) = self.last_frame_energy {
+            let rise = (e - last) / e0.abs().max(1e-9);
+            if rise.is_finite() {
+                self.metrics.energy_drift = self.metrics.energy_drift.max(rise.max(0.0) as f32);
+            } else {
+                self.metrics.nan = true;
+            }
+        }
+        self.last_frame_energy = Some(e);
+    }
+}
+
+/// Bones shorter than this are left out of the stretch, metres: a zero-length bone (two
+/// joints at one place) has no relative change.
+const MIN_BONE_M: f32 = 1.0e-3;
+
+/// Largest relative change of a bone's length in `frame` from `lengths` (taken from this
+/// frame when empty): what [`Metrics::max_bone_stretch`] records. Backend-independent, so
+/// it measures both backends alike.
+fn bone_stretch(parents: &[Option<usize>], lengths: &mut Vec<f32>, frame: &[Transform]) -> f32 {
+    let length = |j: usize| {
+        parents[j].map_or(0.0, |p| {
+            (frame[j].translation - frame[p].translation).length()
+        })
+    };
+    if lengths.is_empty() {
+        lengths.extend((0..frame.len()).map(length));
+        return 0.0;
+    }
+    let mut worst = 0.0f32;
+    for (j, &l0) in lengths.iter().enumerate() {
+        if l0 > MIN_BONE_M {
+            worst = worst.max((length(j) - l0).abs() / l0);
+        }
+    }
+    worst
+}
+
+/// Lowest world height of a shape at `pose`.
+pub(super) fn lowest_point(pose: &Transform, shape: &Shape) -> f32 {
+    match *shape {
+        Shape::Capsule { radius_m, length_m } => {
+            let axis = pose.rotation * Vec3::Y * (0.5 * length_m);
+            (pose.translation.y - axis.y.abs()) - radius_m
+        }
+        Shape::Box { size_m } => {
+            let h = Vec3::from_array(size_m) * 0.5;
+            let mut low = f32::INFINITY;
+            for sx in [-1.0, 1.0] {
+                for sy in [-1.0, 1.0] {
+                    for sz in [-1.0, 1.0] {
+                        let c = pose.transform_point(h * Vec3::new(sx, sy, sz));
+                        low = low.min(c.y);
+                    }
+                }
+            }
+            low
+        }
+    }
+}
