@@ -43,12 +43,13 @@ fn momentum(world: &World, spec: &RagdollSpec, id: ragdoll::world::RagdollId) ->
 #[test]
 fn a_one_kilometre_body_keeps_the_particle_broad_phase_small() {
     // Issue 10: a pelvis capsule edited to a 1000 m radius made the particle broad phase
-    // grow to 12 GB in 30 s and abort. Its grid must hold a few cells per body.
+    // grow to 12 GB in 30 s and abort (0.7 m was enough to hang it). Specs now stop at
+    // spec::MAX_SHAPE_M; at that size the grid must still hold a few cells per body.
     let character = humanoid();
     let mut spec = humanoid_spec();
     let pelvis = spec.body_index("pelvis").unwrap();
     spec.bodies[pelvis].shape = Shape::Capsule {
-        radius_m: 1000.0,
+        radius_m: ragdoll::spec::MAX_SHAPE_M,
         length_m: 0.1,
     };
     let settings = WorldSettings {
@@ -425,13 +426,27 @@ fn a_hard_pin_a_kilometre_away_hauls_the_particle_ragdoll_without_blowing_it_up(
 // Runs that go non-finite
 
 #[test]
-fn a_milligram_humanoid_collapses_without_going_non_finite() {
+fn the_lightest_humanoid_allowed_collapses_without_going_non_finite() {
     // Hostile but valid: the particle backend floored a body's inertia about its bone at
     // 1e-9 kg·m², more than a milligram hand's whole tensor: its anchors got negative
-    // masses and the run went NaN on its fourth step.
+    // masses and the run went NaN on its fourth step. The lightest humanoid a spec allows
+    // has its lightest part at spec::MIN_BODY_KG (a humanoid of about 0.2 g).
     let character = humanoid();
+    let one_kg = build_spec(
+        &character,
+        &BuildOptions {
+            total_mass_kg: Some(1.0),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let lightest = one_kg
+        .bodies
+        .iter()
+        .map(|b| b.mass_kg)
+        .fold(f32::INFINITY, f32::min);
     let options = BuildOptions {
-        total_mass_kg: Some(1.0e-6),
+        total_mass_kg: Some(ragdoll::spec::MIN_BODY_KG / lightest * 1.001),
         ..Default::default()
     };
     let spec = build_spec(&character, &options).unwrap();
