@@ -41,8 +41,10 @@ fn a_huge_body_on_the_particle_backend_is_refused_and_the_server_goes_on() {
     let n = notice(&mut ws);
     assert_eq!(n["level"], "error", "{n}");
     let why = n["message"].as_str().unwrap();
+    // The library's spec bounds (100 m) say it before the viewer's own (twice the file's
+    // largest body) need to.
     assert!(
-        why.contains("edit refused") && why.contains("times its largest body"),
+        why.contains("edit refused") && why.contains("shape.radius_m"),
         "{why}"
     );
     // Nothing changed, and the world still runs on the particle backend.
@@ -135,7 +137,6 @@ fn the_largest_allowed_edits_run_on_the_rigid_backend() {
 /// the file's own largest size, moved 10 cm onto its joint, is enough); the particle broad
 /// phase itself must stay bounded whatever the bodies' sizes and speeds.
 #[test]
-#[ignore = "aborts on a multi-GiB allocation in the particle broad phase (find_pairs) until the library's fix lands"]
 fn the_largest_allowed_edits_run_on_the_particle_backend() {
     largest_allowed_edits_run_on("particle");
 }
@@ -207,10 +208,8 @@ fn a_flood_of_messages_is_cut_to_the_rate() {
         send(&mut ws, r#"{"type":"launch"}"#);
     }
     let dropped = |s: &Value, why: &str| s["dropped_messages"][why].as_u64().unwrap();
-    // At least: once, after a full suite under load, the count read 2001 and an exact
-    // match polled every 10 ms never saw 2000 (not reproduced in 16 runs since).
     let s = state_when(addr, |s| {
-        dropped(s, "over_rate") + dropped(s, "refused") >= 2000
+        dropped(s, "over_rate") + dropped(s, "refused") == 2000
     });
     let took = started.elapsed().as_secs_f64();
     // The burst (400) and what the rate (200 a second) refilled while they came went on to
@@ -221,7 +220,9 @@ fn a_flood_of_messages_is_cut_to_the_rate() {
         "{checked} of 2000 messages reached the checks in {took:.2} s"
     );
     assert_eq!(dropped(&s, "busy"), 0);
-    // The connection still works.
+    // The connection still works, once the rate has refilled (200 a second: a message sent
+    // at once after a fast flood is itself over the rate and dropped).
+    std::thread::sleep(std::time::Duration::from_millis(100));
     send(&mut ws, r#"{"type":"step"}"#);
     state_when(addr, |s| s["step"] == 1);
     viewer.shutdown();
