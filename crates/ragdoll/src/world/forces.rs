@@ -126,6 +126,7 @@ impl super::World {
     /// Adds a push (impulse or force) on a body part of ragdoll `id`.
     pub fn add_push(&mut self, id: RagdollId, push: crate::events::Push) -> Result<()> {
         use crate::events::Push;
+        push.validate()?;
         let (target, vector, times) = match &push {
             Push::Impulse {
                 target,
@@ -161,6 +162,7 @@ impl super::World {
     /// Adds a force field acting on every ragdoll.
     pub fn add_field(&mut self, field: crate::events::Field) -> Result<()> {
         use crate::events::Field;
+        field.validate()?;
         let ok = match &field {
             Field::Gravity { keys } => {
                 !keys.is_empty()
@@ -204,6 +206,7 @@ impl super::World {
     /// Pins a body part of ragdoll `id` (see [`crate::events::Pin`]). Pins act from the
     /// start until released.
     pub fn add_pin(&mut self, id: RagdollId, pin: crate::events::Pin) -> Result<()> {
+        pin.validate()?;
         if pin.keys.is_empty()
             || pin
                 .keys
@@ -303,6 +306,7 @@ impl super::World {
             damping_ratio,
             release_s: None,
         };
+        pin.validate()?;
         let mass = inst.masses[body];
         self.pins.push(ActivePin {
             pin,

@@ -124,11 +124,14 @@ impl super::World {
         }
         let inst = &mut self.instances[id.0];
         if let Activation::AtTime(t) = activation
-            && !(t.is_finite() && t >= 0.0)
+            && !(t.is_finite() && (0.0..=super::MAX_SECONDS).contains(&t))
         {
             return Err(Error::Setting {
                 setting: "activate".into(),
-                message: "the activation time must be zero or positive seconds".into(),
+                message: format!(
+                    "the activation time must be between 0 and {} s, not {t}",
+                    super::MAX_SECONDS
+                ),
             });
         }
         if activation != Activation::Immediately && inst.playback.is_none() {
