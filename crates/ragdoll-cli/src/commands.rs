@@ -200,7 +200,14 @@ pub fn shoot(a: &ShootArgs) -> Result<()> {
         projectiles: vec![shot],
         ..Default::default()
     };
-    let (track, report) = simulate_character(&input, &character, &spec, &a.sim, &events)?;
+    let (track, report) = simulate_character(
+        &input,
+        &character,
+        &spec,
+        a.ragdoll.spec.as_deref(),
+        &a.sim,
+        &events,
+    )?;
     let notes: Vec<String> = report
         .projectiles
         .iter()
@@ -221,6 +228,7 @@ fn simulate_character(
     input: &str,
     character: &Character,
     spec: &RagdollSpec,
+    spec_file: Option<&Path>,
     sim: &SimArgs,
     events: &Events,
 ) -> Result<(Track, Report)> {
@@ -232,7 +240,13 @@ fn simulate_character(
         .map_err(flag_error)?;
     let started = Instant::now();
     let progress = Progress::new(0, "building the ragdoll");
-    let (mut world, id) = World::with_ragdoll(character, spec, &settings)?;
+    // The world refuses some specs only once it places them (parts piled inside each
+    // other): name the spec file those came from, or the character the spec was built for.
+    let (mut world, id) =
+        World::with_ragdoll(character, spec, &settings).map_err(|e| match spec_file {
+            Some(path) => in_file(path, e),
+            None => in_file(Path::new(input), e),
+        })?;
     world
         .set_activation(id, anim.activate)
         .map_err(flag_error)?;
@@ -343,8 +357,14 @@ pub fn demo(a: &DemoArgs) -> Result<()> {
         run: a.run.clone(),
         anim: AnimArgs::default(),
     };
-    let (track, report) =
-        simulate_character("built-in", &character, &spec, &sim, &Events::default())?;
+    let (track, report) = simulate_character(
+        "built-in",
+        &character,
+        &spec,
+        a.ragdoll.spec.as_deref(),
+        &sim,
+        &Events::default(),
+    )?;
     let progress = Progress::new(0, "writing");
     let mut staging = Staging::new();
     let glb = a.output.join("demo.glb");
@@ -376,8 +396,14 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
     let character = load(&a.file, &a.import)?;
     let spec = ragdoll_spec(&character, &a.ragdoll)?;
     let input = a.file.display().to_string();
-    let (track, report) =
-        simulate_character(&input, &character, &spec, &a.sim, &Events::default())?;
+    let (track, report) = simulate_character(
+        &input,
+        &character,
+        &spec,
+        a.ragdoll.spec.as_deref(),
+        &a.sim,
+        &Events::default(),
+    )?;
     write_result(&out, &character, &spec, &track, &report, &[])
 }
 
@@ -457,6 +483,7 @@ pub fn blast(a: &BlastArgs) -> Result<()> {
         &input,
         &character,
         &spec,
+        a.ragdoll.spec.as_deref(),
         &a.sim,
         &Events {
             blasts: vec![blast],
