@@ -22,6 +22,8 @@
 #![deny(missing_docs)]
 
 mod guard;
+#[doc(hidden)]
+pub mod headless;
 mod log;
 pub mod protocol;
 mod server;
