@@ -541,4 +541,22 @@ fn print_summary(report: &Report) {
         m.max_joint_separation_m * 1000.0,
         m.energy_drift,
     );
+    warn_if_torn(&report.character, m.max_joint_separation_m, report.height_m);
+}
+
+/// Joints held within this fraction of the character's height (9 cm on a person) are taken
+/// as holding: the solvers keep them within millimetres under ordinary loads, and the
+/// strongest shot the bounds allow (1000 N·s on a hand) opens them 2-8 cm.
+const TORN_FRACTION_OF_HEIGHT: f32 = 0.05;
+
+/// Says so when the run tore the ragdoll apart: loads (a kiloton next to a person) that no
+/// jointed body can hold still give a finite run, but its motion is the solver giving way,
+/// not physics; the files are written, the user is told.
+pub(crate) fn warn_if_torn(name: &str, separation_m: f32, height_m: f32) {
+    if separation_m > TORN_FRACTION_OF_HEIGHT * height_m {
+        errln!(
+            "warning: {name}: joints came {separation_m:.2} m apart ({:.0} % of its {height_m:.2} m height): the loads are beyond what the ragdoll's joints can hold, so this motion is not physical (a smaller charge or a greater distance keeps it whole)",
+            100.0 * separation_m / height_m.max(1e-6)
+        );
+    }
 }

@@ -158,6 +158,9 @@ fn print_summary(r: &SceneReport) {
         m.max_joint_separation_m * 1000.0,
         m.energy_drift,
     );
+    for c in &r.characters {
+        crate::commands::warn_if_torn(&c.name, c.max_joint_separation_m, c.height_m);
+    }
     for b in &r.blasts {
         for c in &b.characters {
             if let Some(v) = c.com_velocity_mps {
