@@ -127,28 +127,7 @@ impl super::World {
     pub fn add_push(&mut self, id: RagdollId, push: crate::events::Push) -> Result<()> {
         use crate::events::Push;
         push.validate()?;
-        let (target, vector, times) = match &push {
-            Push::Impulse {
-                target,
-                impulse_ns,
-                time_s,
-            } => (target, *impulse_ns, [*time_s, *time_s]),
-            Push::Force {
-                target,
-                force_n,
-                start_s,
-                end_s,
-            } => (target, *force_n, [*start_s, *end_s]),
-        };
-        if !vector.is_finite() || times.iter().any(|t| !(t.is_finite() && *t >= 0.0)) {
-            return Err(setting_error(
-                "push",
-                "values must be finite, times zero or positive",
-            ));
-        }
-        if times[1] < times[0] {
-            return Err(setting_error("push", "the force must end after it starts"));
-        }
+        let (Push::Impulse { target, .. } | Push::Force { target, .. }) = &push;
         let (body, local) = self.resolve_target(id, target)?;
         self.pushes.push(ActivePush {
             push,
@@ -161,44 +140,7 @@ impl super::World {
 
     /// Adds a force field acting on every ragdoll.
     pub fn add_field(&mut self, field: crate::events::Field) -> Result<()> {
-        use crate::events::Field;
         field.validate()?;
-        let ok = match &field {
-            Field::Gravity { keys } => {
-                !keys.is_empty()
-                    && keys.iter().all(|(t, g)| t.is_finite() && g.is_finite())
-                    && keys.windows(2).all(|w| w[0].0 <= w[1].0)
-            }
-            Field::Radial {
-                center,
-                strength_mps2,
-                radius_m,
-                start_s,
-                end_s,
-            } => {
-                center.is_finite()
-                    && strength_mps2.is_finite()
-                    && radius_m.is_finite()
-                    && *radius_m > 0.0
-                    && start_s <= end_s
-            }
-            Field::Drag {
-                rate_per_s,
-                start_s,
-                end_s,
-            } => rate_per_s.is_finite() && *rate_per_s >= 0.0 && start_s <= end_s,
-            Field::Wind {
-                velocity_mps,
-                start_s,
-                end_s,
-            } => velocity_mps.is_finite() && start_s <= end_s,
-        };
-        if !ok {
-            return Err(setting_error(
-                "field",
-                "values must be finite, radii and rates positive, keys and windows in time order",
-            ));
-        }
         self.fields.push(field);
         Ok(())
     }
@@ -207,32 +149,6 @@ impl super::World {
     /// start until released.
     pub fn add_pin(&mut self, id: RagdollId, pin: crate::events::Pin) -> Result<()> {
         pin.validate()?;
-        if pin.keys.is_empty()
-            || pin
-                .keys
-                .iter()
-                .any(|(t, p)| !(t.is_finite() && p.is_finite()))
-            || pin.keys.windows(2).any(|w| w[0].0 > w[1].0)
-        {
-            return Err(setting_error(
-                "pin",
-                "keys must be finite [time, x, y, z] in time order",
-            ));
-        }
-        if pin
-            .stiffness_hz
-            .is_some_and(|k| !(k.is_finite() && k > 0.0))
-            || !(pin.damping_ratio.is_finite() && pin.damping_ratio >= 0.0)
-            || pin.release_s.is_some_and(|t| !t.is_finite())
-        {
-            return Err(setting_error(
-                "pin",
-                "stiffness must be positive Hz, damping zero or positive, release a time",
-            ));
-        }
-        if let Some((_, p)) = pin.keys.iter().find(|(_, p)| !super::within_world(*p)) {
-            return Err(super::beyond_world("pin", "a pin's target", *p));
-        }
         let (body, local) = self.resolve_target(id, &pin.target)?;
         self.pins.push(ActivePin {
             pin,
