@@ -54,21 +54,7 @@ pub(super) fn read_unskinned(
             reader.expect_dims(&pos_acc, &[Dimensions::Vec3], "POSITION")?;
             let (pos, _) = reader.floats(&pos_acc)?;
             let n = pos.len() / 3;
-            let indices = match prim.indices() {
-                Some(a) => {
-                    reader.expect_dims(&a, &[Dimensions::Scalar], "indices")?;
-                    let (ix, _) = reader.uints(&a)?;
-                    if let Some(bad) = ix.iter().find(|&&i| i as usize >= n) {
-                        return Err(format_err(
-                            reader.path(),
-                            format!("accessor {}", a.index()),
-                            format!("index {bad} is not below the vertex count {n}"),
-                        ));
-                    }
-                    ix
-                }
-                None => (0..n as u32).collect(),
-            };
+            let indices = read_indices(reader, &prim, n)?;
             let normals = match prim.get(&Semantic::Normals) {
                 Some(a) if a.count() == n && a.dimensions() == Dimensions::Vec3 => {
                     let (f, _) = reader.floats(&a)?;
@@ -350,21 +336,7 @@ fn read_primitive(
         }
         None => None,
     };
-    let indices = match prim.indices() {
-        Some(a) => {
-            reader.expect_dims(&a, &[Dimensions::Scalar], "indices")?;
-            let (ix, _) = reader.uints(&a)?;
-            if let Some(bad) = ix.iter().find(|&&i| i as usize >= n) {
-                return Err(format_err(
-                    reader.path(),
-                    format!("accessor {}", a.index()),
-                    format!("index {bad} is not below the vertex count {n}"),
-                ));
-            }
-            ix
-        }
-        None => (0..n as u32).collect(),
-    };
+    let indices = read_indices(reader, &prim, n)?;
     let mut mesh = SkinnedMesh {
         name,
         indices: indices[..indices.len() / 3 * 3].to_vec(),
@@ -407,4 +379,22 @@ fn read_primitive(
         ));
     }
     Ok(Some(mesh))
+}
+
+/// A primitive's triangle indices (or 0..n when it has none), each checked against its
+/// `n` vertices, so nothing downstream indexes past them.
+fn read_indices(reader: &Reads, prim: &gltf::Primitive, n: usize) -> Result<Vec<u32>> {
+    let Some(a) = prim.indices() else {
+        return Ok((0..n as u32).collect());
+    };
+    reader.expect_dims(&a, &[Dimensions::Scalar], "indices")?;
+    let (ix, _) = reader.uints(&a)?;
+    if let Some(bad) = ix.iter().find(|&&i| i as usize >= n) {
+        return Err(format_err(
+            reader.path(),
+            format!("accessor {}", a.index()),
+            format!("index {bad} is not below the vertex count {n}"),
+        ));
+    }
+    Ok(ix)
 }
