@@ -336,7 +336,7 @@ fn read_primitive(
         }
         None => None,
     };
-    let indices = read_indices(reader, &prim, n)?;
+    let indices = read_indices(reader, prim, n)?;
     let mut mesh = SkinnedMesh {
         name,
         indices: indices[..indices.len() / 3 * 3].to_vec(),
