@@ -6,7 +6,7 @@
 mod common;
 
 use glam::{Quat, Vec3};
-use ragdoll::events::{Blast, Projectile, Push};
+use ragdoll::events::{Blast, Projectile};
 use ragdoll::math::Transform;
 use ragdoll::skeleton::humanoid;
 use ragdoll::spec::{BuildOptions, RagdollSpec, Shape, build_spec};
