@@ -58,13 +58,14 @@
 //!   more than the pile is pushed down.
 //! - Kinematic bodies follow their targets linearly over the substeps.
 
+mod body;
 mod collide;
 mod solve;
 
-use glam::{Mat3, Mat4, Quat, Vec3, Vec4};
+use glam::{Mat3, Quat, Vec3, Vec4};
 
 use super::tree::JointTree;
-use super::{Backend, BodyDesc, BodyState, JointDesc, capsule_of};
+use super::{Backend, BodyDesc, BodyState, JointDesc};
 use crate::math::Transform;
 use crate::spec::{JointKind, ResolvedJoint, Shape};
 
@@ -73,19 +74,6 @@ use crate::spec::{JointKind, ResolvedJoint, Shape};
 const FRICTION: f32 = 0.7;
 /// Joint anchors of one parent closer than this share a particle, metres.
 const MERGE_M: f32 = 1.0e-3;
-/// Shortest stick, metres: a leaf whose capsule barely reaches past its anchor gets a tip
-/// this far away, so its direction stays well defined.
-const MIN_STICK_M: f32 = 0.02;
-/// Smallest share of a body's mass kept on its centre particle, so it never goes to zero
-/// (a short, fat body such as a head has more inertia than its ends can carry).
-const MIN_CENTRE_SHARE: f32 = 0.05;
-/// Bounds of the side particle's share of its body's mass. Its share times its distance
-/// squared is the moment about the bone; a very light one would let a twist limit throw it
-/// around, a heavy one would swamp the moment across the bone.
-const SIDE_SHARE: (f32, f32) = (0.005, 0.15);
-/// A cluster's side particle's share of its mass.
-const CLUSTER_SIDE_SHARE: f32 = 0.05;
-
 /// Settings the particle backend takes from the world.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct ParticleSettings {
@@ -240,77 +228,12 @@ pub(crate) struct ParticleBackend {
     pinned: Vec<bool>,
 }
 
-/// Inertia tensor of a shape about its centre, body frame, kg·m².
-fn inertia_of(shape: &Shape, mass: f32) -> Mat3 {
-    match *shape {
-        Shape::Capsule {
-            radius_m: r,
-            length_m: l,
-        } => {
-            let v_cyl = std::f32::consts::PI * r * r * l;
-            let v_sph = 4.0 / 3.0 * std::f32::consts::PI * r * r * r;
-            let total = (v_cyl + v_sph).max(1e-12);
-            let (mc, ms) = (mass * v_cyl / total, mass * v_sph / total);
-            let across = mc * (l * l / 12.0 + r * r / 4.0)
-                + ms * (0.4 * r * r + l * l / 4.0 + 0.375 * l * r);
-            let along = mc * 0.5 * r * r + ms * 0.4 * r * r;
-            Mat3::from_diagonal(Vec3::new(across, along, across))
-        }
-        Shape::Box { size_m: s } => {
-            let k = mass / 12.0;
-            Mat3::from_diagonal(Vec3::new(
-                k * (s[1] * s[1] + s[2] * s[2]),
-                k * (s[0] * s[0] + s[2] * s[2]),
-                k * (s[0] * s[0] + s[1] * s[1]),
-            ))
-        }
-    }
-}
-
 /// The orthonormal frame of three points: X along `x1 − x0`, Y toward `x2` in their plane.
 fn triad_frame(x0: Vec3, x1: Vec3, x2: Vec3) -> Quat {
     let u = (x1 - x0).normalize_or(Vec3::X);
     let v0 = x2 - x0;
     let v = (v0 - u * v0.dot(u)).normalize_or(u.any_orthonormal_vector());
     Quat::from_mat3(&Mat3::from_cols(u, v, u.cross(v)))
-}
-
-/// Least-norm affine weights of `q` over `points` (they sum to one and reproduce `q`
-/// exactly when the points span it), through the rows `(AAᵀ)⁻¹ cᵢ` of the centred points.
-fn affine_rows(points: &[Vec3]) -> (Vec3, Vec<Vec4>) {
-    let rbar = points.iter().copied().sum::<Vec3>() / points.len() as f32;
-    let mut aat = Mat4::ZERO;
-    for r in points {
-        let c = (*r - rbar).extend(1.0);
-        aat += Mat4::from_cols(c * c.x, c * c.y, c * c.z, c * c.w);
-    }
-    let trace = aat.x_axis.x + aat.y_axis.y + aat.z_axis.z;
-    let eps = 1.0e-4 * trace + 1.0e-9;
-    aat += Mat4::from_diagonal(Vec4::new(eps, eps, eps, 0.0));
-    let inv = aat.inverse();
-    (
-        rbar,
-        points
-            .iter()
-            .map(|r| inv * (*r - rbar).extend(1.0))
-            .collect(),
-    )
-}
-
-/// The tip of a leaf body with one anchor at `lb` (body frame): the capsule end farther
-/// from the anchor, or a point past the centre when the capsule barely reaches past it.
-fn leaf_tip(lb: Vec3, e: [Vec3; 2], radius: f32) -> Vec3 {
-    let far = if (e[0] - lb).length() > (e[1] - lb).length() {
-        e[0]
-    } else {
-        e[1]
-    };
-    if (far - lb).length() >= MIN_STICK_M {
-        far
-    } else {
-        let dir = (-lb).normalize_or(Vec3::Y);
-        lb + dir * radius.max(MIN_STICK_M)
-    }
 }
 
 impl ParticleBackend {
@@ -524,221 +447,6 @@ impl ParticleBackend {
         }
         self.pairs_left = 0;
         fb
-    }
-
-    /// Body `bi`'s particles: its anchors (the parent joint's first), a tip or two ends
-    /// where it has fewer than two apart, a side particle and a centre; their masses, the
-    /// distances that keep them rigid, and the weights of its capsule ends.
-    fn build_body(
-        &mut self,
-        bi: usize,
-        ragdoll: u32,
-        desc: &BodyDesc,
-        parent_anchor: Option<u32>,
-        anchors: impl Iterator<Item = u32>,
-    ) {
-        let pose = desc.pose;
-        let inv = pose.inverse();
-        let (e, radius) = capsule_of(&desc.shape);
-        let mass = desc.mass;
-        let mut list: Vec<u32> = parent_anchor.into_iter().collect();
-        for p in anchors {
-            if !list.contains(&p) {
-                list.push(p);
-            }
-        }
-        let rest_of = |s: &Self, i: u32| inv.transform_point(s.x[i as usize]);
-        if list.is_empty() {
-            let (mut a, mut c) = (e[0], e[1]);
-            if (c - a).length() < MIN_STICK_M {
-                let h = Vec3::Y * (0.5 * MIN_STICK_M).max(radius);
-                (a, c) = (-h, h);
-            }
-            list.push(self.new_particle(pose.transform_point(a)));
-            list.push(self.new_particle(pose.transform_point(c)));
-        }
-        // The anchors' extent: a tip where they are (nearly) one point.
-        let r0 = rest_of(self, list[0]);
-        let extent = list
-            .iter()
-            .map(|&i| (rest_of(self, i) - r0).length())
-            .fold(0.0f32, f32::max);
-        if extent < MIN_STICK_M {
-            let tip = leaf_tip(r0, e, radius);
-            list.push(self.new_particle(pose.transform_point(tip)));
-        }
-        let rest: Vec<Vec3> = list.iter().map(|&i| rest_of(self, i)).collect();
-        let (ifar, extent) = rest
-            .iter()
-            .enumerate()
-            .map(|(k, r)| (k, (*r - rest[0]).length()))
-            .fold((0, 0.0f32), |a, b| if b.1 > a.1 { b } else { a });
-        let dir = (rest[ifar] - rest[0]) / extent.max(1e-9);
-        let (ioff, off) = rest
-            .iter()
-            .enumerate()
-            .map(|(k, r)| (k, (*r - rest[0]).reject_from_normalized(dir).length()))
-            .fold((0, 0.0f32), |a, b| if b.1 > a.1 { b } else { a });
-        let line = off < 1.0e-2 * extent;
-        let inertia = inertia_of(&desc.shape, mass);
-        // Masses of the anchors and the side particle; the centre takes the rest.
-        let mut shares = vec![0.0f32; list.len()];
-        let (side_rest, side_share);
-        if line {
-            // A stick: the three-point rule about the centre's foot on the bone.
-            let t = ((-rest[0]).dot(dir) / extent).clamp(0.05, 0.95);
-            let (p, q) = (t * extent, (1.0 - t) * extent);
-            // Floors relative to the body's own inertia: an absolute one (1e-9 kg·m²) was
-            // larger than a milligram hand's whole tensor, which made its anchors' masses
-            // negative and the run NaN.
-            let trace = inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z;
-            let axial = dir
-                .dot(inertia * dir)
-                .max(1e-9 * trace)
-                .max(f32::MIN_POSITIVE);
-            let across = 0.5 * (inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z - axial);
-            let (mut ma, mut mb) = (across / (p * (p + q)), across / (q * (p + q)));
-            let room = (1.0 - MIN_CENTRE_SHARE - SIDE_SHARE.1) * mass;
-            if ma + mb > room {
-                ma = room * q / (p + q);
-                mb = room * p / (p + q);
-            }
-            shares[0] = ma;
-            shares[ifar] = mb;
-            let perp = Vec3::X
-                .reject_from_normalized(dir)
-                .try_normalize()
-                .unwrap_or_else(|| dir.any_orthonormal_vector());
-            let d = (0.5 * extent).max(radius).max(MIN_STICK_M);
-            side_rest = rest[0] + dir * p + perp * d;
-            side_share = (axial / (d * d)).clamp(SIDE_SHARE.0 * mass, SIDE_SHARE.1 * mass);
-        } else {
-            let normal = dir.cross(rest[ioff] - rest[0]).normalize();
-            let d = (0.5 * extent).max(radius).max(MIN_STICK_M);
-            side_rest = normal * d;
-            side_share = CLUSTER_SIDE_SHARE * mass;
-            let each = 0.5 * mass / list.len() as f32;
-            shares.fill(each);
-        }
-        let side = self.new_particle(pose.transform_point(side_rest));
-        let centre_share = mass - shares.iter().sum::<f32>() - side_share;
-        // The centre goes where the body's centre of mass (its origin) comes out right.
-        let moment: Vec3 =
-            rest.iter().zip(&shares).map(|(r, s)| *r * *s).sum::<Vec3>() + side_rest * side_share;
-        let want_centre = -moment / centre_share.max(1e-9 * mass);
-        // Rigidity: every pair of anchors and the side particle.
-        let mut frame_pts = list.clone();
-        frame_pts.push(side);
-        let mut frame_rest = rest.clone();
-        frame_rest.push(side_rest);
-        for a in 0..frame_pts.len() {
-            for b in a + 1..frame_pts.len() {
-                self.distances.push(Distance {
-                    a: frame_pts[a],
-                    b: frame_pts[b],
-                    len: (frame_rest[b] - frame_rest[a]).length(),
-                });
-            }
-        }
-        // The centre as an affine combination of the triad and the side particle.
-        let triad = if line {
-            [0, ifar, list.len()]
-        } else {
-            [0, ifar, ioff]
-        };
-        let mut refs_k: Vec<usize> = triad.to_vec();
-        if !line {
-            refs_k.push(list.len());
-        }
-        let ref_rest: Vec<Vec3> = refs_k.iter().map(|&k| frame_rest[k]).collect();
-        let (rb, rows) = affine_rows(&ref_rest);
-        let dq = (want_centre - rb).extend(1.0);
-        let mut alpha = [0.0f32; 4];
-        let mut refs = [frame_pts[refs_k[0]]; 4];
-        for (s, (&k, row)) in refs_k.iter().zip(&rows).enumerate() {
-            alpha[s] = row.dot(dq);
-            refs[s] = frame_pts[k];
-        }
-        let centre_rest: Vec3 = ref_rest.iter().zip(alpha).map(|(r, a)| *r * a).sum();
-        let centre = self.new_particle(pose.transform_point(centre_rest));
-        self.affines.push(Affine {
-            c: centre,
-            refs,
-            alpha,
-        });
-        // Masses.
-        for (&i, &s) in list.iter().zip(&shares) {
-            self.m[i as usize] += s;
-        }
-        self.m[side as usize] += side_share;
-        self.m[centre as usize] += centre_share;
-        // Rest offsets, affine rows of all its particles.
-        let mut all = frame_pts.clone();
-        all.push(centre);
-        let mut all_rest = frame_rest.clone();
-        all_rest.push(centre_rest);
-        let first = self.parts.len() as u32;
-        // Points of the body (contacts, pins) are combinations of its anchors and centre,
-        // not of the light side particle: a push there would twist the body.
-        let side_k = frame_pts.len() - 1;
-        let spanning: Vec<Vec3> = all_rest
-            .iter()
-            .enumerate()
-            .filter(|(k, _)| *k != side_k)
-            .map(|(_, r)| *r)
-            .collect();
-        let (rbar, mut rows) = affine_rows(&spanning);
-        rows.insert(side_k, Vec4::ZERO);
-        self.parts.extend_from_slice(&all);
-        self.rest.extend_from_slice(&all_rest);
-        self.affine.extend_from_slice(&rows);
-        let tri = [
-            frame_rest[triad[0]],
-            frame_rest[triad[1]],
-            frame_rest[triad[2]],
-        ];
-        self.bodies.push(Body {
-            ragdoll,
-            first,
-            count: all.len() as u32,
-            triad: [
-                frame_pts[triad[0]],
-                frame_pts[triad[1]],
-                frame_pts[triad[2]],
-            ],
-            tri_inv: triad_frame(tri[0], tri[1], tri[2]).conjugate(),
-            tri_origin: tri[0],
-            shape: desc.shape,
-            e,
-            radius,
-            rbar,
-            mass,
-            com: Vec3::ZERO,
-            inv_inertia: Mat3::IDENTITY,
-            inv_mass: 0.0,
-            rot: pose.rotation,
-            pos: pose.translation,
-            rot_prev: pose.rotation,
-            kinematic: false,
-        });
-        let count = all.len();
-        let mut be = vec![vec![0.0f32; count]; 3];
-        for (s, q) in [e[0], e[1], Vec3::ZERO].into_iter().enumerate() {
-            self.weights(bi, q, &mut be[s]);
-        }
-        let resid = [0, 1].map(|s| {
-            let recon: Vec3 = all_rest.iter().zip(&be[s]).map(|(r, b)| *r * *b).sum();
-            let off = e[s] - recon;
-            if off.length() < 1.0e-6 {
-                Vec3::ZERO
-            } else {
-                off
-            }
-        });
-        self.resid_e.push(resid);
-        self.beta_e[0].extend_from_slice(&be[0]);
-        self.beta_e[1].extend_from_slice(&be[1]);
-        self.beta_o.extend_from_slice(&be[2]);
     }
 
     /// Whether bodies `a` and `b` (global) may collide.

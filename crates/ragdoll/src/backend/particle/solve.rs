@@ -1,7 +1,7 @@
 //! Stepping the particles: prediction, projection passes (rigidity, joint limits, pins,
 //! contacts), velocities from positions, and body frames from particles.
 
-use glam::{Quat, Vec3};
+use glam::{Mat3, Quat, Vec3};
 
 use super::{ParticleBackend, triad_frame};
 use crate::spec::JointKind;
@@ -21,6 +21,23 @@ const PROJECT_GROUND_SLACK_M: f32 = 0.005;
 /// Farthest a hard pin moves its point in one substep, metres (0.5 m at the default 720
 /// substeps a second: 360 m/s, far beyond any path a scene keys).
 const MAX_PIN_STEP_M: f32 = 0.5;
+
+/// Fastest a body's centre of mass may move, m/s: rapier's default cap, which the rigid
+/// backend keeps, so both backends throw a ragdoll equally far. A body faster than that
+/// crosses more than a limb's length in a substep (0.56 m at the world's default 720
+/// substeps a second), and the substep's projections no longer find which way its joints
+/// and contacts should pull: the built-in humanoid with every part edited to 0.75 m across
+/// and thrown at up to 17 km/s by a charge went non-finite under a cap of 1 or 2 km/s,
+/// never under this one.
+pub(crate) const MAX_SPEED_MPS: f32 = 400.0;
+
+/// Most a body may turn in one substep, radians. Joint limits read a body's rotation from
+/// its particles, modulo a turn: a body spun by more than half a turn a substep looks
+/// turned the other way, and the limit's correction then pumped energy into the ragdoll
+/// until it went non-finite (a 0.75 m ball of a hand, hit by a blast, spun at 2,000 rad/s).
+/// At the default 720 substeps a second this is 565 rad/s (90 turns a second), three
+/// times rapier's cap (π/4 a step of 1/240 s).
+const MAX_TURN_PER_SUBSTEP: f32 = std::f32::consts::FRAC_PI_4;
 
 /// Steps one search for candidate pairs serves: the search's margin covers the motion of
 /// that many steps, and an impulse or a teleport starts a new search at once.
@@ -168,6 +185,10 @@ impl ParticleBackend {
             for i in 0..self.x.len() {
                 self.v[i] += (self.x[i] - self.x_pred[i]) / h;
             }
+            // As rapier caps its bodies' velocities after each substep.
+            for b in 0..self.bodies.len() {
+                self.bound_speed(b, MAX_TURN_PER_SUBSTEP / h);
+            }
         }
         // Contacts as the solver left them (as rapier's are measured), before the
         // projection, whose overlaps the next step's contacts take up.
@@ -179,6 +200,58 @@ impl ParticleBackend {
         }
         for p in &mut self.pins {
             p.from = p.target;
+        }
+    }
+
+    /// Takes body `b`'s velocities (its free particles') down to [`MAX_SPEED_MPS`] for its
+    /// centre of mass and `max_spin` rad/s for its turn, keeping the rest of its motion.
+    /// Velocities too large to square in f32 are left alone: the world's check for
+    /// non-finite states stops such a run.
+    fn bound_speed(&mut self, b: usize, max_spin: f32) {
+        let range = self.body_parts(b);
+        let (mut mass, mut c, mut p) = (0.0f32, Vec3::ZERO, Vec3::ZERO);
+        for &i in &self.parts[range.clone()] {
+            let i = i as usize;
+            if self.w[i] > 0.0 {
+                mass += self.m[i];
+                c += self.x[i] * self.m[i];
+                p += self.v[i] * self.m[i];
+            }
+        }
+        if mass <= 0.0 {
+            return;
+        }
+        let (c, vc) = (c / mass, p / mass);
+        let (mut l, mut inertia) = (Vec3::ZERO, Mat3::ZERO);
+        for &i in &self.parts[range.clone()] {
+            let i = i as usize;
+            if self.w[i] > 0.0 {
+                let r = self.x[i] - c;
+                l += r.cross(self.v[i] - vc) * self.m[i];
+                inertia += (Mat3::IDENTITY * r.length_squared()
+                    - Mat3::from_cols(r * r.x, r * r.y, r * r.z))
+                    * self.m[i];
+            }
+        }
+        let trace = inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z;
+        let spin = (inertia + Mat3::IDENTITY * (1.0e-6 * trace + 1.0e-12)).inverse() * l;
+        let excess = |v: Vec3, max: f32| {
+            let len = v.length();
+            if len > max && len.is_finite() {
+                v * (1.0 - max / len)
+            } else {
+                Vec3::ZERO
+            }
+        };
+        let (cut_v, cut_w) = (excess(vc, MAX_SPEED_MPS), excess(spin, max_spin));
+        if cut_v == Vec3::ZERO && cut_w == Vec3::ZERO {
+            return;
+        }
+        for &i in &self.parts[range] {
+            let i = i as usize;
+            if self.w[i] > 0.0 {
+                self.v[i] -= cut_v + cut_w.cross(self.x[i] - c);
+            }
         }
     }
 
