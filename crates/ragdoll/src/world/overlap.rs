@@ -6,7 +6,10 @@
 //!   3.7 GB.
 //! - Within one ragdoll the pair stops colliding, as the spec builder does for the rest
 //!   pose and the hand-over does for the clip's pose: the character's own pose put the
-//!   parts there, and a contact would throw them apart.
+//!   parts there, and a contact would throw them apart. This holds for any overlap, not
+//!   only deep ones: rapier pushes an overlap out at 3 m/s at most, but the particle
+//!   backend closes it within a substep, and the built-in humanoid with every part edited
+//!   to 0.75 m across flew apart at 200 m/s with no force on it.
 //!
 //! - A body inside more than [`MAX_DEEP_OVERLAPS`] bodies of its own ragdoll is refused:
 //!   a spec with 2,000 extra bodies on one spot ran for minutes in rapier, whose contact
@@ -15,8 +18,7 @@
 //!
 //! "Inside" means deep: one body's axis inside the other (the distance between their
 //! axes below the larger radius), measured on the capsules inside the shapes
-//! ([`capsule_of`]). Parts merely touching or overlapping by less are left to the
-//! contacts, which separate them gently.
+//! ([`capsule_of`]), as the backends collide them.
 
 use std::collections::HashMap;
 
@@ -62,9 +64,14 @@ impl Solid {
 
     /// The distance between the two axes when one lies inside the other body.
     fn deep(&self, other: &Solid) -> Option<f32> {
-        let (s, t) = crate::math::closest_segment_params(self.a, self.b, other.a, other.b);
-        let gap = self.a.lerp(self.b, s).distance(other.a.lerp(other.b, t));
+        let gap = self.axis_gap(other);
         (gap < self.r.max(other.r)).then_some(gap)
+    }
+
+    /// Distance between the two bodies' axes.
+    fn axis_gap(&self, other: &Solid) -> f32 {
+        let (s, t) = crate::math::closest_segment_params(self.a, self.b, other.a, other.b);
+        self.a.lerp(self.b, s).distance(other.a.lerp(other.b, t))
     }
 }
 
@@ -228,20 +235,24 @@ pub(super) fn loose_bounds(pose: &Transform, shape: &Shape) -> (Vec3, Vec3) {
     (pose.translation - reach, pose.translation + reach)
 }
 
-/// Pairs of one ragdoll's bodies (indices in its spec, `a < b`) that start inside each
-/// other, in order; or `Err((body, count))` for a body inside more than
-/// [`MAX_DEEP_OVERLAPS`] others (memory stays within that many pairs a body).
-pub(super) fn deep_pairs(solids: &[Solid]) -> Result<Vec<(usize, usize)>, (usize, usize)> {
+/// Pairs of one ragdoll's bodies (indices in its spec, `a < b`) that start overlapping,
+/// in order; or `Err((body, count))` for a body deep inside more than
+/// [`MAX_DEEP_OVERLAPS`] others.
+pub(super) fn overlapping_pairs(solids: &[Solid]) -> Result<Vec<(usize, usize)>, (usize, usize)> {
     let boxes: Vec<(Vec3, Vec3)> = solids.iter().map(Solid::bounds).collect();
     let mut pairs = Vec::new();
     let mut count = vec![0usize; solids.len()];
     BroadPhase::default().find(&boxes, |a, b| {
-        if solids[a].deep(&solids[b]).is_some() {
+        let (sa, sb) = (&solids[a], &solids[b]);
+        let gap = sa.axis_gap(sb);
+        if gap < sa.r.max(sb.r) {
             count[a] += 1;
             count[b] += 1;
-            if count[a] <= MAX_DEEP_OVERLAPS && count[b] <= MAX_DEEP_OVERLAPS {
-                pairs.push((a, b));
-            }
+        }
+        // Memory stays within the bodies' own pairs: a spec holds at most
+        // `spec::validate::MAX_BODIES` bodies.
+        if gap < sa.r + sb.r {
+            pairs.push((a, b));
         }
     });
     if let Some((body, &n)) = count
@@ -279,10 +290,10 @@ mod tests {
     #[test]
     fn a_pile_of_one_ragdolls_bodies_is_refused_past_the_limit() {
         let pile: Vec<Solid> = (0..MAX_DEEP_OVERLAPS + 2).map(|_| ball(0.0, 0.1)).collect();
-        assert_eq!(deep_pairs(&pile), Err((0, MAX_DEEP_OVERLAPS + 1)));
+        assert_eq!(overlapping_pairs(&pile), Err((0, MAX_DEEP_OVERLAPS + 1)));
         let small = &pile[..MAX_DEEP_OVERLAPS + 1];
         assert_eq!(
-            deep_pairs(small).map(|p| p.len()),
+            overlapping_pairs(small).map(|p| p.len()),
             Ok(small.len() * (small.len() - 1) / 2)
         );
     }

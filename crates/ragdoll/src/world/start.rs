@@ -112,12 +112,12 @@ impl super::World {
 }
 
 /// Pairs of the new ragdoll's own bodies (`solids`, spec order) that start inside each
-/// other (they stop colliding), or the error for a body inside too many of them.
+/// overlapping (they stop colliding), or the error for a body inside too many of them.
 pub(super) fn overlapping_parts(
     spec: &RagdollSpec,
     solids: &[Solid],
 ) -> Result<Vec<(usize, usize)>> {
-    overlap::deep_pairs(solids).map_err(|(body, count)| Error::Spec {
+    overlap::overlapping_pairs(solids).map_err(|(body, count)| Error::Spec {
         place: format!("body \"{}\"", spec.bodies[body].name),
         message: format!(
             "starts inside {count} other bodies of its ragdoll (one's axis inside the other), \
