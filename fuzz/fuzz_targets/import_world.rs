@@ -26,6 +26,7 @@ fn import(data: &[u8]) -> Option<Character> {
     let mut meshes = vec![mesh];
     let skeleton = ragdoll::rig::rig(&mut meshes, &RigOptions::default()).ok()?;
     Some(Character {
+        humanoid_bones: Vec::new(),
         name: "fuzz".into(),
         skeleton,
         meshes,

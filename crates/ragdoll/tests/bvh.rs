@@ -453,6 +453,7 @@ fn gltf_like() -> Character {
         },
     ];
     Character {
+        humanoid_bones: Vec::new(),
         name: "gltf-like".into(),
         skeleton: Skeleton::new(joints).unwrap(),
         meshes: Vec::new(),

@@ -9,6 +9,7 @@ use ragdoll::world::{STANDARD_GRAVITY, World, WorldSettings};
 /// A one-joint skeleton with the joint at `height`.
 fn single_joint(height: f32) -> Character {
     Character {
+        humanoid_bones: Vec::new(),
         name: "stick".into(),
         skeleton: Skeleton::new(vec![Joint {
             name: "root".into(),
@@ -90,6 +91,7 @@ fn drop_link(kind: JointKind, frame: Quat) -> (f32, ragdoll::track::Metrics) {
     ])
     .unwrap();
     let character = Character {
+        humanoid_bones: Vec::new(),
         name: "pendulum".into(),
         skeleton,
         meshes: vec![],

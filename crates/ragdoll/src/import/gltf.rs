@@ -175,6 +175,7 @@ pub fn from_bytes_rigged(bytes: &[u8], path: &Path, rig: &RigOptions) -> Result<
     let meshes = read_meshes(&doc, &skin, &rig, &graph, &reader)?;
     let clips = read_clips(&doc, &rig, &skeleton, &reader)?;
     Ok(Character {
+        humanoid_bones: Vec::new(),
         name: file_stem(path),
         skeleton,
         meshes,

@@ -73,6 +73,7 @@ pub(crate) fn rigged_character(
         other => other,
     })?;
     Ok(Character {
+        humanoid_bones: Vec::new(),
         name,
         skeleton,
         meshes,

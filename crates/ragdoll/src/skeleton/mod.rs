@@ -297,6 +297,12 @@ pub struct Character {
     pub meshes: Vec<SkinnedMesh>,
     /// Animation clips found in the file.
     pub clips: Vec<Clip>,
+    /// Bones the file names outright, as a VRM avatar's humanoid table does: each a
+    /// humanoid bone name in VRM's (and Unity's) vocabulary (`hips`, `leftUpperLeg`,
+    /// `rightHand`, …) with the skeleton joint it maps to. Empty when the file has no such
+    /// table; role recognition then works from the skeleton alone. Plain names rather than
+    /// the ragdoll's roles, so the skeleton does not depend on the spec.
+    pub humanoid_bones: Vec<(String, usize)>,
     /// The source file's layout, for exporters that write it back.
     pub source: Source,
 }

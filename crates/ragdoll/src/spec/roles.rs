@@ -825,6 +825,7 @@ pub(crate) mod tests {
             })
             .collect();
         Character {
+            humanoid_bones: Vec::new(),
             name: "random".into(),
             skeleton: Skeleton::new(joints).unwrap(),
             meshes: Vec::new(),
@@ -973,6 +974,7 @@ pub(crate) mod tests {
             prev = *p;
         }
         Character {
+            humanoid_bones: Vec::new(),
             name: "chain".into(),
             skeleton: Skeleton::new(joints).unwrap(),
             meshes: Vec::new(),
@@ -1043,6 +1045,7 @@ pub(crate) mod tests {
             })
             .collect();
         Character {
+            humanoid_bones: Vec::new(),
             name: "quadruped".into(),
             skeleton: Skeleton::new(joints).unwrap(),
             meshes: Vec::new(),

@@ -38,6 +38,7 @@ pub(crate) fn pair(shape: Shape, mass_kg: f32) -> (Character, RagdollSpec) {
         tip: None,
     };
     let character = Character {
+        humanoid_bones: Vec::new(),
         name: "pair".into(),
         skeleton: Skeleton::new(vec![joint("a", None, 2.0), joint("b", Some(0), -1.0)]).unwrap(),
         meshes: vec![],

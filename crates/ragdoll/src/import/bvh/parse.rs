@@ -123,6 +123,7 @@ pub fn parse(text: &str, path: &Path, opts: &ImportOptions) -> Result<Character>
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "bvh".into());
     Ok(Character {
+        humanoid_bones: Vec::new(),
         name,
         skeleton,
         meshes: Vec::new(),
