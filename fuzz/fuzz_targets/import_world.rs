@@ -27,6 +27,7 @@ fn import(data: &[u8]) -> Option<Character> {
     let skeleton = ragdoll::rig::rig(&mut meshes, &RigOptions::default()).ok()?;
     Some(Character {
         humanoid_bones: Vec::new(),
+        warnings: Vec::new(),
         name: "fuzz".into(),
         skeleton,
         meshes,

@@ -40,8 +40,14 @@ pub(crate) fn import_options(a: &ImportArgs) -> ImportOptions {
 /// Reads a character file, with a spinner when that takes more than a second.
 pub(crate) fn load(file: &Path, a: &ImportArgs) -> Result<Character> {
     checks::import_flags(Some(file), a)?;
-    let _progress = Progress::new(0, &format!("reading {}", file.display()));
-    Ok(import::load(file, &import_options(a))?)
+    let character = {
+        let _progress = Progress::new(0, &format!("reading {}", file.display()));
+        import::load(file, &import_options(a))?
+    };
+    for w in &character.warnings {
+        eprintln!("warning: {w}");
+    }
+    Ok(character)
 }
 
 /// An error about the file `path`, named once: the library's parse errors already name it,

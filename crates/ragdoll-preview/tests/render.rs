@@ -102,6 +102,7 @@ fn the_shadow_falls_on_the_ground_on_the_side_away_from_the_sun() {
 fn capsule(name: &str, at: Vec3, radius_m: f32, length_m: f32) -> (Character, RagdollSpec) {
     let character = Character {
         humanoid_bones: Vec::new(),
+        warnings: Vec::new(),
         name: name.into(),
         skeleton: Skeleton::new(vec![Joint {
             name: name.into(),

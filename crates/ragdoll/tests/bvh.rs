@@ -454,6 +454,7 @@ fn gltf_like() -> Character {
     ];
     Character {
         humanoid_bones: Vec::new(),
+        warnings: Vec::new(),
         name: "gltf-like".into(),
         skeleton: Skeleton::new(joints).unwrap(),
         meshes: Vec::new(),

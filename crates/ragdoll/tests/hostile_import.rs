@@ -278,6 +278,7 @@ fn wide_tree(fan: usize, levels: usize) -> Character {
 fn character(name: &str, skeleton: Skeleton) -> Character {
     Character {
         humanoid_bones: Vec::new(),
+        warnings: Vec::new(),
         name: name.into(),
         skeleton,
         meshes: Vec::new(),

@@ -39,6 +39,7 @@ fn chain(links: usize, len: f32, dir: Vec3, swing_deg: f32) -> (Character, Ragdo
     }
     let character = Character {
         humanoid_bones: Vec::new(),
+        warnings: Vec::new(),
         name: "chain".into(),
         skeleton: Skeleton::new(joints).unwrap(),
         meshes: vec![],

@@ -10,6 +10,7 @@ use ragdoll::world::{STANDARD_GRAVITY, World, WorldSettings};
 fn single_joint(height: f32) -> Character {
     Character {
         humanoid_bones: Vec::new(),
+        warnings: Vec::new(),
         name: "stick".into(),
         skeleton: Skeleton::new(vec![Joint {
             name: "root".into(),
@@ -92,6 +93,7 @@ fn drop_link(kind: JointKind, frame: Quat) -> (f32, ragdoll::track::Metrics) {
     .unwrap();
     let character = Character {
         humanoid_bones: Vec::new(),
+        warnings: Vec::new(),
         name: "pendulum".into(),
         skeleton,
         meshes: vec![],

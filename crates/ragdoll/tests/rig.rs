@@ -579,6 +579,7 @@ fn a_rigged_mesh_round_trips_through_gltf() {
     .unwrap();
     let c = ragdoll::skeleton::Character {
         humanoid_bones: Vec::new(),
+        warnings: Vec::new(),
         name: "bar".into(),
         skeleton,
         meshes,

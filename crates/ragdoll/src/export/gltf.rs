@@ -77,7 +77,7 @@ pub fn to_glb(character: &Character, spec: &RagdollSpec, track: &Track) -> Resul
 /// let positions = vec![Vec3::ZERO, Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 0.2, 0.0), Vec3::new(0.0, 0.2, 0.1)];
 /// let mut meshes = vec![SkinnedMesh { positions, indices: vec![0, 1, 2, 0, 2, 3], ..Default::default() }];
 /// let skeleton = rig::rig(&mut meshes, &rig::RigOptions { joints: 3, ..Default::default() }).unwrap();
-/// let character = Character { name: "strip".into(), skeleton, meshes, clips: vec![], humanoid_bones: vec![], source: Source::Mesh("strip.obj".into()) };
+/// let character = Character { name: "strip".into(), skeleton, meshes, clips: vec![], humanoid_bones: vec![], warnings: vec![], source: Source::Mesh("strip.obj".into()) };
 /// let glb = rig_to_glb(&character).unwrap();
 /// assert_eq!(&glb[..4], b"glTF");
 /// ```

@@ -176,6 +176,7 @@ pub fn from_bytes_rigged(bytes: &[u8], path: &Path, rig: &RigOptions) -> Result<
     let clips = read_clips(&doc, &rig, &skeleton, &reader)?;
     Ok(Character {
         humanoid_bones: Vec::new(),
+        warnings: Vec::new(),
         name: file_stem(path),
         skeleton,
         meshes,

@@ -74,6 +74,7 @@ pub(crate) fn rigged_character(
     })?;
     Ok(Character {
         humanoid_bones: Vec::new(),
+        warnings: Vec::new(),
         name,
         skeleton,
         meshes,

@@ -80,6 +80,7 @@ pub fn humanoid() -> Character {
     }
     Character {
         humanoid_bones: Vec::new(),
+        warnings: Vec::new(),
         name: "humanoid".into(),
         skeleton: Skeleton::new(joints).expect("the built-in humanoid is well formed"),
         meshes: Vec::new(),

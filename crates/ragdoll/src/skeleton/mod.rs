@@ -303,6 +303,10 @@ pub struct Character {
     /// table; role recognition then works from the skeleton alone. Plain names rather than
     /// the ragdoll's roles, so the skeleton does not depend on the spec.
     pub humanoid_bones: Vec<(String, usize)>,
+    /// Defects the importer repaired rather than refused (bad skin weights, missing
+    /// images), one sentence each naming the place in the file: tools show them to the
+    /// user, since the result is not exactly what the file said.
+    pub warnings: Vec<String>,
     /// The source file's layout, for exporters that write it back.
     pub source: Source,
 }

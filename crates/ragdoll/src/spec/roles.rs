@@ -826,6 +826,7 @@ pub(crate) mod tests {
             .collect();
         Character {
             humanoid_bones: Vec::new(),
+            warnings: Vec::new(),
             name: "random".into(),
             skeleton: Skeleton::new(joints).unwrap(),
             meshes: Vec::new(),
@@ -975,6 +976,7 @@ pub(crate) mod tests {
         }
         Character {
             humanoid_bones: Vec::new(),
+            warnings: Vec::new(),
             name: "chain".into(),
             skeleton: Skeleton::new(joints).unwrap(),
             meshes: Vec::new(),
@@ -1046,6 +1048,7 @@ pub(crate) mod tests {
             .collect();
         Character {
             humanoid_bones: Vec::new(),
+            warnings: Vec::new(),
             name: "quadruped".into(),
             skeleton: Skeleton::new(joints).unwrap(),
             meshes: Vec::new(),

@@ -63,6 +63,7 @@ pub fn one_capsule(
     use ragdoll::spec::{BodySpec, RagdollSpec, SPEC_FORMAT_VERSION, Shape};
     let character = Character {
         humanoid_bones: Vec::new(),
+        warnings: Vec::new(),
         name: "bar".into(),
         skeleton: Skeleton::new(vec![Joint {
             name: "bar".into(),

@@ -39,6 +39,7 @@ pub(crate) fn pair(shape: Shape, mass_kg: f32) -> (Character, RagdollSpec) {
     };
     let character = Character {
         humanoid_bones: Vec::new(),
+        warnings: Vec::new(),
         name: "pair".into(),
         skeleton: Skeleton::new(vec![joint("a", None, 2.0), joint("b", Some(0), -1.0)]).unwrap(),
         meshes: vec![],

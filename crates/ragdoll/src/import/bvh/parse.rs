@@ -124,6 +124,7 @@ pub fn parse(text: &str, path: &Path, opts: &ImportOptions) -> Result<Character>
         .unwrap_or_else(|| "bvh".into());
     Ok(Character {
         humanoid_bones: Vec::new(),
+        warnings: Vec::new(),
         name,
         skeleton,
         meshes: Vec::new(),
