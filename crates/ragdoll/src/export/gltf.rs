@@ -22,6 +22,7 @@
 //! The output is meant to pass the Khronos glTF validator with no errors; the tests and
 //! `.ci/gltf_validate.mjs` check that.
 
+mod images;
 mod merge;
 mod shapes;
 
@@ -35,8 +36,7 @@ use serde_json::{Map, Value, json};
 
 use crate::error::{Error, Result};
 use crate::import::gltf::{
-    AccessorReader, GltfSource, MAX_BUFFER_BYTES, decode_data_uri, format_err, parse_document,
-    read_external, read_influences,
+    AccessorReader, GltfSource, SkinSlots, format_err, parse_document, read_influences,
 };
 use crate::math::Transform;
 use crate::skeleton::{Character, Skeleton, Source};
@@ -437,7 +437,7 @@ fn from_source(character: &Character, src: &GltfSource, track: &Track) -> Result
         v["byteOffset"] = json!(moved);
     }
     bin.accessors = take_array(obj, "accessors");
-    embed_images(obj, &mut bin, src)?;
+    images::embed_images(obj, &mut bin, src)?;
     renormalise_weights(obj, &doc, &mut bin, src)?;
     let node_scales = joint_nodes_as_trs(obj, &src.joint_nodes, path)?;
     let animation = ragdoll_animation(
@@ -467,67 +467,6 @@ fn from_source(character: &Character, src: &GltfSource, track: &Track) -> Result
         a.insert("generator".into(), json!(generator()));
     }
     Ok((root, bin.data))
-}
-
-/// The media type of encoded image bytes, from their magic numbers.
-fn sniff_image(bytes: &[u8]) -> Option<&'static str> {
-    if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
-        Some("image/png")
-    } else if bytes.starts_with(&[0xFF, 0xD8, 0xFF]) {
-        Some("image/jpeg")
-    } else if bytes.len() >= 12 && &bytes[..4] == b"RIFF" && &bytes[8..12] == b"WEBP" {
-        Some("image/webp")
-    } else if bytes.starts_with(b"\xABKTX 20\xBB") {
-        Some("image/ktx2")
-    } else {
-        None
-    }
-}
-
-/// Moves every image given by URI into the binary chunk: a GLB travels alone, and relative
-/// paths would break as soon as it is written somewhere else. Image files are read from the
-/// source's folder only, as the importer reads buffers ([`read_external`]), and together
-/// with `data:` images hold at most [`MAX_BUFFER_BYTES`].
-fn embed_images(obj: &mut Map<String, Value>, bin: &mut Bin, src: &GltfSource) -> Result<()> {
-    let path = src.path.as_path();
-    let Some(Value::Array(images)) = obj.get_mut("images") else {
-        return Ok(());
-    };
-    let mut left = MAX_BUFFER_BYTES;
-    for (i, image) in images.iter_mut().enumerate() {
-        let Some(o) = image.as_object_mut() else {
-            continue;
-        };
-        let Some(uri) = o.get("uri").and_then(Value::as_str).map(str::to_string) else {
-            continue;
-        };
-        let place = format!("image {i}");
-        let (bytes, declared) = match decode_data_uri(&uri, left) {
-            Some(Ok(x)) => x,
-            Some(Err(m)) => return Err(format_err(path, place, m)),
-            None => (
-                read_external(&src.dir, &uri, left).map_err(|m| format_err(path, &place, m))?,
-                String::new(),
-            ),
-        };
-        left = left.saturating_sub(bytes.len() as u64);
-        let mime = match sniff_image(&bytes) {
-            Some(m) => m.to_string(),
-            None if declared.starts_with("image/") => declared,
-            None => {
-                return Err(format_err(
-                    path,
-                    place,
-                    "is neither PNG, JPEG, WebP nor KTX2, so it cannot be embedded",
-                ));
-            }
-        };
-        let view = bin.push_view(&bytes, None);
-        o.remove("uri");
-        o.insert("bufferView".into(), json!(view));
-        o.insert("mimeType".into(), json!(mime));
-    }
-    Ok(())
 }
 
 /// Accessors read for something other than skin influences; those cannot be rewritten in
@@ -610,6 +549,7 @@ fn renormalise_weights(
         }
     }
     let other = other_accessor_uses(doc);
+    let skin_of = skins_by_mesh(doc, src);
     let mut done: HashMap<Key, Key> = HashMap::new();
     for (m, p, key) in prims {
         if let Some(new_key) = done.get(&key) {
@@ -625,7 +565,13 @@ fn renormalise_weights(
             .get(&Semantic::Positions)
             .map(|a| a.count())
             .unwrap_or_else(|| doc.accessors().nth(key[0].1).map_or(0, |a| a.count()));
-        let Some(influences) = read_influences(&prim, vertex_count, usize::MAX, &reader)? else {
+        let skin = skin_of.get(&m).copied().unwrap_or(SkinSlots {
+            count: usize::MAX,
+            root: 0,
+        });
+        let Some((influences, _)) =
+            read_influences(&prim, vertex_count, skin, &reader, &|_| Ok(()))?
+        else {
             continue;
         };
         let sets = key.len();
@@ -688,6 +634,40 @@ fn renormalise_weights(
         done.insert(key, new_key);
     }
     Ok(())
+}
+
+/// The skin each mesh is drawn with, so its weights are repaired against that skin's
+/// joints exactly as the importer repaired them: the character's skin has the root the
+/// importer chose; another skin (a prop's) its `skeleton` node when that is a joint, else
+/// its first joint. A mesh drawn with several skins gets the smallest, so no joint index
+/// written for it is out of range for any of them.
+fn skins_by_mesh(doc: &gltf::Document, src: &GltfSource) -> HashMap<usize, SkinSlots> {
+    let mut out: HashMap<usize, SkinSlots> = HashMap::new();
+    for node in doc.nodes() {
+        let (Some(mesh), Some(skin)) = (node.mesh(), node.skin()) else {
+            continue;
+        };
+        let joints: Vec<usize> = skin.joints().map(|n| n.index()).collect();
+        let root_node = if skin.index() == src.skin {
+            src.joint_nodes.first().copied()
+        } else {
+            skin.skeleton().map(|n| n.index())
+        };
+        let slots = SkinSlots {
+            count: joints.len(),
+            root: root_node
+                .and_then(|r| joints.iter().position(|&n| n == r))
+                .unwrap_or(0),
+        };
+        out.entry(mesh.index())
+            .and_modify(|s| {
+                if slots.count < s.count {
+                    *s = slots;
+                }
+            })
+            .or_insert(slots);
+    }
+    out
 }
 
 /// Writes new element data over an accessor's own bytes in the merged binary, when it is

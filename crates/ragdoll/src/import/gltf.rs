@@ -18,7 +18,8 @@
 //!   of every mesh instanced with the chosen skin. Points, lines, strips and fans are
 //!   skipped (no ragdoll needs them).
 //!   Morph targets are ignored. Up to four influences are kept per vertex (the strongest,
-//!   renormalised to sum 1); a vertex whose weights sum to 0 gets weight 1 on its first joint.
+//!   renormalised to sum 1). Bad weights are repaired with a warning, not refused (see
+//!   `mesh::read_influences`), and so are missing image files (`data::missing_images`).
 //! - **No skin**: a file with triangle meshes but no skin (a scanned or modelled prop) is
 //!   rigged like an OBJ ([`crate::rig`]): every triangle primitive of every node in the
 //!   default scene (or of every node, when there is no scene) in world space. Its source is
@@ -49,9 +50,9 @@ use clips::read_clips;
 use data::ReadBudget;
 pub(crate) use data::{AccessorReader, decode_data_uri, format_err, read_external};
 pub use data::{MAX_ACCESSOR_COMPONENTS, MAX_BUFFER_BYTES, MAX_JSON_OBJECTS, MAX_JSON_VALUES};
-pub use mesh::MAX_INFLUENCE_SETS;
 use mesh::Reads;
-pub(crate) use mesh::read_influences;
+pub use mesh::{MAX_INFLUENCE_SETS, WEIGHT_SUM_TOLERANCE};
+pub(crate) use mesh::{SkinSlots, read_influences};
 use mesh::{read_meshes, read_unskinned};
 use skin::{NodeGraph, Rig, choose_skin};
 
@@ -172,11 +173,12 @@ pub fn from_bytes_rigged(bytes: &[u8], path: &Path, rig: &RigOptions) -> Result<
         .ok_or_else(|| format_err(path, "skins", "skin index out of range"))?;
     let rig = Rig::new(&doc, &skin, &graph, path)?;
     let skeleton = Skeleton::new(rig.joints.clone())?;
-    let meshes = read_meshes(&doc, &skin, &rig, &graph, &reader)?;
+    let (meshes, mut warnings) = read_meshes(&doc, &skin, &rig, &graph, &reader)?;
+    warnings.extend(data::missing_images(&json, &dir));
     let clips = read_clips(&doc, &rig, &skeleton, &reader)?;
     Ok(Character {
         humanoid_bones: Vec::new(),
-        warnings: Vec::new(),
+        warnings,
         name: file_stem(path),
         skeleton,
         meshes,

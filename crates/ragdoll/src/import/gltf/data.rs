@@ -275,6 +275,23 @@ pub const MAX_BUFFER_BYTES: u64 = MAX_INPUT_BYTES;
 
 const BUDGET_NOTE: &str = "a glTF's buffers, and its images, may hold 1024 MiB together";
 
+/// Why an external URI was not read: a sentence naming the URI, and whether the file is
+/// merely absent or unreadable (which a missing texture may be forgiven) rather than
+/// refused (a URI that leaves the folder, a device, a file past the budget), which never is.
+#[derive(Debug)]
+pub(crate) struct UriError {
+    /// The sentence, naming the URI.
+    pub message: String,
+    /// The file is not there, or the operating system could not read it.
+    pub missing: bool,
+}
+
+impl From<UriError> for String {
+    fn from(e: UriError) -> String {
+        e.message
+    }
+}
+
 /// Reads the file an external URI names, from `dir` (the glTF's folder) and nowhere else
 /// (see [`crate::files::read_inside`]), at most `limit` bytes; the error is a sentence
 /// naming the URI.
@@ -282,25 +299,75 @@ pub(crate) fn read_external(
     dir: &Path,
     uri: &str,
     limit: u64,
-) -> std::result::Result<Vec<u8>, String> {
+) -> std::result::Result<Vec<u8>, UriError> {
+    let refused = |message: String| UriError {
+        message,
+        missing: false,
+    };
     let has_scheme = uri.split_once(':').is_some_and(|(s, _)| {
         !s.is_empty()
             && s.chars()
                 .all(|c| c.is_ascii_alphanumeric() || "+-.".contains(c))
     });
     if has_scheme {
-        return Err(format!(
+        return Err(refused(format!(
             "the URI \"{uri}\" is not a relative file path, so it is not read"
-        ));
+        )));
     }
     let decoded = String::from_utf8(percent_decode(uri))
-        .map_err(|_| format!("the URI \"{uri}\" is not valid UTF-8 once decoded"))?;
+        .map_err(|_| refused(format!("the URI \"{uri}\" is not valid UTF-8 once decoded")))?;
     crate::files::read_inside(dir, &decoded, limit).map_err(|r| match r {
-        Refusal::TooLarge(_) => format!(
+        Refusal::TooLarge(_) => refused(format!(
             "the URI \"{uri}\" names a file larger than the {limit} bytes still allowed ({BUDGET_NOTE})"
-        ),
-        other => format!("the URI \"{uri}\" {other}"),
+        )),
+        Refusal::Io(e) => UriError {
+            message: format!("the URI \"{uri}\" {}", Refusal::Io(e)),
+            missing: true,
+        },
+        other => refused(format!("the URI \"{uri}\" {other}")),
     })
+}
+
+/// One warning for each image of a `.gltf` whose file, named by a relative URI, is not
+/// in the file's folder: the exporter leaves such an image out (and the textures that use
+/// it), so the user hears it when the file is read, not after the bake. Only the file's
+/// presence is checked, not its bytes (a limit of 0 stops before reading), so import stays
+/// as cheap as before; URIs that leave the folder are not warned about here, since the
+/// exporter refuses them outright.
+pub(crate) fn missing_images(json: &serde_json::Value, dir: &Path) -> Vec<String> {
+    let images = json.get("images").and_then(serde_json::Value::as_array);
+    let mut out = Vec::new();
+    for (i, image) in images.into_iter().flatten().enumerate() {
+        let Some(uri) = image.get("uri").and_then(serde_json::Value::as_str) else {
+            continue;
+        };
+        if uri.starts_with("data:") {
+            continue;
+        }
+        if let Err(e) = read_external(dir, uri, 0)
+            && e.missing
+        {
+            out.push(missing_image_warning(i, image, &e));
+        }
+    }
+    out
+}
+
+/// The sentence for an image left out because its file is missing.
+pub(crate) fn missing_image_warning(
+    index: usize,
+    image: &serde_json::Value,
+    e: &UriError,
+) -> String {
+    let name = image
+        .get("name")
+        .and_then(serde_json::Value::as_str)
+        .map(|n| format!(" (\"{n}\")"))
+        .unwrap_or_default();
+    format!(
+        "image {index}{name}: {}, so the baked glTF leaves it out, with the textures that use it",
+        e.message
+    )
 }
 
 /// Resolves every buffer: the GLB binary chunk, `data:` URIs, or files in the glTF's
@@ -594,6 +661,16 @@ impl AccessorReader<'_> {
     /// Components as `f32`, normalised integers mapped to [0, 1] or [−1, 1]; also returns the
     /// number of components per element.
     pub fn floats(&self, a: &gltf::Accessor) -> Result<(Vec<f32>, usize)> {
+        let (out, comps) = self.floats_as_stored(a)?;
+        if out.iter().any(|v| !v.is_finite()) {
+            return Err(self.err(a, "holds a value that is not a finite number".into()));
+        }
+        Ok((out, comps))
+    }
+
+    /// [`Self::floats`] with NaN and infinities kept, for data that can be repaired
+    /// (skin weights) rather than refused.
+    pub fn floats_as_stored(&self, a: &gltf::Accessor) -> Result<(Vec<f32>, usize)> {
         let (raw, comps) = self.raw(a)?;
         let scale = if a.normalized() {
             match a.data_type() {
@@ -611,9 +688,6 @@ impl AccessorReader<'_> {
             Some(s) => raw.iter().map(|v| (v / s).max(-1.0) as f32).collect(),
             None => raw.iter().map(|&v| v as f32).collect(),
         };
-        if out.iter().any(|v| !v.is_finite()) {
-            return Err(self.err(a, "holds a value that is not a finite number".into()));
-        }
         Ok((out, comps))
     }
 
@@ -763,12 +837,21 @@ mod tests {
         ] {
             let e = read_external(&dir, uri, 16).unwrap_err();
             assert!(
-                e.contains(&format!("\"{uri}\"")) && e.contains(says),
-                "{uri}: {e}"
+                e.message.contains(&format!("\"{uri}\"")) && e.message.contains(says),
+                "{uri}: {e:?}"
             );
+            // Only an absent file may be forgiven; a refusal never is.
+            assert_eq!(e.missing, uri == "missing.bin", "{uri}");
         }
         let e = read_external(&dir, "my%20x.bin", 1).unwrap_err();
-        assert!(e.contains("larger than the 1 bytes still allowed"), "{e}");
+        assert!(
+            e.message.contains("larger than the 1 bytes still allowed"),
+            "{e:?}"
+        );
+        assert!(!e.missing);
+        // A present file passes the presence check made with a limit of 0, unread.
+        let e = read_external(&dir, "my%20x.bin", 0).unwrap_err();
+        assert!(!e.missing);
         std::fs::remove_dir_all(&root).unwrap();
     }
 

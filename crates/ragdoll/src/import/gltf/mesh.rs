@@ -8,6 +8,11 @@ use glam::{Mat3, Mat4, Vec3, Vec4};
 use gltf::accessor::Dimensions;
 use gltf::mesh::{Mode, Semantic};
 
+mod weights;
+
+pub(crate) use weights::{Influences, SkinSlots, read_influences};
+pub use weights::{MAX_INFLUENCE_SETS, WEIGHT_SUM_TOLERANCE};
+
 use super::data::{AccessorReader, ReadBudget, format_err};
 use super::skin::{NodeGraph, Rig};
 use crate::error::Result;
@@ -83,14 +88,15 @@ pub(super) fn read_unskinned(
     Ok(out)
 }
 
-/// Skins every triangle primitive of the skin's meshes into world space, rest pose.
+/// Skins every triangle primitive of the skin's meshes into world space, rest pose; also
+/// returns one warning for each primitive whose skin weights were repaired.
 pub(super) fn read_meshes(
     doc: &gltf::Document,
     skin: &gltf::Skin,
     rig: &Rig,
     graph: &NodeGraph,
     reader: &Reads,
-) -> Result<Vec<SkinnedMesh>> {
+) -> Result<(Vec<SkinnedMesh>, Vec<String>)> {
     let slots: Vec<usize> = skin.joints().map(|n| n.index()).collect();
     let ibms = match skin.inverse_bind_matrices() {
         Some(a) => {
@@ -117,6 +123,11 @@ pub(super) fn read_meshes(
         .collect();
     let mut done = HashSet::new();
     let mut out = Vec::new();
+    let mut warnings = Vec::new();
+    let skin_slots = SkinSlots {
+        count: slots.len(),
+        root: rig.root_slot(),
+    };
     for node in doc.nodes() {
         let (Some(mesh), Some(s)) = (node.mesh(), node.skin()) else {
             continue;
@@ -138,120 +149,35 @@ pub(super) fn read_meshes(
             } else {
                 mesh_name.clone()
             };
-            if let Some(m) = read_primitive(&prim, name, &joint_mats, rig, reader)? {
-                out.push(m);
-            }
-        }
-    }
-    Ok(out)
-}
-
-/// Per vertex, its (skin joint slot, weight) pairs.
-pub(crate) type Influences = Vec<Vec<(usize, f32)>>;
-
-/// Most `JOINTS_n`/`WEIGHTS_n` sets a primitive may have: 16, 64 influences per vertex.
-/// Exporters write one or two; the limit keeps merging a vertex's influences cheap.
-pub const MAX_INFLUENCE_SETS: usize = 16;
-
-/// A primitive's `JOINTS_n`/`WEIGHTS_n` accessor pairs, `n` from 0 up to the first gap.
-pub(crate) fn influence_sets<'a>(
-    prim: &gltf::Primitive<'a>,
-) -> Vec<(gltf::Accessor<'a>, gltf::Accessor<'a>)> {
-    let mut sets = Vec::new();
-    for k in 0.. {
-        match (
-            prim.get(&Semantic::Joints(k)),
-            prim.get(&Semantic::Weights(k)),
-        ) {
-            // One past the limit, so that the caller can tell it was passed.
-            (Some(j), Some(w)) if sets.len() <= MAX_INFLUENCE_SETS => sets.push((j, w)),
-            _ => break,
-        }
-    }
-    sets
-}
-
-/// The (skin slot, weight) pairs of every vertex of a primitive, over all its
-/// `JOINTS_n`/`WEIGHTS_n` sets, renormalised to sum 1. `None` when the primitive is not
-/// skinned.
-pub(crate) fn read_influences(
-    prim: &gltf::Primitive,
-    vertex_count: usize,
-    joint_count: usize,
-    reader: &AccessorReader,
-) -> Result<Option<Influences>> {
-    let sets = influence_sets(prim);
-    if sets.is_empty() {
-        return Ok(None);
-    }
-    if sets.len() > MAX_INFLUENCE_SETS {
-        return Err(format_err(
-            reader.path,
-            format!("accessor {}", sets[MAX_INFLUENCE_SETS].0.index()),
-            format!(
-                "a primitive has more than {MAX_INFLUENCE_SETS} JOINTS_n/WEIGHTS_n sets; this importer reads at most that many"
-            ),
-        ));
-    }
-    // Every check that needs no data comes first, so a count that does not match the
-    // vertices is refused before anything is read or allocated for it.
-    for (ja, wa) in &sets {
-        reader.expect_dims(ja, &[Dimensions::Vec4], "JOINTS")?;
-        reader.expect_dims(wa, &[Dimensions::Vec4], "WEIGHTS")?;
-        for a in [ja, wa] {
-            if a.count() != vertex_count {
-                return Err(format_err(
-                    reader.path,
-                    format!("accessor {}", a.index()),
-                    format!("has {} elements for {vertex_count} vertices", a.count()),
-                ));
-            }
-        }
-    }
-    let mut out: Influences = Vec::new();
-    let mut first = Vec::new();
-    for (k, (ja, wa)) in sets.iter().enumerate() {
-        let (js, _) = reader.uints(ja)?;
-        let (ws, _) = reader.floats(wa)?;
-        if k == 0 {
-            // Both accessors were read, so the vertex count is backed by data.
-            out = vec![Vec::new(); vertex_count];
-            first = vec![0usize; vertex_count];
-        }
-        for (v, (jv, wv)) in js.chunks_exact(4).zip(ws.chunks_exact(4)).enumerate() {
-            for c in 0..4 {
-                let (slot, w) = (jv[c] as usize, wv[c]);
-                if k == 0 && c == 0 {
-                    first[v] = if slot < joint_count { slot } else { 0 };
-                }
-                if w <= 0.0 {
-                    continue;
-                }
-                if slot >= joint_count {
-                    return Err(format_err(
-                        reader.path,
-                        format!("accessor {}", ja.index()),
+            let Some((m, repair)) =
+                read_primitive(&prim, name, &joint_mats, skin_slots, rig, reader)?
+            else {
+                continue;
+            };
+            if !repair.is_empty() {
+                let sets: Vec<String> = weights::influence_sets(&prim)
+                    .iter()
+                    .enumerate()
+                    .map(|(k, (j, w))| {
                         format!(
-                            "vertex {v} uses joint {slot} but the skin has only {joint_count} joints"
-                        ),
-                    ));
-                }
-                match out[v].iter_mut().find(|(s, _)| *s == slot) {
-                    Some((_, acc)) => *acc += w,
-                    None => out[v].push((slot, w)),
-                }
+                            "JOINTS_{k} accessor {}, WEIGHTS_{k} accessor {}",
+                            j.index(),
+                            w.index()
+                        )
+                    })
+                    .collect();
+                let place = format!(
+                    "mesh \"{mesh_name}\" primitive {} ({})",
+                    prim.index(),
+                    sets.join(", ")
+                );
+                let root = &rig.joints[rig.slot_to_joint[skin_slots.root]].name;
+                warnings.push(repair.sentence(&place, m.positions.len(), slots.len(), root));
             }
+            out.push(m);
         }
     }
-    for (v, infl) in out.iter_mut().enumerate() {
-        let sum: f32 = infl.iter().map(|(_, w)| w).sum();
-        if sum > 0.0 && sum.is_finite() {
-            infl.iter_mut().for_each(|(_, w)| *w /= sum);
-        } else {
-            *infl = vec![(first[v], 1.0)];
-        }
-    }
-    Ok(Some(out))
+    Ok((out, warnings))
 }
 
 /// The accessor reader with this import's [`ReadBudget`]: every read is charged before it
@@ -295,13 +221,10 @@ impl<'a> Reads<'a> {
         &self,
         prim: &gltf::Primitive,
         vertex_count: usize,
-        joint_count: usize,
-    ) -> Result<Option<Influences>> {
-        for (j, w) in influence_sets(prim) {
-            self.budget.charge(&self.reader, &j)?;
-            self.budget.charge(&self.reader, &w)?;
-        }
-        read_influences(prim, vertex_count, joint_count, &self.reader)
+        skin: SkinSlots,
+    ) -> Result<Option<(Influences, weights::WeightRepair)>> {
+        let charge = |a: &gltf::Accessor| self.budget.charge(&self.reader, a);
+        read_influences(prim, vertex_count, skin, &self.reader, &charge)
     }
 }
 
@@ -309,16 +232,17 @@ fn read_primitive(
     prim: &gltf::Primitive,
     name: String,
     joint_mats: &[Mat4],
+    skin: SkinSlots,
     rig: &Rig,
     reader: &Reads,
-) -> Result<Option<SkinnedMesh>> {
+) -> Result<Option<(SkinnedMesh, weights::WeightRepair)>> {
     let Some(pos_acc) = prim.get(&Semantic::Positions) else {
         return Ok(None);
     };
     reader.expect_dims(&pos_acc, &[Dimensions::Vec3], "POSITION")?;
     let (pos, _) = reader.floats(&pos_acc)?;
     let n = pos_acc.count();
-    let Some(influences) = reader.influences(prim, n, joint_mats.len())? else {
+    let Some((influences, repair)) = reader.influences(prim, n, skin)? else {
         return Ok(None);
     };
     let normals_in = match prim.get(&Semantic::Normals) {
@@ -378,7 +302,7 @@ fn read_primitive(
             "skinned positions are not finite (check the inverse bind matrices)",
         ));
     }
-    Ok(Some(mesh))
+    Ok(Some((mesh, repair)))
 }
 
 /// A primitive's triangle indices (or 0..n when it has none), each checked against its

@@ -239,6 +239,12 @@ impl Rig {
         })
     }
 
+    /// The skin slot of the skeleton's first root joint (joints are ordered parents
+    /// first, so joint 0 is a root).
+    pub(super) fn root_slot(&self) -> usize {
+        self.slot_to_joint.iter().position(|&j| j == 0).unwrap_or(0)
+    }
+
     /// A joint's skeleton-space local transform from its node's own (animated) TRS.
     pub(super) fn local(&self, j: usize, node_trs: &Transform) -> Transform {
         if self.offsets[j] == Transform::IDENTITY {

@@ -1,0 +1,236 @@
+//! The input's images, moved into the binary chunk; those whose files are missing are left
+//! out, with every texture that uses them, so the bake goes on and the file stays valid.
+
+use std::collections::HashSet;
+
+use serde_json::{Map, Value, json};
+
+use super::Bin;
+use crate::error::Result;
+use crate::import::gltf::{
+    GltfSource, MAX_BUFFER_BYTES, decode_data_uri, format_err, read_external,
+};
+
+/// The media type of encoded image bytes, from their magic numbers.
+fn sniff_image(bytes: &[u8]) -> Option<&'static str> {
+    if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
+        Some("image/png")
+    } else if bytes.starts_with(&[0xFF, 0xD8, 0xFF]) {
+        Some("image/jpeg")
+    } else if bytes.len() >= 12 && &bytes[..4] == b"RIFF" && &bytes[8..12] == b"WEBP" {
+        Some("image/webp")
+    } else if bytes.starts_with(b"\xABKTX 20\xBB") {
+        Some("image/ktx2")
+    } else {
+        None
+    }
+}
+
+/// Moves every image given by URI into the binary chunk: a GLB travels alone, and relative
+/// paths would break as soon as it is written somewhere else. Image files are read from the
+/// source's folder only, as the importer reads buffers ([`read_external`]), and together
+/// with `data:` images hold at most [`MAX_BUFFER_BYTES`].
+///
+/// An image whose file is missing (the importer warned about it) is left out, with the
+/// textures that show it and every material's reference to those textures: a material
+/// then falls back to its factors (a base colour, say), which is what a viewer shows for
+/// a texture it cannot load, and the file stays valid. A URI that leaves the folder is
+/// still refused: that is a hostile file, not a missing one.
+pub(super) fn embed_images(
+    obj: &mut Map<String, Value>,
+    bin: &mut Bin,
+    src: &GltfSource,
+) -> Result<()> {
+    let path = src.path.as_path();
+    let Some(Value::Array(images)) = obj.get_mut("images") else {
+        return Ok(());
+    };
+    let mut left = MAX_BUFFER_BYTES;
+    let mut missing = HashSet::new();
+    for (i, image) in images.iter_mut().enumerate() {
+        let Some(o) = image.as_object_mut() else {
+            continue;
+        };
+        let Some(uri) = o.get("uri").and_then(Value::as_str).map(str::to_string) else {
+            continue;
+        };
+        let place = format!("image {i}");
+        let (bytes, declared) = match decode_data_uri(&uri, left) {
+            Some(Ok(x)) => x,
+            Some(Err(m)) => return Err(format_err(path, place, m)),
+            None => match read_external(&src.dir, &uri, left) {
+                Ok(bytes) => (bytes, String::new()),
+                Err(e) if e.missing => {
+                    missing.insert(i);
+                    continue;
+                }
+                Err(e) => return Err(format_err(path, place, e)),
+            },
+        };
+        left = left.saturating_sub(bytes.len() as u64);
+        let mime = match sniff_image(&bytes) {
+            Some(m) => m.to_string(),
+            None if declared.starts_with("image/") => declared,
+            None => {
+                return Err(format_err(
+                    path,
+                    place,
+                    "is neither PNG, JPEG, WebP nor KTX2, so it cannot be embedded",
+                ));
+            }
+        };
+        let view = bin.push_view(&bytes, None);
+        o.remove("uri");
+        o.insert("bufferView".into(), json!(view));
+        o.insert("mimeType".into(), json!(mime));
+    }
+    if !missing.is_empty() {
+        drop_images(obj, &missing);
+    }
+    Ok(())
+}
+
+/// New indices after removing `gone` from `0..len`: `None` for a removed entry.
+fn renumber(len: usize, gone: &HashSet<usize>) -> Vec<Option<usize>> {
+    let mut next = 0;
+    (0..len)
+        .map(|i| {
+            (!gone.contains(&i)).then(|| {
+                next += 1;
+                next - 1
+            })
+        })
+        .collect()
+}
+
+/// Removes the entries of `obj[key]` in `gone` (the key itself when none is left: glTF
+/// forbids empty arrays) and returns the survivors' new indices.
+fn remove_entries(
+    obj: &mut Map<String, Value>,
+    key: &str,
+    gone: &HashSet<usize>,
+) -> Vec<Option<usize>> {
+    let Some(Value::Array(items)) = obj.remove(key) else {
+        return Vec::new();
+    };
+    let map = renumber(items.len(), gone);
+    let kept: Vec<Value> = items
+        .into_iter()
+        .enumerate()
+        .filter(|(i, _)| !gone.contains(i))
+        .map(|(_, v)| v)
+        .collect();
+    if !kept.is_empty() {
+        obj.insert(key.into(), Value::Array(kept));
+    }
+    map
+}
+
+/// Points `v[key]` at its entry's new index; false when that entry was removed.
+fn remap(v: &mut Value, key: &str, map: &[Option<usize>]) -> bool {
+    let Some(slot) = v.get_mut(key) else {
+        return true;
+    };
+    match slot.as_u64().and_then(|i| map.get(i as usize).copied()) {
+        Some(Some(new)) => {
+            *slot = json!(new);
+            true
+        }
+        Some(None) => false,
+        // Not an index we know: left as it was (validation already passed it).
+        None => true,
+    }
+}
+
+/// Leaves out the images in `gone`, the textures that show one of them (as their core
+/// source or an extension's: WebP, KTX2, DDS), and the texture infos that name those
+/// textures, renumbering what remains.
+fn drop_images(obj: &mut Map<String, Value>, gone: &HashSet<usize>) {
+    let image_map = remove_entries(obj, "images", gone);
+    let mut dead_textures = HashSet::new();
+    if let Some(Value::Array(textures)) = obj.get_mut("textures") {
+        for (t, texture) in textures.iter_mut().enumerate() {
+            let mut alive = remap(texture, "source", &image_map);
+            if let Some(Value::Object(exts)) = texture.get_mut("extensions") {
+                for e in exts.values_mut() {
+                    alive &= remap(e, "source", &image_map);
+                }
+            }
+            if !alive {
+                dead_textures.insert(t);
+            }
+        }
+    }
+    if dead_textures.is_empty() {
+        return;
+    }
+    let texture_map = remove_entries(obj, "textures", &dead_textures);
+    if let Some(Value::Array(materials)) = obj.get_mut("materials") {
+        materials
+            .iter_mut()
+            .for_each(|m| remap_texture_infos(m, &texture_map));
+    }
+}
+
+/// Renumbers every texture info in a material, core and extension alike (each an object
+/// under a key ending in `Texture` with an `index`: `baseColorTexture`,
+/// `clearcoatTexture`, …), and removes those whose texture is gone. A stack, not recursion.
+fn remap_texture_infos(material: &mut Value, map: &[Option<usize>]) {
+    let mut stack = vec![material];
+    while let Some(v) = stack.pop() {
+        match v {
+            Value::Object(m) => {
+                m.retain(|k, x| {
+                    !(k.ends_with("Texture") && x.get("index").is_some()) || remap(x, "index", map)
+                });
+                stack.extend(m.values_mut());
+            }
+            Value::Array(a) => stack.extend(a.iter_mut()),
+            _ => {}
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_missing_image_takes_its_textures_and_their_references_with_it() {
+        let mut doc = json!({
+            "images": [{"uri": "a.png"}, {"uri": "gone.png"}, {"uri": "c.png"}],
+            "textures": [{"source": 0}, {"source": 1}, {"source": 2},
+                         {"source": 0, "extensions": {"EXT_texture_webp": {"source": 1}}}],
+            "materials": [{
+                "pbrMetallicRoughness": {"baseColorTexture": {"index": 1}, "baseColorFactor": [1, 0, 0, 1]},
+                "normalTexture": {"index": 2},
+                "extensions": {"KHR_materials_clearcoat": {"clearcoatTexture": {"index": 3}}}
+            }]
+        });
+        let obj = doc.as_object_mut().unwrap();
+        drop_images(obj, &HashSet::from([1]));
+        assert_eq!(doc["images"], json!([{"uri": "a.png"}, {"uri": "c.png"}]));
+        assert_eq!(doc["textures"], json!([{"source": 0}, {"source": 1}]));
+        assert_eq!(
+            doc["materials"][0],
+            json!({
+                "pbrMetallicRoughness": {"baseColorFactor": [1, 0, 0, 1]},
+                "normalTexture": {"index": 1},
+                "extensions": {"KHR_materials_clearcoat": {}}
+            })
+        );
+    }
+
+    #[test]
+    fn when_every_image_is_missing_no_empty_array_is_left() {
+        let mut doc = json!({
+            "images": [{"uri": "gone.png"}],
+            "textures": [{"source": 0, "sampler": 0}],
+            "samplers": [{}],
+            "materials": [{"normalTexture": {"index": 0}}]
+        });
+        drop_images(doc.as_object_mut().unwrap(), &HashSet::from([0]));
+        assert!(doc.get("images").is_none() && doc.get("textures").is_none());
+        assert_eq!(doc["materials"], json!([{}]));
+    }
+}
