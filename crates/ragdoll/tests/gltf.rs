@@ -8,7 +8,7 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use glam::{Quat, Vec3};
+use glam::{Quat, Vec3, Vec4};
 use ragdoll::error::Error;
 use ragdoll::export::gltf::to_glb;
 use ragdoll::import::gltf::{from_bytes, load};
@@ -392,14 +392,9 @@ fn built_in_humanoid_exports_a_skinned_body_mesh() {
     assert_eq!(back.meshes.len(), 1);
     let m = &back.meshes[0];
     assert_eq!(m.normals.len(), m.positions.len());
-    // Automatic skinning (issue 4): up to four bones per vertex, weights summing to 1,
-    // strongest first; shapes blend at the joints, so some vertices have several.
-    assert!(
-        m.weights
-            .iter()
-            .all(|w| (w.element_sum() - 1.0).abs() < 1e-5 && w.x >= w.y)
-    );
-    assert!(m.weights.iter().any(|w| w.y > 0.0));
+    // Each shape bound rigidly to its own body's bone (issue 11): one joint, weight 1, so
+    // no shape bends or shears with a neighbour.
+    assert!(m.weights.iter().all(|w| *w == Vec4::X), "blended weights");
     // The vertices mostly on the head bone sit around it, above the neck.
     let head = back.skeleton.find("head").unwrap();
     let head_y = c.skeleton.rest_world()[head].translation.y;

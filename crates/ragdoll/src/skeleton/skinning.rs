@@ -129,9 +129,10 @@ fn blend(joints: &[u16; 4], weights: Vec4, matrices: &[Mat4]) -> Option<Mat4> {
 }
 
 /// The ragdoll's bodies (capsules and boxes, as the simulation sees them) as one mesh in
-/// the world rest pose, skinned with [`crate::rig::auto_weights`] so the skin bends over the
-/// joints: what a character without a skinned mesh (BVH, the built-in humanoid) is drawn
-/// as. The same triangles and weights the glTF exporter writes for such characters.
+/// the world rest pose, each vertex bound rigidly (weight 1) to its own body's bone, so
+/// every shape moves exactly as its body did: what a character without a skinned mesh (BVH,
+/// the built-in humanoid) is drawn as. The same triangles and weights the glTF exporter
+/// writes for such characters.
 ///
 /// ```
 /// use ragdoll::{skeleton::{humanoid, skinning}, spec};

@@ -1,7 +1,13 @@
 //! Triangle meshes for the ragdoll's collision shapes, so a skeleton-only character (BVH,
 //! built-in humanoid) still shows something in a viewer: each body drawn as the capsule or
-//! box the simulation uses, skinned with [`auto_weights`] so the shapes bend together at
-//! the joints instead of cracking apart.
+//! box the simulation uses, bound rigidly to its own bone.
+//!
+//! Rigid, because each shape *is* a rigid body: it moves exactly as the simulation moved
+//! it, and shows it. Weights blended across bodies (they were once the automatic weights
+//! of [`crate::rig`], by distance to the four nearest bones) put a pelvis vertex 25 % on a
+//! forearm, so the capsules bent and sheared wherever limbs crossed (99th-percentile edge
+//! stretch up to 7.3× on the data's BVH files, edges up to 41×, by the CLI's
+//! `tests/mesh_check.rs`; bound rigidly, 1.00).
 
 use std::f32::consts::{FRAC_PI_2, TAU};
 
@@ -131,8 +137,8 @@ pub(super) fn cuboid(size: [f32; 3]) -> (Vec<Vec3>, Vec<Vec3>, Vec<u32>) {
     (pos, nrm, idx)
 }
 
-/// Every body of `spec` as a mesh in the world rest pose, skinned to the skeleton with
-/// [`auto_weights`].
+/// Every body of `spec` as a mesh in the world rest pose, each vertex weighted 1 on its
+/// body's bone.
 pub(crate) fn bodies_mesh(skeleton: &Skeleton, spec: &RagdollSpec) -> Result<BodyMesh> {
     let rest_world = skeleton.rest_world();
     let mut out = BodyMesh::default();
@@ -157,13 +163,20 @@ pub(crate) fn bodies_mesh(skeleton: &Skeleton, spec: &RagdollSpec) -> Result<Bod
             Shape::Box { size_m } => cuboid(size_m),
         };
         let base = out.positions.len() as u32;
+        // A skeleton too big for u16 joint indices cannot be written as a glTF skin either.
+        let slot = u16::try_from(joint).map_err(|_| Error::Spec {
+            place: format!("body \"{}\".bone", body.name),
+            message: format!("joint {joint} is beyond the 65536 a skin can name"),
+        })?;
+        out.joints
+            .extend(std::iter::repeat_n([slot, 0, 0, 0], pos.len()));
+        out.weights.extend(std::iter::repeat_n(Vec4::X, pos.len()));
         out.positions
             .extend(pos.iter().map(|&p| body_world.transform_point(p)));
         out.normals
             .extend(nrm.iter().map(|&n| body_world.transform_dir(n)));
         out.indices.extend(idx.iter().map(|i| i + base));
     }
-    (out.joints, out.weights) = auto_weights(skeleton, &out.positions);
     Ok(out)
 }
 
@@ -213,6 +226,33 @@ mod tests {
             assert_eq!(n, 1);
             assert_eq!(edges.get(&(b, a)), Some(&1), "open edge {a}-{b}");
         }
+    }
+
+    /// Each shape is bound wholly to its own body's bone: one joint, weight 1, so no
+    /// vertex is pulled by a neighbouring body (a pelvis vertex once hung 25 % on a forearm).
+    #[test]
+    fn every_body_is_bound_rigidly_to_its_own_bone() {
+        let character = crate::skeleton::humanoid();
+        let spec =
+            crate::spec::build_spec(&character, &crate::spec::BuildOptions::default()).unwrap();
+        let mesh = bodies_mesh(&character.skeleton, &spec).unwrap();
+        let mut v = 0;
+        for body in &spec.bodies {
+            let bone = (0..character.skeleton.len())
+                .find(|&i| character.skeleton.joints()[i].name == body.bone)
+                .unwrap();
+            let count = match body.shape {
+                Shape::Capsule { radius_m, length_m } => capsule(radius_m, length_m).0.len(),
+                Shape::Box { size_m } => cuboid(size_m).0.len(),
+            };
+            for k in v..v + count {
+                assert_eq!(mesh.joints[k][0] as usize, bone, "body {}", body.name);
+                assert_eq!(mesh.weights[k], Vec4::X, "body {}", body.name);
+            }
+            v += count;
+        }
+        assert_eq!(v, mesh.positions.len());
+        assert_eq!(mesh.joints.len(), v);
     }
 
     #[test]

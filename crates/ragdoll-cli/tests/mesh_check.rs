@@ -1,0 +1,238 @@
+//! Issue 11's mesh check: bake each character's 3 s drop with the release CLI, skin the
+//! baked glTF independently of our exporter ([`mesh_metrics`]), and hold the mesh to the
+//! issue's targets: no vertex deeper than 4 % of the character's height below the floor,
+//! 99th-percentile edge stretch at most 1.6; for the automatically rigged dragons also no
+//! edge over 4× and resting within 3 % of its height of the floor.
+//!
+//! Run `cargo test --release -p ragdoll-cli --test mesh_check -- --ignored --nocapture`
+//! to print the table of every data file.
+
+mod common;
+mod mesh_metrics;
+
+use std::path::{Path, PathBuf};
+
+use common::{data_dir, ragdoll, stderr};
+use mesh_metrics::{Metrics, measure};
+
+/// Seconds of the drop each file is baked for (the issue's 3 s).
+const SECONDS: &str = "3";
+
+/// The data files (relative to the data folder) whose baked mesh meets the targets today:
+/// each is held to them. A file that regresses fails the test.
+const PASSING: &[&str] = &[
+    // Skeleton-only files: drawn as their bodies' capsules, each bound rigidly to its bone.
+    "bvh/biovision_example_bvhio.bvh",
+    "bvh/cmu_pirouette_threejs.bvh",
+    "bvh/mocapbank_bvh-python.bvh",
+    "bvh/two_joint_bvh_anim.bvh",
+    "rigs/animdraw_rokoko_jesse_dance.bvh",
+    "rigs/bvh11_cmu_131_01.bvh",
+    // Skinned glTF characters drawn with their own mesh and weights.
+    "gltf/SimpleSkin.gltf",
+    "rigs/godot_mannequiny.glb",
+];
+
+/// The data files that do not meet the targets yet, with what is wrong (issue 11's next
+/// steps). They are measured and printed, not asserted; a file in neither list fails the
+/// test so that a new data file cannot go unmeasured.
+const FAILING: &[&str] = &[
+    // Their own skin weights over a ragdoll whose roles or bodies do not fit them yet.
+    "gltf/CesiumMan.glb",                 // p99 1.72
+    "gltf/Fox.glb",                       // p99 2.13 (centimetres in a metres format)
+    "rigs/godot_robi_ik.glb",             // sinks 7.5 %, p99 2.54 (IK control bones)
+    "rigs/kaykit_knight.glb",             // sinks 13.8 %, p99 1.69 (no neck)
+    "rigs/quaternius_um_orc_ikfeet.gltf", // sinks 20 %, p99 4.41 (IK feet under the root)
+    "rigs/webxr_generic_hand_left.glb",   // sinks 11.5 % of its 0.21 m on the way down
+    "rigs/threevrm_sphere_vrm0.vrm",      // .vrm is refused by extension
+    // Rigged automatically (weights by distance, not volume): spikes and sinking.
+    "mesh/stanford_dragon_13k.obj", // sinks 30 %, p99 4.15, max 27.6×
+    "mesh/stanford_dragon_1k7.obj", // sinks 34 %, p99 2.97, max 5.4×
+];
+
+/// How a case's baked glTF is made.
+enum Source<'a> {
+    /// The built-in humanoid (`ragdoll demo`).
+    Demo,
+    /// A character file, simulated directly.
+    File(&'a Path),
+    /// A mesh without a skeleton: `ragdoll rig`, then the rigged glTF simulated.
+    Rigged(&'a Path),
+}
+
+/// Bakes `source`'s 3 s drop into `dir` and returns the .glb, or the CLI's error.
+fn bake(source: &Source, dir: &Path) -> Result<PathBuf, String> {
+    let run = |args: &[&str]| {
+        let out = ragdoll(dir, args);
+        if out.status.success() {
+            Ok(())
+        } else {
+            Err(stderr(&out).lines().last().unwrap_or("").to_string())
+        }
+    };
+    let file = |p: &Path| p.to_str().expect("a UTF-8 data path").to_string();
+    match source {
+        Source::Demo => {
+            run(&["demo", "-o", "demo", "--seconds", SECONDS])?;
+            Ok(dir.join("demo/demo.glb"))
+        }
+        Source::File(p) => {
+            run(&["simulate", &file(p), "--seconds", SECONDS, "-o", "out.glb"])?;
+            Ok(dir.join("out.glb"))
+        }
+        Source::Rigged(p) => {
+            run(&["rig", &file(p), "-o", "rigged.glb"])?;
+            run(&[
+                "simulate",
+                "rigged.glb",
+                "--seconds",
+                SECONDS,
+                "-o",
+                "out.glb",
+            ])?;
+            Ok(dir.join("out.glb"))
+        }
+    }
+}
+
+/// What of the issue's targets `m` misses (empty when it meets them all). `rigged` adds
+/// the automatically rigged meshes' targets.
+fn misses(m: &Metrics, rigged: bool) -> Vec<String> {
+    let mut out = Vec::new();
+    if m.lowest_frac() < -0.04 {
+        out.push(format!(
+            "sinks {:.1} % of its height",
+            -100.0 * m.lowest_frac()
+        ));
+    }
+    if m.stretch_p99 > 1.6 {
+        out.push(format!("p99 stretch {:.2} > 1.6", m.stretch_p99));
+    }
+    if rigged && m.stretch_max > 4.0 {
+        out.push(format!("an edge stretches {:.1}× > 4×", m.stretch_max));
+    }
+    if rigged && m.rest_frac().abs() > 0.03 {
+        out.push(format!(
+            "rests {:.1} % of its height off the floor",
+            100.0 * m.rest_frac()
+        ));
+    }
+    out
+}
+
+/// One row of the printed table.
+fn row(name: &str, m: &Metrics, misses: &[String]) -> String {
+    format!(
+        "{name:<40} {:>5} {:>6} {:>6.2} {:>7.1} {:>6.1} {:>5.0} {:>6.2} {:>6.2}  {}",
+        m.frames,
+        m.vertices,
+        m.height,
+        100.0 * m.lowest_frac(),
+        100.0 * m.rest_frac(),
+        100.0 * m.highest_last / m.height,
+        m.stretch_p99,
+        m.stretch_max,
+        if misses.is_empty() {
+            "ok".to_string()
+        } else {
+            misses.join("; ")
+        }
+    )
+}
+
+/// The table's columns: height in metres (frame 0's vertical extent); lowest (over all
+/// frames), rest (the last frame's lowest vertex) and top (its highest) in % of the height;
+/// each edge's largest stretch over the drop, its 99th percentile and maximum.
+const HEADER: &str = "file                                     frames  verts height lowest%  rest%  top%    p99    max  verdict";
+
+/// Bakes and measures one case; prints its row. `Err` says why it could not be measured.
+fn check(name: &str, source: &Source, rigged: bool) -> Result<(Metrics, Vec<String>), String> {
+    let dir = tempfile::tempdir().unwrap();
+    let glb = bake(source, dir.path()).map_err(|e| {
+        println!("{name:<40} not baked: {e}");
+        e
+    })?;
+    let m = measure(&glb);
+    let miss = misses(&m, rigged);
+    println!("{}", row(name, &m, &miss));
+    Ok((m, miss))
+}
+
+#[test]
+fn the_built_in_humanoid_keeps_its_shape() {
+    println!("{HEADER}");
+    let (m, miss) = check("built-in humanoid", &Source::Demo, false).expect("the demo bakes");
+    assert!(
+        miss.is_empty(),
+        "the built-in humanoid: {}",
+        miss.join("; ")
+    );
+    // The measure saw the fall (3 s at 30 fps, the standing 1.75 m humanoid collapsed),
+    // so the stretch above was measured over a moving mesh, not a still first frame.
+    assert_eq!(m.frames, 91);
+    assert!((1.6..1.9).contains(&m.height), "{m:?}");
+    assert!(m.highest_last < 0.5 * m.height, "it did not fall: {m:?}");
+}
+
+/// Every file of the data folder's character folders, relative to it, sorted.
+fn data_files(data: &Path) -> Vec<String> {
+    let mut files = Vec::new();
+    for folder in ["bvh", "gltf", "rigs", "mesh"] {
+        for e in std::fs::read_dir(data.join(folder)).unwrap() {
+            let name = e.unwrap().file_name().into_string().unwrap();
+            files.push(format!("{folder}/{name}"));
+        }
+    }
+    files.sort();
+    files
+}
+
+#[test]
+#[ignore = "needs ../shared/data"]
+fn every_data_file_is_measured_and_the_passing_ones_keep_their_shape() {
+    let data = data_dir();
+    let files = data_files(&data);
+    for listed in PASSING.iter().chain(FAILING) {
+        assert!(
+            files.iter().any(|f| f == listed),
+            "{listed} is listed but not in {}",
+            data.display()
+        );
+    }
+    println!("{HEADER}");
+    let mut regressed = Vec::new();
+    let mut unlisted = Vec::new();
+    for name in files {
+        let path = data.join(&name);
+        let rigged = name.starts_with("mesh/");
+        let source = if rigged {
+            Source::Rigged(&path)
+        } else {
+            Source::File(&path)
+        };
+        let result = check(&name, &source, rigged);
+        let passing = PASSING.contains(&name.as_str());
+        if !passing && !FAILING.contains(&name.as_str()) {
+            unlisted.push(name.clone());
+        }
+        match result {
+            Ok((_, miss)) if passing && !miss.is_empty() => {
+                regressed.push(format!("{name}: {}", miss.join("; ")))
+            }
+            Err(e) if passing => regressed.push(format!("{name}: not baked: {e}")),
+            Ok((_, miss)) if !passing && miss.is_empty() => {
+                println!("  (note: {name} now meets the targets: move it to PASSING)")
+            }
+            _ => {}
+        }
+    }
+    assert!(
+        regressed.is_empty(),
+        "meshes that no longer keep their shape:\n{}",
+        regressed.join("\n")
+    );
+    assert!(
+        unlisted.is_empty(),
+        "data files in neither PASSING nor FAILING: {unlisted:?}"
+    );
+}
