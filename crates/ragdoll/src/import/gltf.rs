@@ -40,6 +40,7 @@ mod clips;
 mod data;
 mod mesh;
 mod skin;
+mod vrm;
 
 use std::path::{Path, PathBuf};
 
@@ -55,6 +56,7 @@ pub(crate) use mesh::read_influences;
 use mesh::{read_meshes, read_unskinned};
 use skin::{NodeGraph, Rig, choose_skin};
 
+use super::{ImportOptions, size};
 use crate::error::Result;
 use crate::math::Transform;
 use crate::rig::RigOptions;
@@ -92,8 +94,15 @@ pub fn load(path: &Path) -> Result<Character> {
 
 /// [`load`], rigging a file without a skin with `rig`.
 pub fn load_rigged(path: &Path, rig: &RigOptions) -> Result<Character> {
+    load_with(path, &ImportOptions::default(), rig)
+}
+
+/// [`load_rigged`], the file's numbers read in `opts.units` and the character scaled to
+/// `opts.height_m` when given (`up` and `clip` are not this function's: glTF is Y up, and
+/// [`super::load`] chooses the clip).
+pub fn load_with(path: &Path, opts: &ImportOptions, rig: &RigOptions) -> Result<Character> {
     let bytes = crate::files::read_capped(path, crate::files::MAX_INPUT_BYTES)?;
-    from_bytes_rigged(&bytes, path, rig)
+    from_bytes_with(&bytes, path, opts, rig)
 }
 
 /// Loads a glTF 2.0 file already in memory; `path` names it in errors and anchors its
@@ -110,6 +119,17 @@ pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Character> {
 
 /// [`from_bytes`], rigging a file without a skin with `rig`.
 pub fn from_bytes_rigged(bytes: &[u8], path: &Path, rig: &RigOptions) -> Result<Character> {
+    from_bytes_with(bytes, path, &ImportOptions::default(), rig)
+}
+
+/// [`from_bytes_rigged`] with the units and height of [`load_with`].
+pub fn from_bytes_with(
+    bytes: &[u8],
+    path: &Path,
+    opts: &ImportOptions,
+    rig: &RigOptions,
+) -> Result<Character> {
+    let units = opts.units.map_or(1.0, |u| u.to_metres());
     let container = data::split_container(bytes, path)?;
     data::check_json_size(container.json, path)?;
     let json: serde_json::Value = serde_json::from_slice(container.json).map_err(|e| {
@@ -154,8 +174,9 @@ pub fn from_bytes_rigged(bytes: &[u8], path: &Path, rig: &RigOptions) -> Result<
         budget: ReadBudget::new(),
     };
     let graph = NodeGraph::new(&doc, path)?;
+    let table = vrm::read_table(&json, doc.nodes().len(), path)?;
     if doc.skins().len() == 0 {
-        let meshes = read_unskinned(&doc, &graph, &reader)?;
+        let mut meshes = read_unskinned(&doc, &graph, &reader)?;
         if meshes.is_empty() {
             return Err(format_err(
                 path,
@@ -163,7 +184,13 @@ pub fn from_bytes_rigged(bytes: &[u8], path: &Path, rig: &RigOptions) -> Result<
                 "has no skin and no triangle mesh: nothing to build a ragdoll from",
             ));
         }
-        return super::obj::rigged_character(file_stem(path), meshes, rig, path);
+        for p in meshes.iter_mut().flat_map(|m| &mut m.positions) {
+            *p *= units;
+        }
+        size::scale_meshes_to_height(&mut meshes, opts.height_m, path)?;
+        let mut c = super::obj::rigged_character(file_stem(path), meshes, rig, path)?;
+        c.warnings.extend(table.map(|t| t.unused_warning(path)));
+        return Ok(c);
     }
     let skin_index = choose_skin(&doc, path)?;
     let skin = doc
@@ -174,9 +201,13 @@ pub fn from_bytes_rigged(bytes: &[u8], path: &Path, rig: &RigOptions) -> Result<
     let skeleton = Skeleton::new(rig.joints.clone())?;
     let meshes = read_meshes(&doc, &skin, &rig, &graph, &reader)?;
     let clips = read_clips(&doc, &rig, &skeleton, &reader)?;
-    Ok(Character {
-        humanoid_bones: Vec::new(),
-        warnings: Vec::new(),
+    let (humanoid_bones, warnings) = match table {
+        Some(t) => t.to_joints(&rig.node_to_joint, path),
+        None => (Vec::new(), Vec::new()),
+    };
+    let mut character = Character {
+        humanoid_bones,
+        warnings,
         name: file_stem(path),
         skeleton,
         meshes,
@@ -190,7 +221,12 @@ pub fn from_bytes_rigged(bytes: &[u8], path: &Path, rig: &RigOptions) -> Result<
             joint_nodes: rig.nodes,
             parent_offsets: rig.offsets,
         })),
-    })
+    };
+    size::scale(&mut character, units, path)?;
+    if let Some(h) = opts.height_m {
+        size::scale_to_height(&mut character, h, path)?;
+    }
+    Ok(character)
 }
 
 fn file_stem(path: &Path) -> String {
