@@ -1,6 +1,14 @@
-//! glTF 2.0 import (.glb, and .gltf with `data:` URIs or external buffers).
+//! glTF 2.0 import (.glb, .vrm, and .gltf with `data:` URIs or external buffers).
 //!
 //! Choices, and why:
+//! - **VRM** avatars are GLB files; their humanoid bone table (VRM 0.x or 1.0) becomes
+//!   [`Character::humanoid_bones`] (see `vrm.rs`): the file's own word on which joint is
+//!   the hips or the left hand. A file with a table but no skin is rigged like any mesh
+//!   without one, with a warning that the table is not used.
+//! - **Units**: glTF says metres, but files exported in centimetres are common (the Fox
+//!   sample is 79 m tall read as metres). [`ImportOptions::units`] reads the numbers in
+//!   another unit and [`ImportOptions::height_m`] scales to a height; the scale goes into
+//!   the root joints so the exporter still writes the file's own units (`super::size`).
 //! - **Skeleton** = the joints of one skin. When a file has several skins, the one whose
 //!   meshes have the most vertices wins (ties: the first): that is the character, not a
 //!   prop or an accessory rigged on the side.
