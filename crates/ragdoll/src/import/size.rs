@@ -172,7 +172,14 @@ pub(super) fn scale(c: &mut Character, s: f32, path: &Path) -> Result<()> {
         }
     }
     scale_meshes(&mut c.meshes, s);
-    c.skeleton = Skeleton::new(joints)?;
+    c.skeleton = Skeleton::new(joints).map_err(|e| match e {
+        Error::Skeleton { joint, message } => Error::Format {
+            path: path.to_path_buf(),
+            place: format!("joint {joint:?}"),
+            message: format!("{message} (scaled by {s})"),
+        },
+        e => e,
+    })?;
     for (k, clip) in c.clips.iter().enumerate() {
         if let Some((f, j, far)) = c.skeleton.clip_out_of_reach(clip) {
             return Err(Error::Format {
