@@ -51,27 +51,32 @@ pub fn rest_pose(character: &Character, anim: &AnimArgs) -> Result<()> {
     Ok(())
 }
 
-/// `--units` and `--up` only mean something for the formats that do not say (BVH, OBJ): a
-/// glTF is metres and Y up by definition, and the built-in humanoid is no file at all.
+/// Import flags that cannot apply: none applies to the built-in humanoid, which is no
+/// file; `--up` not to glTF or VRM, which are Y up by definition. (`--units` does apply to
+/// glTF: files exported in centimetres are common. A `--clip` the file lacks is the
+/// library's to refuse, listing the clips.)
 pub fn import_flags(file: Option<&Path>, a: &ImportArgs) -> Result<()> {
-    let flag = match (a.units.is_some(), a.up.is_some()) {
-        (false, false) => return Ok(()),
-        (true, false) => "--units",
-        (false, true) => "--up",
-        (true, true) => "--units and --up",
-    };
+    let given: Vec<&str> = [
+        (a.units.is_some(), "--units"),
+        (a.up.is_some(), "--up"),
+        (a.height.is_some(), "--height"),
+        (a.clip.is_some(), "--clip"),
+    ]
+    .into_iter()
+    .filter_map(|(g, flag)| g.then_some(flag))
+    .collect();
     let Some(file) = file else {
+        if given.is_empty() {
+            return Ok(());
+        }
         bail!(
-            "{flag}: the built-in humanoid is not a file; these flags apply to BVH and OBJ files"
+            "{}: the built-in humanoid is not a file; these flags apply to character files",
+            given.join(", ")
         );
     };
-    let is_gltf = file
-        .extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("glb") || e.eq_ignore_ascii_case("gltf"));
-    if is_gltf {
+    if a.up.is_some() && ragdoll::import::is_gltf(file) {
         bail!(
-            "{flag}: {} is glTF, which is metres with Y up by definition; these flags apply to BVH and OBJ files",
+            "--up: {} is glTF, which is Y up by definition; --up applies to BVH and OBJ files",
             file.display()
         );
     }

@@ -8,7 +8,7 @@ use std::time::Instant;
 use anyhow::{Result, bail};
 use ragdoll::events::{Blast, Projectile};
 use ragdoll::export;
-use ragdoll::import::{self, ImportOptions, Units, UpAxis};
+use ragdoll::import::{self, ClipChoice, ImportOptions, Units, UpAxis};
 use ragdoll::report::Report;
 use ragdoll::skeleton::{self, Character};
 use ragdoll::spec::{self, BuildOptions, RagdollSpec};
@@ -34,6 +34,8 @@ pub(crate) fn import_options(a: &ImportArgs) -> ImportOptions {
             UpArg::Y => UpAxis::Y,
             UpArg::Z => UpAxis::Z,
         }),
+        height_m: a.height,
+        clip: a.clip.as_deref().map(ClipChoice::parse),
     }
 }
 
@@ -42,12 +44,24 @@ pub(crate) fn load(file: &Path, a: &ImportArgs) -> Result<Character> {
     checks::import_flags(Some(file), a)?;
     let character = {
         let _progress = Progress::new(0, &format!("reading {}", file.display()));
-        import::load(file, &import_options(a))?
+        import::load(file, &import_options(a)).map_err(import_error)?
     };
     for w in &character.warnings {
         eprintln!("warning: {w}");
     }
     Ok(character)
+}
+
+/// An import error, with `--height` or `--clip` named when it is about the flag's value
+/// (the library names the setting, or the clip asked for).
+pub(crate) fn import_error(e: ragdoll::Error) -> anyhow::Error {
+    match e {
+        ragdoll::Error::Setting { setting, message } => anyhow::anyhow!("--{setting}: {message}"),
+        ragdoll::Error::Format { ref place, .. } if place.starts_with("clip ") => {
+            anyhow::Error::new(e).context("--clip")
+        }
+        e => e.into(),
+    }
 }
 
 /// An error about the file `path`, named once: the library's parse errors already name it,

@@ -5,7 +5,7 @@ use anyhow::{Context, Result};
 use ragdoll::spec;
 
 use crate::commands::{load, ragdoll_spec};
-use crate::{BuildArgs, InspectArgs, output};
+use crate::{BuildArgs, ImportArgs, InspectArgs, clip_list, output};
 
 pub fn build(a: &BuildArgs) -> Result<()> {
     output::check_file(&a.output)?;
@@ -31,7 +31,13 @@ pub fn build(a: &BuildArgs) -> Result<()> {
 }
 
 pub fn inspect(a: &InspectArgs) -> Result<()> {
-    let character = load(&a.file, &a.import)?;
+    // Every clip is read so all are listed; the chosen one is kept after.
+    let import = ImportArgs {
+        clip: None,
+        ..a.import.clone()
+    };
+    let mut character = load(&a.file, &import)?;
+    let clips = clip_list::list_and_choose(&mut character, a.import.clip.as_deref(), &a.file)?;
     let roles = spec::recognise_roles(&character);
     let spec = ragdoll_spec(&character, &a.ragdoll)
         .with_context(|| format!("{}: building the ragdoll", a.file.display()))?;
@@ -56,9 +62,7 @@ pub fn inspect(a: &InspectArgs) -> Result<()> {
             "bodies": spec.bodies,
             "constraints": spec.joints,
             "total_mass_kg": spec.total_mass_kg(),
-            "clips": character.clips.iter().map(|c| serde_json::json!({
-                "name": c.name, "frames": c.frames.len(), "fps": 1.0 / c.frame_time,
-            })).collect::<Vec<_>>(),
+            "clips": clips.json(),
         });
         out.push_str(&serde_json::to_string_pretty(&value)?);
         out.push('\n');
@@ -75,7 +79,7 @@ pub fn inspect(a: &InspectArgs) -> Result<()> {
             character.name,
             s.len(),
             character.meshes.len(),
-            character.clips.len()
+            clips.count()
         )?;
         let mut depth = vec![0usize; s.len()];
         for i in 0..s.len() {
@@ -122,6 +126,7 @@ pub fn inspect(a: &InspectArgs) -> Result<()> {
             writeln!(out, "  {:<16} {} -> {}: {kind}", j.name, j.parent, j.child)?;
         }
         writeln!(out, "\ntotal mass: {:.2} kg", spec.total_mass_kg())?;
+        clips.write(&mut out)?;
     }
     use std::io::Write;
     std::io::stdout().write_all(out.as_bytes())?;

@@ -38,6 +38,7 @@ macro_rules! out {
 
 mod bench;
 mod checks;
+mod clip_list;
 mod commands;
 mod fatal;
 mod inspect;
@@ -92,13 +93,45 @@ enum Command {
 /// How to read a character file.
 #[derive(Args, Debug, Clone)]
 struct ImportArgs {
-    /// Length unit of a BVH file (detected from the skeleton's height by default) or of an
-    /// OBJ file (metres by default).
+    /// Length unit of the file: of a BVH file (detected from the skeleton's height by
+    /// default), an OBJ file (metres by default), or a glTF/VRM file exported in other
+    /// units than the metres its format says.
     #[arg(long, value_enum)]
     units: Option<UnitsArg>,
     /// Up axis of a BVH file (detected by default) or of an OBJ file (Y by default).
     #[arg(long, value_enum)]
     up: Option<UpArg>,
+    /// Scale the character to this height in metres (its mesh's, else its skeleton's,
+    /// rest-pose vertical extent).
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    height: Option<f32>,
+    /// The animation to play, by index or name (`ragdoll inspect` lists them); the first
+    /// by default.
+    #[arg(long, value_name = "NAME|INDEX")]
+    clip: Option<String>,
+}
+
+/// How to read a mesh to rig: only what a mesh file may leave unsaid.
+#[derive(Args, Debug, Clone)]
+struct MeshImportArgs {
+    /// Length unit of an OBJ file (metres by default) or of a glTF file exported in other
+    /// units than the metres its format says.
+    #[arg(long, value_enum)]
+    units: Option<UnitsArg>,
+    /// Up axis of an OBJ file (Y by default).
+    #[arg(long, value_enum)]
+    up: Option<UpArg>,
+}
+
+impl From<&MeshImportArgs> for ImportArgs {
+    fn from(a: &MeshImportArgs) -> Self {
+        ImportArgs {
+            units: a.units,
+            up: a.up,
+            height: None,
+            clip: None,
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -268,7 +301,7 @@ struct DemoArgs {
 
 #[derive(Args, Debug)]
 struct InspectArgs {
-    /// A .bvh, .glb, .gltf or .obj file.
+    /// A .bvh, .glb, .gltf, .vrm or .obj file.
     file: PathBuf,
     /// Print JSON instead of text.
     #[arg(long)]
@@ -281,7 +314,7 @@ struct InspectArgs {
 
 #[derive(Args, Debug)]
 struct BuildArgs {
-    /// A .bvh, .glb, .gltf or .obj file.
+    /// A .bvh, .glb, .gltf, .vrm or .obj file.
     file: PathBuf,
     /// Where to write the spec (TOML).
     #[arg(short, long, value_name = "SPEC.toml")]
@@ -294,7 +327,7 @@ struct BuildArgs {
 
 #[derive(Args, Debug)]
 struct SimulateArgs {
-    /// A .bvh, .glb, .gltf or .obj file, or a scene file (.toml; see the README's "Scene files").
+    /// A .bvh, .glb, .gltf, .vrm or .obj file, or a scene file (.toml; see the README's "Scene files").
     file: PathBuf,
     /// Output file: .glb or .bvh. The report goes next to it as <stem>.report.json. For a
     /// scene file, the output folder (--seconds, --fps and --rest-pose then override the
@@ -317,7 +350,7 @@ struct SimulateArgs {
 
 #[derive(Args, Debug)]
 struct BlastArgs {
-    /// A .bvh, .glb, .gltf or .obj file; the built-in humanoid when left out.
+    /// A .bvh, .glb, .gltf, .vrm or .obj file; the built-in humanoid when left out.
     file: Option<PathBuf>,
     /// Charge as TNT-equivalent mass, kg.
     #[arg(long, allow_negative_numbers = true, value_name = "KG")]
@@ -346,7 +379,7 @@ struct BlastArgs {
 
 #[derive(Args, Debug)]
 struct ShootArgs {
-    /// A .bvh, .glb, .gltf or .obj file; the built-in humanoid when left out.
+    /// A .bvh, .glb, .gltf, .vrm or .obj file; the built-in humanoid when left out.
     file: Option<PathBuf>,
     /// Where the projectile starts, metres: X,Y,Z.
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]

@@ -12,7 +12,7 @@ use ragdoll::rig::{Branch, DEFAULT_JOINTS, Landmark, RigOptions};
 use ragdoll::skeleton::Source;
 
 use crate::progress::Progress;
-use crate::{ImportArgs, checks, output};
+use crate::{ImportArgs, MeshImportArgs, checks, output};
 
 /// Rig a mesh without a skeleton (OBJ, or glTF without a skin) and write a skinned .glb.
 #[derive(Args, Debug)]
@@ -42,7 +42,7 @@ pub struct RigArgs {
     #[arg(short, long, value_name = "OUT.glb")]
     output: PathBuf,
     #[command(flatten)]
-    import: ImportArgs,
+    import: MeshImportArgs,
 }
 
 /// Parses `X,Y,Z` or `vN`.
@@ -117,7 +117,8 @@ pub fn run(a: &RigArgs) -> Result<()> {
         bail!("{}: the output must end in .glb", a.output.display());
     }
     output::check_file(&a.output)?;
-    checks::import_flags(Some(&a.file), &a.import)?;
+    let import_args = ImportArgs::from(&a.import);
+    checks::import_flags(Some(&a.file), &import_args)?;
     let opts = RigOptions {
         joints: a.joints,
         centre_line: a.spine.clone().map(|s| s.0).unwrap_or_default(),
@@ -132,9 +133,12 @@ pub fn run(a: &RigArgs) -> Result<()> {
             .collect(),
     };
     let progress = Progress::new(0, &format!("rigging {}", a.file.display()));
-    let character =
-        import::load_rigged(&a.file, &crate::commands::import_options(&a.import), &opts)
-            .map_err(rig_flag_error)?;
+    let character = import::load_rigged(
+        &a.file,
+        &crate::commands::import_options(&import_args),
+        &opts,
+    )
+    .map_err(rig_flag_error)?;
     progress.finish();
     if !matches!(character.source, Source::Mesh(_)) {
         bail!(

@@ -56,6 +56,14 @@ pub fn run(a: &SimulateArgs, matches: &ArgMatches) -> Result<()> {
             );
         }
     }
+    for (id, flag) in [("height", "--height"), ("clip", "--clip")] {
+        if given(matches, id) {
+            bail!(
+                "{flag} does not apply to a scene file, whose [[character]] tables cannot set it yet ({})",
+                a.file.display()
+            );
+        }
+    }
     if a.obj_sequence.is_some() {
         bail!("--obj-sequence applies to a character file, not a scene file");
     }

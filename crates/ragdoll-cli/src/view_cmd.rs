@@ -59,6 +59,12 @@ pub fn run(a: &ViewArgs) -> Result<()> {
                     file.display()
                 );
             }
+            if a.import.height.is_some() || a.import.clip.is_some() {
+                bail!(
+                    "--height and --clip do not apply to a scene file, whose [[character]] tables cannot set them yet ({})",
+                    file.display()
+                );
+            }
             let mut scene = Scene::load(file)?;
             if a.rest_pose {
                 scene.settings.start = StartPose::Rest;

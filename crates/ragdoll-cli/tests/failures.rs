@@ -240,7 +240,8 @@ fn flags_that_could_have_no_effect_are_refused() {
             "after the end",
         ),
         (
-            &["simulate", "baked.glb", "-o", "o.glb", "--units", "cm"],
+            // --units applies to glTF (files exported in centimetres); --up does not.
+            &["simulate", "baked.glb", "-o", "o.glb", "--up", "z"],
             "glTF",
         ),
         (&["inspect", "baked.glb", "--up", "z"], "glTF"),

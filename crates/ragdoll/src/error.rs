@@ -54,7 +54,7 @@ pub enum Error {
         message: String,
     },
     /// The file's extension or content is not something we import.
-    #[error("{}: unsupported file type (expected .bvh, .glb, .gltf, .obj or .toml)", path.display())]
+    #[error("{}: unsupported file type (expected .bvh, .glb, .gltf, .vrm, .obj or .toml)", path.display())]
     UnsupportedFile {
         /// The file involved.
         path: PathBuf,

@@ -255,6 +255,7 @@ fn bvh_z_up_file_is_detected_and_converted() {
     let opts = ImportOptions {
         units: Some(Units::M),
         up: Some(UpAxis::Y),
+        ..Default::default()
     };
     let forced = bvh::parse(Z_UP, Path::new("z.bvh"), &opts).unwrap();
     assert_eq!(layout(&forced).up, UpAxis::Y);
@@ -505,6 +506,7 @@ fn bvh_export_of_non_bvh_characters_keeps_world_positions() {
             ImportOptions {
                 units: Some(Units::Cm),
                 up: Some(UpAxis::Y),
+                ..Default::default()
             }
         };
         let back = bvh::parse(&text, Path::new("back.bvh"), &opts)

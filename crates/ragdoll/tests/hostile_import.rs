@@ -132,6 +132,7 @@ fn bvh_joints_or_frames_out_of_reach_are_refused() {
     let opts = ImportOptions {
         units: Some(Units::M),
         up: None,
+        ..Default::default()
     };
     let e = bvh::parse(&text, Path::new("far.bvh"), &opts).unwrap_err();
     assert!(
@@ -179,6 +180,7 @@ fn a_chain_as_deep_as_a_skeleton_may_be_imports_without_recursion() {
     let opts = ImportOptions {
         units: Some(Units::Mm),
         up: None,
+        ..Default::default()
     };
     let c = bvh::parse(&bvh_chain(n), Path::new("deep.bvh"), &opts).unwrap();
     let s = &c.skeleton;
@@ -359,6 +361,7 @@ fn thousands_of_bodies_all_touching_are_refused_not_listed() {
     let opts = ImportOptions {
         units: Some(Units::Mm),
         up: None,
+        ..Default::default()
     };
     let chain = bvh::parse(&bvh_chain(20_000), Path::new("fat.bvh"), &opts).unwrap();
     let mut joints = vec![ragdoll::skeleton::Joint {

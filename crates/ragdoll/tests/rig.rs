@@ -205,6 +205,7 @@ fn obj_units_and_up_axis_are_converted() {
     let opts = ImportOptions {
         units: Some(ragdoll::import::Units::Cm),
         up: Some(ragdoll::import::UpAxis::Z),
+        ..Default::default()
     };
     let m = obj::parse(text, Path::new("z.obj"), &opts).unwrap();
     // Z up in centimetres: 2 m up the file's Z is 2 m up Y.

@@ -236,6 +236,18 @@ fn import_rows(sub: &'static str, base: &[&str]) -> Vec<Case> {
     ]
 }
 
+/// [`import_rows`] and `--height`, `--clip`, for commands that read a character (not
+/// `rig`, which reads a mesh). The fixture's BVH has one clip.
+#[rustfmt::skip]
+fn character_import_rows(sub: &'static str, base: &[&str]) -> Vec<Case> {
+    let mut t = import_rows(sub, base);
+    t.extend([
+        case(sub, "--height", base, &["--height", "1.5"], None, &["--height", "0"], "--height"),
+        case(sub, "--clip", base, &["--clip", "0"], None, &["--clip", "1"], "--clip"),
+    ]);
+    t
+}
+
 /// `--backend`, `--seconds`, `--fps`, `--preview`. clap refuses a flag given twice, so
 /// `base` has no --seconds and each row adds one.
 #[rustfmt::skip]
@@ -283,7 +295,7 @@ fn simulate() -> Vec<Case> {
         case("simulate", "--obj-sequence", short, &["--obj-sequence", "seq"], Some(seven_objs), &["--obj-sequence", "anim.bvh"], "anim.bvh"),
     ];
     t.extend(ragdoll_rows("simulate", short, true));
-    t.extend(import_rows("simulate", short));
+    t.extend(character_import_rows("simulate", short));
     t.extend(run_rows("simulate", &["simulate", "anim.bvh", "-o", "out.glb"]));
     t.extend(anim_rows("simulate", short));
     t
@@ -302,7 +314,7 @@ fn blast() -> Vec<Case> {
         case("blast", "--output", &["blast", "--tnt", "1", "--at", "3,1,0", "--seconds", "0.2"], &["--output", "out.glb"], Some(glb_written), &["--output", "out.fbx"], "out.fbx"),
     ];
     t.extend(ragdoll_rows("blast", short, true));
-    t.extend(import_rows("blast", animated));
+    t.extend(character_import_rows("blast", animated));
     t.extend(run_rows("blast", &["blast", "--tnt", "1", "--at", "3,1,0", "-o", "out.glb"]));
     t.extend(anim_rows("blast", animated));
     t
@@ -322,7 +334,7 @@ fn shoot() -> Vec<Case> {
         case("shoot", "--output", &["shoot", "--from", "0,1.66,5", "--toward", "0,1.66,0", "--seconds", "0.2"], &["--output", "out.bvh"], Some(bvh_written), &["--output", "out"], "out"),
     ];
     t.extend(ragdoll_rows("shoot", short, true));
-    t.extend(import_rows("shoot", animated));
+    t.extend(character_import_rows("shoot", animated));
     t.extend(run_rows("shoot", &["shoot", "--from", "0,1.66,5", "--toward", "0,1.66,0", "-o", "out.glb"]));
     t.extend(anim_rows("shoot", animated));
     t
@@ -339,9 +351,9 @@ fn inspect_and_build() -> Vec<Case> {
         case("build", "--output", &["build", "anim.bvh"], &["--output", "built.toml"], Some(spec_written), &["--output", "anim.bvh/built.toml"], "anim.bvh"),
     ];
     t.extend(ragdoll_rows("inspect", &["inspect", "anim.bvh", "--json"], true));
-    t.extend(import_rows("inspect", inspect));
+    t.extend(character_import_rows("inspect", inspect));
     t.extend(ragdoll_rows("build", build, false));
-    t.extend(import_rows("build", build));
+    t.extend(character_import_rows("build", build));
     t
 }
 
@@ -403,7 +415,7 @@ fn view() -> Vec<Case> {
         case("view", "--rest-pose", file, &["--rest-pose"], None, &["--rest-pose=yes"], "--rest-pose"),
     ];
     t.extend(ragdoll_rows("view", file, false));
-    t.extend(import_rows("view", file));
+    t.extend(character_import_rows("view", file));
     t
 }
 

@@ -1,6 +1,14 @@
-//! glTF 2.0 import (.glb, and .gltf with `data:` URIs or external buffers).
+//! glTF 2.0 import (.glb, .vrm, and .gltf with `data:` URIs or external buffers).
 //!
 //! Choices, and why:
+//! - **VRM** avatars are GLB files; their humanoid bone table (VRM 0.x or 1.0) becomes
+//!   [`Character::humanoid_bones`] (see `vrm.rs`): the file's own word on which joint is
+//!   the hips or the left hand. A file with a table but no skin is rigged like any mesh
+//!   without one, with a warning that the table is not used.
+//! - **Units**: glTF says metres, but files exported in centimetres are common (the Fox
+//!   sample is 79 m tall read as metres). [`ImportOptions::units`] reads the numbers in
+//!   another unit and [`ImportOptions::height_m`] scales to a height; the scale goes into
+//!   the root joints so the exporter still writes the file's own units (`super::size`).
 //! - **Skeleton** = the joints of one skin. When a file has several skins, the one whose
 //!   meshes have the most vertices wins (ties: the first): that is the character, not a
 //!   prop or an accessory rigged on the side.
@@ -41,6 +49,7 @@ mod clips;
 mod data;
 mod mesh;
 mod skin;
+mod vrm;
 
 use std::path::{Path, PathBuf};
 
@@ -56,6 +65,7 @@ pub(crate) use mesh::{SkinSlots, read_influences};
 use mesh::{read_meshes, read_unskinned};
 use skin::{NodeGraph, Rig, choose_skin};
 
+use super::{ImportOptions, size};
 use crate::error::Result;
 use crate::math::Transform;
 use crate::rig::RigOptions;
@@ -93,8 +103,15 @@ pub fn load(path: &Path) -> Result<Character> {
 
 /// [`load`], rigging a file without a skin with `rig`.
 pub fn load_rigged(path: &Path, rig: &RigOptions) -> Result<Character> {
+    load_with(path, &ImportOptions::default(), rig)
+}
+
+/// [`load_rigged`], the file's numbers read in `opts.units` and the character scaled to
+/// `opts.height_m` when given (`up` and `clip` are not this function's: glTF is Y up, and
+/// [`super::load`] chooses the clip).
+pub fn load_with(path: &Path, opts: &ImportOptions, rig: &RigOptions) -> Result<Character> {
     let bytes = crate::files::read_capped(path, crate::files::MAX_INPUT_BYTES)?;
-    from_bytes_rigged(&bytes, path, rig)
+    from_bytes_with(&bytes, path, opts, rig)
 }
 
 /// Loads a glTF 2.0 file already in memory; `path` names it in errors and anchors its
@@ -111,6 +128,17 @@ pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Character> {
 
 /// [`from_bytes`], rigging a file without a skin with `rig`.
 pub fn from_bytes_rigged(bytes: &[u8], path: &Path, rig: &RigOptions) -> Result<Character> {
+    from_bytes_with(bytes, path, &ImportOptions::default(), rig)
+}
+
+/// [`from_bytes_rigged`] with the units and height of [`load_with`].
+pub fn from_bytes_with(
+    bytes: &[u8],
+    path: &Path,
+    opts: &ImportOptions,
+    rig: &RigOptions,
+) -> Result<Character> {
+    let units = opts.units.map_or(1.0, |u| u.to_metres());
     let container = data::split_container(bytes, path)?;
     data::check_json_size(container.json, path)?;
     let json: serde_json::Value = serde_json::from_slice(container.json).map_err(|e| {
@@ -155,8 +183,9 @@ pub fn from_bytes_rigged(bytes: &[u8], path: &Path, rig: &RigOptions) -> Result<
         budget: ReadBudget::new(),
     };
     let graph = NodeGraph::new(&doc, path)?;
+    let table = vrm::read_table(&json, doc.nodes().len(), path)?;
     if doc.skins().len() == 0 {
-        let meshes = read_unskinned(&doc, &graph, &reader)?;
+        let mut meshes = read_unskinned(&doc, &graph, &reader)?;
         if meshes.is_empty() {
             return Err(format_err(
                 path,
@@ -164,7 +193,13 @@ pub fn from_bytes_rigged(bytes: &[u8], path: &Path, rig: &RigOptions) -> Result<
                 "has no skin and no triangle mesh: nothing to build a ragdoll from",
             ));
         }
-        return super::obj::rigged_character(file_stem(path), meshes, rig, path);
+        for p in meshes.iter_mut().flat_map(|m| &mut m.positions) {
+            *p *= units;
+        }
+        size::scale_meshes_to_height(&mut meshes, opts.height_m, path)?;
+        let mut c = super::obj::rigged_character(file_stem(path), meshes, rig, path)?;
+        c.warnings.extend(table.map(|t| t.unused_warning(path)));
+        return Ok(c);
     }
     let skin_index = choose_skin(&doc, path)?;
     let skin = doc
@@ -176,8 +211,13 @@ pub fn from_bytes_rigged(bytes: &[u8], path: &Path, rig: &RigOptions) -> Result<
     let (meshes, mut warnings) = read_meshes(&doc, &skin, &rig, &graph, &reader)?;
     warnings.extend(data::missing_images(&json, &dir));
     let clips = read_clips(&doc, &rig, &skeleton, &reader)?;
-    Ok(Character {
-        humanoid_bones: Vec::new(),
+    let (humanoid_bones, table_warnings) = match table {
+        Some(t) => t.to_joints(&rig.node_to_joint, path),
+        None => (Vec::new(), Vec::new()),
+    };
+    warnings.extend(table_warnings);
+    let mut character = Character {
+        humanoid_bones,
         warnings,
         name: file_stem(path),
         skeleton,
@@ -192,7 +232,12 @@ pub fn from_bytes_rigged(bytes: &[u8], path: &Path, rig: &RigOptions) -> Result<
             joint_nodes: rig.nodes,
             parent_offsets: rig.offsets,
         })),
-    })
+    };
+    size::scale(&mut character, units, path)?;
+    if let Some(h) = opts.height_m {
+        size::scale_to_height(&mut character, h, path)?;
+    }
+    Ok(character)
 }
 
 fn file_stem(path: &Path) -> String {

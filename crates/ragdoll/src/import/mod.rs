@@ -17,8 +17,13 @@
 //! [`gltf::from_bytes`] (a path in an empty folder keeps external URIs from finding files).
 
 pub mod bvh;
+mod clip;
 pub mod gltf;
 pub mod obj;
+mod size;
+
+pub use clip::{ClipChoice, choose_clip};
+pub use size::{MAX_HEIGHT_M, MIN_HEIGHT_M, PLAUSIBLE_HEIGHT_M, character_height};
 
 use std::path::Path;
 
@@ -28,7 +33,8 @@ use crate::error::{Error, Result};
 use crate::rig::RigOptions;
 use crate::skeleton::Character;
 
-/// Length unit of a file whose format does not say (BVH).
+/// Length unit of a file whose format does not say (BVH, OBJ), or of a glTF or VRM file
+/// whose exporter ignored that its format says metres (the Fox sample is centimetres).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Units {
@@ -65,12 +71,20 @@ pub enum UpAxis {
 }
 
 /// Overrides for what importers otherwise detect.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct ImportOptions {
-    /// Length unit; detected from the skeleton's height when `None`.
+    /// Length unit: BVH detects it from the skeleton's height when `None`, OBJ and glTF
+    /// take metres. For glTF (and VRM) the file's numbers are read in this unit although
+    /// the format says metres, for files exported without converting.
     pub units: Option<Units>,
-    /// Up axis; detected from the skeleton's extent when `None`.
+    /// Up axis (BVH, OBJ); detected from the skeleton's extent when `None`. glTF is Y up.
     pub up: Option<UpAxis>,
+    /// Scale the character uniformly to this height, metres ([`character_height`]), after
+    /// `units` is applied; within [`MIN_HEIGHT_M`]..=[`MAX_HEIGHT_M`].
+    pub height_m: Option<f32>,
+    /// The animation to keep: the character's only clip is then this one. `None` keeps
+    /// every clip, and whatever plays a clip plays the first.
+    pub clip: Option<ClipChoice>,
 }
 
 /// Loads any supported character file, choosing the importer by extension. A mesh without
@@ -79,18 +93,65 @@ pub fn load(path: &Path, opts: &ImportOptions) -> Result<Character> {
     load_rigged(path, opts, &RigOptions::default())
 }
 
+/// The file extensions [`load`] reads, lower case, as they are named to users.
+pub const EXTENSIONS: [&str; 5] = ["bvh", "glb", "gltf", "vrm", "obj"];
+
+/// Whether `path` names a glTF container by its extension: `.glb`, `.gltf`, or `.vrm` (a
+/// VRM avatar is a GLB with a humanoid bone table).
+pub fn is_gltf(path: &Path) -> bool {
+    path.extension().and_then(|e| e.to_str()).is_some_and(|e| {
+        ["glb", "gltf", "vrm"]
+            .iter()
+            .any(|g| e.eq_ignore_ascii_case(g))
+    })
+}
+
 /// [`load`], rigging a mesh without a skeleton with `rig` (ignored for files that have
 /// one).
+///
+/// After the importer: `height_m` rescales the character, `clip` keeps one clip, and a
+/// character outside [`PLAUSIBLE_HEIGHT_M`] (its size not given) gets a warning that
+/// states its height.
 pub fn load_rigged(path: &Path, opts: &ImportOptions, rig: &RigOptions) -> Result<Character> {
+    size::check_height(opts.height_m)?;
+    let mut character = read(path, opts, rig)?;
+    if let Some(choice) = &opts.clip {
+        choose_clip(&mut character, choice, path)?;
+    }
+    if opts.height_m.is_none()
+        && let Some(w) = size::implausible(&character, path)
+    {
+        character.warnings.push(w);
+    }
+    Ok(character)
+}
+
+/// The importer the extension names, with units and height applied.
+fn read(path: &Path, opts: &ImportOptions, rig: &RigOptions) -> Result<Character> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase())
         .unwrap_or_default();
     match ext.as_str() {
-        "bvh" => bvh::load(path, opts),
-        "glb" | "gltf" => gltf::load_rigged(path, rig),
-        "obj" => obj::load(path, opts, rig),
+        "bvh" => {
+            let mut c = bvh::load(path, opts)?;
+            if let Some(h) = opts.height_m {
+                size::scale_to_height(&mut c, h, path)?;
+            }
+            Ok(c)
+        }
+        "glb" | "gltf" | "vrm" => gltf::load_with(path, opts, rig),
+        "obj" => {
+            let bytes = crate::files::read_capped(path, crate::files::MAX_INPUT_BYTES)?;
+            let mut mesh = obj::parse(&String::from_utf8_lossy(&bytes), path, opts)?;
+            size::scale_meshes_to_height(std::slice::from_mut(&mut mesh), opts.height_m, path)?;
+            let name = path
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            obj::rigged_character(name, vec![mesh], rig, path)
+        }
         _ => {
             if !path.exists() {
                 return Err(Error::io(

@@ -145,6 +145,7 @@ fn load(
     let opts = ImportOptions {
         units: r.units.as_ref().map(|u| *u.get_ref()),
         up: r.up.as_ref().map(|u| *u.get_ref()),
+        ..Default::default()
     };
     let Some(f) = &r.file else {
         let ch = skeleton::humanoid();
@@ -156,7 +157,7 @@ fn load(
     if let Some((_, ch, bytes)) = cache.iter().find(|(k, _, _)| *k == key) {
         return Ok((ch.clone(), f.get_ref().clone(), *bytes));
     }
-    let ch = import::load(&key.0, &opts).map_err(|e| c.err(&f.span(), "file", e))?;
+    let ch = import::load(&key.0, &key.1).map_err(|e| c.err(&f.span(), "file", e))?;
     let bytes = character_bytes(&ch);
     cache.push((key, ch.clone(), bytes));
     Ok((ch, f.get_ref().clone(), bytes))
