@@ -9,8 +9,8 @@
 //!   validator counts as errors), joint indices with zero weight are set to 0, and joint
 //!   nodes given as a `matrix` are rewritten as TRS (animated nodes must not use `matrix`).
 //! - **BVH or built-in input** (no mesh): a fresh glTF with one node per joint, a skin, and
-//!   the ragdoll's bodies drawn as their capsules and boxes, skinned with
-//!   [`crate::rig::auto_weights`], so the motion is visible in any viewer.
+//!   the ragdoll's bodies drawn as their capsules and boxes, each bound rigidly to its own
+//!   bone (so they never bend or stretch), so the motion is visible in any viewer.
 //! - **A rigged mesh** ([`Source::Mesh`]: an OBJ, a glTF that had no skin): a fresh glTF as
 //!   above with the character's own mesh and automatic skin instead of the bodies.
 //!   [`rig_to_glb`] writes it with no animation, in the rest pose.

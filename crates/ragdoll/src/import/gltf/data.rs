@@ -51,7 +51,7 @@ fn u32_at(bytes: &[u8], at: usize) -> u32 {
 pub(crate) fn split_container<'a>(bytes: &'a [u8], path: &Path) -> Result<Container<'a>> {
     let named_glb = path
         .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("glb"));
+        .is_some_and(|e| e.eq_ignore_ascii_case("glb") || e.eq_ignore_ascii_case("vrm"));
     if !bytes.starts_with(GLB_MAGIC) {
         let truncated_magic = !bytes.is_empty() && GLB_MAGIC.starts_with(bytes);
         if named_glb || truncated_magic {
