@@ -1,0 +1,496 @@
+//! Roles on the rigs people actually have (issue 11): for every humanoid file in
+//! `../shared/data`, which joint must carry the pelvis, head, legs and arms, written from
+//! each file's joint list; the helper bones of real rigs (IK controls, poles, sockets) get
+//! no body; a humanoid bone table (VRM) is the strongest hint; and a foot the hierarchy
+//! detaches from its leg still joins the shin.
+
+mod common;
+
+use glam::Vec3;
+use ragdoll::import::{ImportOptions, load};
+use ragdoll::skeleton::{Character, Joint, Skeleton, humanoid};
+use ragdoll::spec::{BuildOptions, Role, build_spec, recognise_roles};
+
+/// The roles each row of [`HUMANOIDS`] names a joint for, in column order.
+const COLUMNS: [Role; 14] = [
+    Role::Pelvis,
+    Role::Head,
+    Role::ThighL,
+    Role::ShinL,
+    Role::FootL,
+    Role::ThighR,
+    Role::ShinR,
+    Role::FootR,
+    Role::UpperArmL,
+    Role::ForearmL,
+    Role::HandL,
+    Role::UpperArmR,
+    Role::ForearmR,
+    Role::HandR,
+];
+
+type Row = (&'static str, [Option<&'static str>; 14]);
+
+/// File, then the joint carrying each of [`COLUMNS`] (`None`: the rig has no such joint,
+/// and no other joint may take the role).
+const HUMANOIDS: [Row; 10] = [
+    (
+        "rigs/godot_mannequiny.glb",
+        [
+            Some("pelvis"),
+            Some("head"),
+            Some("thigh.l"),
+            Some("calf.l"),
+            Some("foot.l"),
+            Some("thigh.r"),
+            Some("calf.r"),
+            Some("foot.r"),
+            Some("upperarm.l"),
+            Some("lowerarm.l"),
+            Some("hand.l"),
+            Some("upperarm.r"),
+            Some("lowerarm.r"),
+            Some("hand.r"),
+        ],
+    ),
+    (
+        "rigs/godot_robi_ik.glb",
+        [
+            Some("hip"),
+            Some("head"),
+            Some("l-thigh"),
+            Some("l-leg"),
+            Some("l-foot"),
+            Some("r-thigh"),
+            Some("r-leg"),
+            Some("r-foot"),
+            Some("l-arm"),
+            Some("l-forearm"),
+            None,
+            Some("r-arm"),
+            Some("r-forearm"),
+            None,
+        ],
+    ),
+    (
+        "rigs/kaykit_knight.glb",
+        [
+            Some("hips"),
+            Some("head"),
+            Some("upperleg.l"),
+            Some("lowerleg.l"),
+            Some("foot.l"),
+            Some("upperleg.r"),
+            Some("lowerleg.r"),
+            Some("foot.r"),
+            Some("upperarm.l"),
+            Some("lowerarm.l"),
+            Some("wrist.l"),
+            Some("upperarm.r"),
+            Some("lowerarm.r"),
+            Some("wrist.r"),
+        ],
+    ),
+    (
+        "rigs/quaternius_um_orc_ikfeet.gltf",
+        [
+            Some("Hips"),
+            Some("Head"),
+            Some("UpperLeg.L"),
+            Some("LowerLeg.L"),
+            Some("Foot.L"),
+            Some("UpperLeg.R"),
+            Some("LowerLeg.R"),
+            Some("Foot.R"),
+            Some("UpperArm.L"),
+            Some("LowerArm.L"),
+            None,
+            Some("UpperArm.R"),
+            Some("LowerArm.R"),
+            None,
+        ],
+    ),
+    (
+        "rigs/animdraw_rokoko_jesse_dance.bvh",
+        [
+            Some("Hips"),
+            Some("Head"),
+            Some("LeftUpLeg"),
+            Some("LeftLeg"),
+            Some("LeftFoot"),
+            Some("RightUpLeg"),
+            Some("RightLeg"),
+            Some("RightFoot"),
+            Some("LeftArm"),
+            Some("LeftForeArm"),
+            Some("LeftHand"),
+            Some("RightArm"),
+            Some("RightForeArm"),
+            Some("RightHand"),
+        ],
+    ),
+    (
+        "rigs/bvh11_cmu_131_01.bvh",
+        [
+            Some("Hips"),
+            Some("Head"),
+            Some("LeftHip"),
+            Some("LeftKnee"),
+            Some("LeftAnkle"),
+            Some("RightHip"),
+            Some("RightKnee"),
+            Some("RightAnkle"),
+            Some("LeftShoulder"),
+            Some("LeftElbow"),
+            Some("LeftWrist"),
+            Some("RightShoulder"),
+            Some("RightElbow"),
+            Some("RightWrist"),
+        ],
+    ),
+    (
+        "bvh/cmu_pirouette_threejs.bvh",
+        [
+            Some("hip"),
+            Some("head"),
+            Some("lThigh"),
+            Some("lShin"),
+            Some("lFoot"),
+            Some("rThigh"),
+            Some("rShin"),
+            Some("rFoot"),
+            Some("lShldr"),
+            Some("lForeArm"),
+            Some("lHand"),
+            Some("rShldr"),
+            Some("rForeArm"),
+            Some("rHand"),
+        ],
+    ),
+    (
+        "bvh/mocapbank_bvh-python.bvh",
+        [
+            Some("Hips"),
+            Some("Head"),
+            Some("LeftHip"),
+            Some("LeftKnee"),
+            Some("LeftAnkle"),
+            Some("RightHip"),
+            Some("RightKnee"),
+            Some("RightAnkle"),
+            Some("LeftShoulder"),
+            Some("LeftElbow"),
+            Some("LeftWrist"),
+            Some("RightShoulder"),
+            Some("RightElbow"),
+            Some("RightWrist"),
+        ],
+    ),
+    (
+        "bvh/biovision_example_bvhio.bvh",
+        [
+            Some("Hips"),
+            Some("Head"),
+            Some("LeftUpLeg"),
+            Some("LeftLowLeg"),
+            Some("LeftFoot"),
+            Some("RightUpLeg"),
+            Some("RightLowLeg"),
+            Some("RightFoot"),
+            Some("LeftUpArm"),
+            Some("LeftLowArm"),
+            Some("LeftHand"),
+            Some("RightUpArm"),
+            Some("RightLowArm"),
+            Some("RightHand"),
+        ],
+    ),
+    (
+        // No names: labelled by index. Faces +X; its left is -Z.
+        "gltf/CesiumMan.glb",
+        [
+            Some("joint0"),
+            Some("joint4"),
+            Some("joint11"),
+            Some("joint13"),
+            Some("joint15"),
+            Some("joint12"),
+            Some("joint14"),
+            Some("joint16"),
+            Some("joint5"),
+            Some("joint7"),
+            Some("joint9"),
+            Some("joint6"),
+            Some("joint8"),
+            Some("joint10"),
+        ],
+    ),
+];
+
+/// Files that are not humanoids and must not be taken for one.
+const OTHERS: [&str; 4] = [
+    "rigs/webxr_generic_hand_left.glb",
+    "gltf/Fox.glb",
+    "gltf/SimpleSkin.gltf",
+    "bvh/two_joint_bvh_anim.bvh",
+];
+
+fn load_data(rel: &str) -> Character {
+    let path = common::shared_data().join(rel);
+    load(&path, &ImportOptions::default()).unwrap_or_else(|e| panic!("{rel}: {e}"))
+}
+
+/// Every role of the row is on the named joint and on no other; the failures of all rows
+/// are gathered so one run shows the whole table.
+fn check_row(rel: &str, want: &[Option<&str>; 14], c: &Character) -> Vec<String> {
+    let roles = recognise_roles(c);
+    let mut bad = Vec::new();
+    if !roles.humanoid {
+        return vec![format!("{rel}: not a humanoid ({})", roles.why)];
+    }
+    for (role, name) in COLUMNS.iter().zip(want) {
+        let got: Vec<String> = (0..c.skeleton.len())
+            .filter(|&j| roles.per_joint[j] == Some(*role))
+            .map(|j| c.skeleton.joint_label(j))
+            .collect();
+        let expected: Vec<String> = name.iter().map(|n| n.to_string()).collect();
+        if got != expected {
+            bad.push(format!(
+                "{rel}: {} on {got:?}, want {expected:?}",
+                role.as_str()
+            ));
+        }
+    }
+    bad
+}
+
+#[test]
+#[ignore = "needs ../shared/data"]
+fn every_humanoid_file_has_its_roles_on_the_right_joints() {
+    let mut bad = Vec::new();
+    for (rel, want) in &HUMANOIDS {
+        bad.extend(check_row(rel, want, &load_data(rel)));
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
+
+#[test]
+#[ignore = "needs ../shared/data"]
+fn other_files_are_not_humanoids() {
+    for rel in OTHERS {
+        let roles = recognise_roles(&load_data(rel));
+        assert!(!roles.humanoid, "{rel}");
+        assert!(
+            roles.why.starts_with("Not a humanoid"),
+            "{rel}: {}",
+            roles.why
+        );
+    }
+}
+
+/// The IK controls, poles and sockets of real rigs carry no body, and every spec builds.
+#[test]
+#[ignore = "needs ../shared/data"]
+fn helper_bones_get_no_body() {
+    for (rel, helpers) in [
+        (
+            "rigs/godot_robi_ik.glb",
+            &[
+                "MASTER",
+                "HEAD",
+                "l-LEGCONTROL",
+                "r-ARMORIENT",
+                "headtracker",
+            ][..],
+        ),
+        (
+            "rigs/quaternius_um_orc_ikfeet.gltf",
+            &["PoleTarget.L", "PoleTarget.R", "Root"][..],
+        ),
+        ("rigs/kaykit_knight.glb", &["handslot.l", "handslot.r"][..]),
+    ] {
+        let c = load_data(rel);
+        let roles = recognise_roles(&c);
+        for h in helpers {
+            let j = c
+                .skeleton
+                .find(h)
+                .unwrap_or_else(|| panic!("{rel}: no {h}"));
+            assert_eq!(roles.per_joint[j], None, "{rel}: {h}");
+        }
+        let spec = build_spec(&c, &BuildOptions::default()).unwrap();
+        assert!(
+            spec.bodies
+                .iter()
+                .all(|b| !helpers.contains(&b.bone.as_str()))
+        );
+    }
+}
+
+/// Quaternius's feet hang from the root bone, beside the legs: each still joins its shin.
+#[test]
+#[ignore = "needs ../shared/data"]
+fn detached_ik_feet_join_their_shins() {
+    let c = load_data("rigs/quaternius_um_orc_ikfeet.gltf");
+    let spec = build_spec(&c, &BuildOptions::default()).unwrap();
+    for (foot, shin) in [("foot_l", "shin_l"), ("foot_r", "shin_r")] {
+        let j = spec.joints.iter().find(|j| j.child == foot).unwrap();
+        assert_eq!(j.parent, shin);
+    }
+}
+
+/// The built-in humanoid with joints named `j0`, `j1`… and a VRM humanoid table.
+fn with_table(table: &[(&str, &str)]) -> Character {
+    let mut c = humanoid();
+    let names: Vec<String> = c.skeleton.joints().iter().map(|j| j.name.clone()).collect();
+    let joints: Vec<Joint> = c
+        .skeleton
+        .joints()
+        .iter()
+        .enumerate()
+        .map(|(i, j)| Joint {
+            name: format!("j{i}"),
+            ..j.clone()
+        })
+        .collect();
+    c.skeleton = Skeleton::new(joints).unwrap();
+    c.humanoid_bones = table
+        .iter()
+        .map(|(vrm, ours)| {
+            let j = names.iter().position(|n| n == ours).unwrap();
+            (vrm.to_string(), j)
+        })
+        .collect();
+    c
+}
+
+const VRM_TABLE: [(&str, &str); 15] = [
+    ("hips", "pelvis"),
+    ("spine", "spine"),
+    ("chest", "chest"),
+    ("neck", "neck"),
+    ("head", "head"),
+    ("leftUpperLeg", "thigh_l"),
+    ("leftLowerLeg", "shin_l"),
+    ("leftFoot", "foot_l"),
+    ("rightUpperLeg", "thigh_r"),
+    ("rightLowerLeg", "shin_r"),
+    ("rightFoot", "foot_r"),
+    ("leftUpperArm", "upper_arm_l"),
+    ("leftLowerArm", "forearm_l"),
+    ("rightUpperArm", "upper_arm_r"),
+    ("rightLowerArm", "forearm_r"),
+];
+
+#[test]
+fn a_humanoid_bone_table_gives_the_roles() {
+    let c = with_table(&VRM_TABLE);
+    let roles = recognise_roles(&c);
+    assert!(roles.humanoid, "{}", roles.why);
+    assert!(roles.why.contains("bone table"), "{}", roles.why);
+    let plain = humanoid();
+    for (vrm, ours) in VRM_TABLE {
+        let j = plain.skeleton.find(ours).unwrap();
+        assert_eq!(
+            roles.per_joint[j].map(Role::as_str),
+            Some(ours),
+            "{vrm} → {ours}"
+        );
+    }
+    // The table leaves the hands out: no joint is a hand, and the report says so.
+    assert_eq!(roles.joint(Role::HandL), None);
+    assert!(roles.missing().iter().any(|(r, _)| *r == Role::HandL));
+    assert!(
+        (roles.forward - Vec3::Z).length() < 1e-4,
+        "{:?}",
+        roles.forward
+    );
+}
+
+#[test]
+fn a_table_that_swaps_the_sides_still_puts_left_on_the_left_of_the_facing() {
+    // A table calling the +X leg and arm "right" says the character faces -Z: the roles
+    // follow the table and the facing turns with it, so left is never on the right.
+    let swapped: Vec<(&str, &str)> = VRM_TABLE
+        .iter()
+        .map(|&(vrm, ours)| {
+            let vrm = match vrm.strip_prefix("left") {
+                Some(rest) => Box::leak(format!("right{rest}").into_boxed_str()) as &str,
+                None => match vrm.strip_prefix("right") {
+                    Some(rest) => Box::leak(format!("left{rest}").into_boxed_str()) as &str,
+                    None => vrm,
+                },
+            };
+            (vrm, ours)
+        })
+        .collect();
+    let c = with_table(&swapped);
+    let roles = recognise_roles(&c);
+    assert!(roles.humanoid, "{}", roles.why);
+    let plain = humanoid();
+    assert_eq!(
+        roles.per_joint[plain.skeleton.find("thigh_l").unwrap()],
+        Some(Role::ThighR)
+    );
+    assert!(
+        (roles.forward + Vec3::Z).length() < 1e-4,
+        "{:?}",
+        roles.forward
+    );
+    let world = c.skeleton.rest_world();
+    let x = |r: Role| world[roles.joint(r).unwrap()].translation;
+    assert!((x(Role::ThighL) - x(Role::Pelvis)).dot(roles.left()) > 0.0);
+}
+
+#[test]
+fn a_table_the_skeleton_contradicts_is_overruled() {
+    // Legs mapped onto the arms: knees not below hips. The names (`j0`…) say nothing, so
+    // the structure pass finds the humanoid instead.
+    let mut table = VRM_TABLE.to_vec();
+    for (vrm, ours) in &mut table {
+        *ours = match *vrm {
+            "leftUpperLeg" => "upper_arm_l",
+            "leftLowerLeg" => "forearm_l",
+            "rightUpperLeg" => "upper_arm_r",
+            "rightLowerLeg" => "forearm_r",
+            _ => ours,
+        };
+    }
+    let c = with_table(&table);
+    let roles = recognise_roles(&c);
+    assert!(roles.humanoid);
+    assert!(roles.why.contains("shape"), "{}", roles.why);
+    let plain = humanoid();
+    assert_eq!(
+        roles.per_joint[plain.skeleton.find("thigh_l").unwrap()],
+        Some(Role::ThighL)
+    );
+}
+
+/// The built-in humanoid with `foot_l` re-hung from the pelvis (as IK rigs hang feet from
+/// the root), at the same place.
+fn detached_foot() -> Character {
+    let mut c = humanoid();
+    let world = c.skeleton.rest_world();
+    let pelvis = c.skeleton.find("pelvis").unwrap();
+    let foot = c.skeleton.find("foot_l").unwrap();
+    let mut joints = c.skeleton.joints().to_vec();
+    joints[foot].parent = Some(pelvis);
+    joints[foot].rest = world[pelvis].inverse().mul(&world[foot]);
+    c.skeleton = Skeleton::new(joints).unwrap();
+    c
+}
+
+#[test]
+fn a_foot_hung_from_the_pelvis_is_still_the_foot_and_joins_the_shin() {
+    let c = detached_foot();
+    let roles = recognise_roles(&c);
+    assert!(roles.humanoid, "{}", roles.why);
+    let foot = c.skeleton.find("foot_l").unwrap();
+    assert_eq!(roles.per_joint[foot], Some(Role::FootL));
+    let spec = build_spec(&c, &BuildOptions::default()).unwrap();
+    let j = spec.joints.iter().find(|j| j.child == "foot_l").unwrap();
+    assert_eq!(j.parent, "shin_l");
+    // Every body but the root has exactly one joint: one connected ragdoll.
+    assert_eq!(spec.joints.len() + 1, spec.bodies.len());
+}
