@@ -367,7 +367,9 @@ impl<'a> Builder<'a> {
             rig,
             roles,
             opts,
-            h: rig.height,
+            // The height roles were measured at: a BVH whose rest pose lies flat (Rokoko) is
+            // measured standing, in its first frame.
+            h: roles.height_m,
             forward: roles.forward,
             left: roles.left(),
             joints,

@@ -190,15 +190,61 @@ fn detached_end(rig: &Rig, upper: usize, lower: usize, ends: &[usize]) -> Option
 /// error is one sentence saying what did not hold.
 pub(super) fn confirm(rig: &Rig, c: &Claims) -> Result<Humanoid, String> {
     let name = |j: usize| rig.skeleton.joint_label(j);
-    let side_name = ["left", "right"];
+    let (legs, arms) = confirm_limbs(rig, c)?;
+    let chest = c.chest.ok_or("the upper arms have no joint in common")?;
+    let pelvis = c.pelvis.ok_or("no pelvis between the legs and the chest")?;
+    if !is_ancestor(rig, pelvis, chest) {
+        return Err(format!(
+            "the chest {} does not rise from the pelvis {}",
+            name(chest),
+            name(pelvis)
+        ));
+    }
+    let py = rig.pos[pelvis].y;
+    if let Some(head) = c.head
+        && rig.pos[head].y < py + HEAD_ABOVE_PELVIS_H * rig.height
+    {
+        return Err(format!(
+            "the head {} is not above the pelvis {} in this pose",
+            name(head),
+            name(pelvis)
+        ));
+    }
+    for a in &arms {
+        if rig.pos[a.upper].y <= py {
+            return Err(format!(
+                "the shoulder {} is below the pelvis in this pose",
+                name(a.upper)
+            ));
+        }
+    }
+    let side_joints = |s: usize| [legs[s].upper, legs[s].lower, arms[s].upper, arms[s].lower];
+    let forward = forward_from_sides(rig, &side_joints(0), &side_joints(1))
+        .ok_or("the left and right limbs do not stand apart")?;
+    Ok(Humanoid {
+        pelvis,
+        spine: c.spine.filter(|&s| s != chest && s != pelvis),
+        chest,
+        neck: c.neck.filter(|&n| Some(n) != c.head && n != chest),
+        head: c.head,
+        legs,
+        arms,
+        forward,
+    })
+}
+
+/// The limb half of [`confirm`]: both legs and arms claimed, hanging from each other in
+/// the hierarchy, hips below shoulders, knees below hips, a leg on the ground.
+fn confirm_limbs(rig: &Rig, c: &Claims) -> Result<([Limb; 2], [Limb; 2]), String> {
+    let name = |j: usize| rig.skeleton.joint_label(j);
     let mut legs = Vec::new();
     let mut arms = Vec::new();
-    for s in 0..2 {
+    for (s, side) in ["left", "right"].iter().enumerate() {
         let [Some(thigh), Some(shin), foot] = c.legs[s] else {
-            return Err(format!("no {} thigh and shin", side_name[s]));
+            return Err(format!("no {side} thigh and shin"));
         };
         let [Some(upper), Some(fore), hand] = c.arms[s] else {
-            return Err(format!("no {} upper arm and forearm", side_name[s]));
+            return Err(format!("no {side} upper arm and forearm"));
         };
         if !is_ancestor(rig, thigh, shin) {
             return Err(format!(
@@ -256,49 +302,10 @@ pub(super) fn confirm(rig: &Rig, c: &Claims) -> Result<Humanoid, String> {
     {
         return Err("neither leg reaches the ground in this pose".into());
     }
-    let chest = c.chest.ok_or("the upper arms have no joint in common")?;
-    let pelvis = c.pelvis.ok_or("no pelvis between the legs and the chest")?;
-    if !is_ancestor(rig, pelvis, chest) {
-        return Err(format!(
-            "the chest {} does not rise from the pelvis {}",
-            name(chest),
-            name(pelvis)
-        ));
-    }
-    let py = rig.pos[pelvis].y;
-    if let Some(head) = c.head
-        && rig.pos[head].y < py + HEAD_ABOVE_PELVIS_H * rig.height
-    {
-        return Err(format!(
-            "the head {} is not above the pelvis {} in this pose",
-            name(head),
-            name(pelvis)
-        ));
-    }
-    for a in &arms {
-        if rig.pos[a.upper].y <= py {
-            return Err(format!(
-                "the shoulder {} is below the pelvis in this pose",
-                name(a.upper)
-            ));
-        }
-    }
-    let side_joints = |s: usize| [legs[s].upper, legs[s].lower, arms[s].upper, arms[s].lower];
-    let forward = forward_from_sides(rig, &side_joints(0), &side_joints(1))
-        .ok_or("the left and right limbs do not stand apart")?;
     let (Ok(legs), Ok(arms)) = (<[Limb; 2]>::try_from(legs), <[Limb; 2]>::try_from(arms)) else {
         return Err("not two legs and two arms".into());
     };
-    Ok(Humanoid {
-        pelvis,
-        spine: c.spine.filter(|&s| s != chest && s != pelvis),
-        chest,
-        neck: c.neck.filter(|&n| Some(n) != c.head && n != chest),
-        head: c.head,
-        legs,
-        arms,
-        forward,
-    })
+    Ok((legs, arms))
 }
 
 fn limb(rig: &Rig, upper: usize, lower: usize, end: Option<usize>) -> Limb {
