@@ -494,3 +494,231 @@ fn a_foot_hung_from_the_pelvis_is_still_the_foot_and_joins_the_shin() {
     // Every body but the root has exactly one joint: one connected ragdoll.
     assert_eq!(spec.joints.len() + 1, spec.bodies.len());
 }
+
+/// The built-in humanoid's joints (named by role) renamed by `style`: a rig in that naming
+/// style with a known answer.
+fn renamed(c: &Character, style: impl Fn(&str) -> String) -> Character {
+    let joints: Vec<Joint> = c
+        .skeleton
+        .joints()
+        .iter()
+        .map(|j| Joint {
+            name: style(&j.name),
+            ..j.clone()
+        })
+        .collect();
+    Character {
+        skeleton: Skeleton::new(joints).unwrap(),
+        ..c.clone()
+    }
+}
+
+/// `thigh_l` → (`thigh`, Some(true)); `pelvis` → (`pelvis`, None).
+fn split_side(role: &str) -> (&str, Option<bool>) {
+    match (role.strip_suffix("_l"), role.strip_suffix("_r")) {
+        (Some(base), _) => (base, Some(true)),
+        (_, Some(base)) => (base, Some(false)),
+        _ => (role, None),
+    }
+}
+
+/// One naming style: the name of each of our roles, given (role base, left?).
+type Style = fn(&str, Option<bool>) -> String;
+
+const STYLES: [(&str, Style); 8] = [
+    ("Mixamo", |base, side| {
+        let word = match base {
+            "pelvis" => "Hips",
+            "spine" => "Spine",
+            "chest" => "Spine2",
+            "neck" => "Neck",
+            "head" => "Head",
+            "thigh" => "UpLeg",
+            "shin" => "Leg",
+            "foot" => "Foot",
+            "upper_arm" => "Arm",
+            "forearm" => "ForeArm",
+            _ => "Hand",
+        };
+        let side = match side {
+            Some(true) => "Left",
+            Some(false) => "Right",
+            None => "",
+        };
+        format!("mixamorig5:{side}{word}")
+    }),
+    ("Unreal", |base, side| {
+        let word = match base {
+            "spine" => "spine_01",
+            "chest" => "spine_03",
+            "neck" => "neck_01",
+            "shin" => "calf",
+            "upper_arm" => "upperarm",
+            "forearm" => "lowerarm",
+            other => other,
+        };
+        match side {
+            Some(true) => format!("{word}_l"),
+            Some(false) => format!("{word}_r"),
+            None => word.to_string(),
+        }
+    }),
+    ("Godot", |base, side| {
+        let word = match base {
+            "shin" => "calf",
+            "upper_arm" => "upperarm",
+            "forearm" => "lowerarm",
+            other => other,
+        };
+        match side {
+            Some(true) => format!("{word}.l"),
+            Some(false) => format!("{word}.r"),
+            None => word.to_string(),
+        }
+    }),
+    ("Rigify", |base, side| {
+        let word = match base {
+            "pelvis" => "spine",
+            "spine" => "spine.001",
+            "chest" => "spine.003",
+            "neck" => "spine.004",
+            "head" => "spine.005",
+            other => other,
+        };
+        match side {
+            Some(true) => format!("DEF-{word}.L"),
+            Some(false) => format!("DEF-{word}.R"),
+            None => format!("DEF-{word}"),
+        }
+    }),
+    ("KayKit", |base, side| {
+        let word = match base {
+            "pelvis" => "hips",
+            "thigh" => "upperleg",
+            "shin" => "lowerleg",
+            "upper_arm" => "upperarm",
+            "forearm" => "lowerarm",
+            "hand" => "wrist",
+            other => other,
+        };
+        match side {
+            Some(true) => format!("{word}.l"),
+            Some(false) => format!("{word}.r"),
+            None => word.to_string(),
+        }
+    }),
+    ("l-/r- prefixes", |base, side| {
+        let word = match base {
+            "pelvis" => "hip",
+            "shin" => "leg",
+            "upper_arm" => "arm",
+            other => other,
+        };
+        match side {
+            Some(true) => format!("l-{word}"),
+            Some(false) => format!("r-{word}"),
+            None => word.to_string(),
+        }
+    }),
+    ("VRoid", |base, side| {
+        let word = match base {
+            "pelvis" => "Hips",
+            "spine" => "Spine",
+            "chest" => "Chest",
+            "neck" => "Neck",
+            "head" => "Head",
+            "thigh" => "UpperLeg",
+            "shin" => "LowerLeg",
+            "foot" => "Foot",
+            "upper_arm" => "UpperArm",
+            "forearm" => "LowerArm",
+            _ => "Hand",
+        };
+        let side = match side {
+            Some(true) => "L",
+            Some(false) => "R",
+            None => "C",
+        };
+        format!("J_Bip_{side}_{word}")
+    }),
+    ("Quaternius", |base, side| {
+        let word = match base {
+            "pelvis" => "Hips",
+            "spine" => "Abdomen",
+            "chest" => "Torso",
+            "neck" => "Neck",
+            "head" => "Head",
+            "thigh" => "UpperLeg",
+            "shin" => "LowerLeg",
+            "foot" => "Foot",
+            "upper_arm" => "UpperArm",
+            "forearm" => "LowerArm",
+            _ => "Fist",
+        };
+        match side {
+            Some(true) => format!("{word}.L"),
+            Some(false) => format!("{word}.R"),
+            None => word.to_string(),
+        }
+    }),
+];
+
+/// Rigs in each naming style get every role on the joint it names, whichever way they
+/// face, and the roles come from the names.
+#[test]
+fn every_naming_style_gets_its_roles() {
+    let plain = humanoid();
+    for (label, style) in STYLES {
+        let c = renamed(&plain, |n| {
+            let (base, side) = split_side(n);
+            style(base, side)
+        });
+        for k in [0, 3, 6] {
+            let cy = c.turned((k as f32 * 45.0).to_radians());
+            let roles = recognise_roles(&cy);
+            assert!(roles.why.contains("joint names"), "{label}: {}", roles.why);
+            for (i, j) in plain.skeleton.joints().iter().enumerate() {
+                assert_eq!(
+                    roles.per_joint[i].map(Role::as_str),
+                    Some(j.name.as_str()),
+                    "{label} at yaw {}: {}",
+                    k * 45,
+                    c.skeleton.joints()[i].name
+                );
+            }
+        }
+    }
+}
+
+/// A mech whose feet and knees point backward (every geometric facing cue says it faces
+/// -Z) but whose names say `.L` on +X: the names decide, so left stays left.
+#[test]
+fn names_decide_the_sides_when_the_feet_point_back() {
+    let plain = humanoid();
+    let blender = renamed(&plain, |n| match split_side(n) {
+        (base, Some(true)) => format!("{base}.L"),
+        (base, Some(false)) => format!("{base}.R"),
+        (base, None) => base.to_string(),
+    });
+    let mut joints = blender.skeleton.joints().to_vec();
+    for j in &mut joints {
+        assert!(j.rest.rotation.abs_diff_eq(glam::Quat::IDENTITY, 1e-6));
+        j.rest.translation.z = -j.rest.translation.z;
+        if let Some(t) = &mut j.tip {
+            t.z = -t.z;
+        }
+    }
+    let mech = Character {
+        skeleton: Skeleton::new(joints).unwrap(),
+        ..blender
+    };
+    let roles = recognise_roles(&mech);
+    for (i, j) in plain.skeleton.joints().iter().enumerate() {
+        assert_eq!(roles.per_joint[i].map(Role::as_str), Some(j.name.as_str()));
+    }
+    assert!(
+        (roles.forward - Vec3::Z).length() < 1e-4,
+        "{:?}",
+        roles.forward
+    );
+}

@@ -108,7 +108,8 @@ pub(super) fn claims_from_names(rig: &Rig, hints: &[NameHint]) -> Claims {
             .or(legs_meet.filter(|&m| m != chest && is_ancestor(rig, m, chest)));
         c.head = trunk(Part::Head)
             .filter(|&h| is_ancestor(rig, chest, h))
-            .min_by_key(|&h| depth(rig, h));
+            .min_by_key(|&h| depth(rig, h))
+            .or_else(|| unnamed_head(rig, chest, &arms));
         c.neck = c.head.and_then(|head| {
             let between = path_down(rig, chest, head);
             between
@@ -122,6 +123,26 @@ pub(super) fn claims_from_names(rig: &Rig, hints: &[NameHint]) -> Claims {
             .and_then(|p| path_down(rig, p, chest).first().copied());
     }
     c
+}
+
+/// Where no joint is named a head (Rigify's `spine.006`): the chain rising highest from
+/// the chest, beside the arms; its second joint is the head when it has two or more (the
+/// first being the neck), as the structure pass reads it.
+fn unnamed_head(rig: &Rig, chest: usize, arms: &[usize]) -> Option<usize> {
+    let top = |c: usize| rig.subtree_stats(c).1;
+    let beside_arms = |c: &usize| !arms.iter().any(|&a| a == *c || is_ancestor(rig, *c, a));
+    let mut path = Vec::new();
+    let mut at = chest;
+    while let Some(next) = rig.children[at]
+        .iter()
+        .copied()
+        .filter(|c| !path.is_empty() || beside_arms(c))
+        .max_by(|&a, &b| top(a).total_cmp(&top(b)))
+    {
+        path.push(next);
+        at = next;
+    }
+    path.get(1).or(path.first()).copied()
 }
 
 /// Upper, lower and end joints of one limb, as [`claims_from_names`] picks them.

@@ -59,8 +59,9 @@ const HELPER_PARTS: [&str; 14] = [
 /// Whole words that make a bone a helper (too short to search for inside other words).
 const HELPER_WORDS: [&str; 8] = ["ik", "mch", "org", "wgt", "end", "nub", "prop", "eye"];
 /// Words that carry nothing about the part: exporter prefixes and joiners.
-const NOISE_WORDS: [&str; 10] = [
+const NOISE_WORDS: [&str; 11] = [
     "def",
+    "c",
     "b",
     "bip",
     "bone",
@@ -246,6 +247,7 @@ mod tests {
             ("headtracker", None, 0, true),
             ("LeftUpperLeg", Some(Thigh), 1, false),
             ("J_Bip_L_LowerArm", Some(Forearm), 1, false),
+            ("J_Bip_C_Hips", Some(Pelvis), 0, false),
             ("upperleg.l", Some(Thigh), 1, false),
             ("wrist.l", Some(Hand), 1, false),
             ("handslot.l", None, 1, true),
