@@ -722,3 +722,29 @@ fn names_decide_the_sides_when_the_feet_point_back() {
         roles.forward
     );
 }
+
+/// Hostile names: a chain as deep as a skeleton may be (65,536 joints), every joint named
+/// a left or right shin with no thigh above any: a walk up the chain from each candidate
+/// looking for its thigh would take two billion steps; recognition stays linear.
+#[test]
+fn a_deep_chain_of_limb_names_is_read_in_linear_time() {
+    let n = ragdoll::skeleton::MAX_JOINTS;
+    let words = ["l-leg", "r-leg"];
+    let joints: Vec<Joint> = (0..n)
+        .map(|i| Joint {
+            name: words[i % words.len()].to_string(),
+            parent: i.checked_sub(1),
+            rest: ragdoll::math::Transform::from_translation(Vec3::new(0.0, -0.01, 0.001)),
+            tip: None,
+        })
+        .collect();
+    let c = Character {
+        skeleton: Skeleton::new(joints).unwrap(),
+        ..humanoid()
+    };
+    let t = std::time::Instant::now();
+    let roles = recognise_roles(&c);
+    // Linear work takes milliseconds; the quadratic walk took seconds.
+    assert!(t.elapsed().as_secs_f32() < 2.0, "{:?}", t.elapsed());
+    assert!(!roles.humanoid);
+}

@@ -152,19 +152,17 @@ fn limb_claims(
     is: impl Fn(usize, Part) -> bool,
 ) -> [Option<usize>; 3] {
     let [upper_part, lower_part, end_part] = parts;
-    let nearest_above = |j: usize, part: Part| {
-        let mut at = rig.parent(j);
-        while let Some(a) = at {
-            if is(a, part) {
-                return Some(a);
-            }
-            at = rig.parent(a);
-        }
-        None
-    };
+    // The nearest proper ancestor of each joint that names the upper part, in one pass
+    // (parents come before children), so a deep chain of such names costs linear time.
+    let mut above: Vec<Option<usize>> = vec![None; rig.len()];
+    for j in 0..rig.len() {
+        above[j] = rig
+            .parent(j)
+            .and_then(|p| if is(p, upper_part) { Some(p) } else { above[p] });
+    }
     let lowers = (0..rig.len()).filter(|&j| is(j, lower_part));
     let Some((lower, upper)) = lowers
-        .filter_map(|l| Some((l, nearest_above(l, upper_part)?)))
+        .filter_map(|l| Some((l, above[l]?)))
         .min_by_key(|&(l, _)| depth(rig, l))
     else {
         return [None; 3];
@@ -343,41 +341,16 @@ fn limb(rig: &Rig, upper: usize, lower: usize, end: Option<usize>) -> Limb {
     }
 }
 
-/// Whether `a` is a proper ancestor of `b`.
 fn is_ancestor(rig: &Rig, a: usize, b: usize) -> bool {
-    let mut at = rig.parent(b);
-    while let Some(p) = at {
-        if p == a {
-            return true;
-        }
-        at = rig.parent(p);
-    }
-    false
+    rig.is_ancestor(a, b)
 }
 
-fn depth(rig: &Rig, mut j: usize) -> usize {
-    let mut d = 0;
-    while let Some(p) = rig.parent(j) {
-        d += 1;
-        j = p;
-    }
-    d
+fn depth(rig: &Rig, j: usize) -> usize {
+    rig.depth[j]
 }
 
-/// The deepest joint that is `a` or `b` or an ancestor of both.
 fn common_ancestor(rig: &Rig, a: usize, b: usize) -> Option<usize> {
-    let mut up = vec![a];
-    while let Some(p) = rig.parent(*up.last()?) {
-        up.push(p);
-    }
-    let mut at = Some(b);
-    while let Some(j) = at {
-        if up.contains(&j) {
-            return Some(j);
-        }
-        at = rig.parent(j);
-    }
-    None
+    rig.common_ancestor(a, b)
 }
 
 /// The joints strictly between `top` and its descendant `bottom`, top first.

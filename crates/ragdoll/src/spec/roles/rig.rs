@@ -44,6 +44,11 @@ pub(crate) struct Rig<'a> {
     /// For each joint, the sibling (another child of its parent) whose subtree reaches
     /// highest, the last of equals, as `max_by` picks it.
     pub(super) highest_sibling: Vec<Option<usize>>,
+    /// Depth of each joint (roots 0).
+    pub(super) depth: Vec<usize>,
+    /// Depth-first entry and exit numbers: `a` is an ancestor of `b` exactly when `b`'s
+    /// interval lies inside `a`'s, so the question costs nothing on a 65,536-deep chain.
+    order: Vec<(usize, usize)>,
 }
 
 impl<'a> Rig<'a> {
@@ -135,6 +140,29 @@ impl<'a> Rig<'a> {
                 highest_sibling[c] = if Some(c) == first { second } else { first };
             }
         }
+        let mut depth = vec![0usize; n];
+        for i in 0..n {
+            if let Some(p) = skeleton.parent(i) {
+                depth[i] = depth[p] + 1;
+            }
+        }
+        let mut order = vec![(0usize, 0usize); n];
+        let mut clock = 0;
+        let mut stack: Vec<(usize, bool)> = (0..n)
+            .rev()
+            .filter(|&i| skeleton.parent(i).is_none())
+            .map(|i| (i, false))
+            .collect();
+        while let Some((j, done)) = stack.pop() {
+            if done {
+                order[j].1 = clock;
+            } else {
+                order[j].0 = clock;
+                stack.push((j, true));
+                stack.extend(children[j].iter().rev().map(|&c| (c, false)));
+            }
+            clock += 1;
+        }
         Rig {
             skeleton,
             world,
@@ -150,11 +178,34 @@ impl<'a> Rig<'a> {
             sub_hi,
             sub_count,
             highest_sibling,
+            depth,
+            order,
         }
     }
 
     pub fn len(&self) -> usize {
         self.pos.len()
+    }
+
+    /// Whether `a` is a proper ancestor of `b`.
+    pub fn is_ancestor(&self, a: usize, b: usize) -> bool {
+        let (oa, ob) = (self.order[a], self.order[b]);
+        a != b && oa.0 < ob.0 && ob.1 < oa.1
+    }
+
+    /// The deepest joint that is `a` or `b` or an ancestor of both.
+    pub fn common_ancestor(&self, mut a: usize, mut b: usize) -> Option<usize> {
+        while self.depth[a] > self.depth[b] {
+            a = self.parent(a)?;
+        }
+        while self.depth[b] > self.depth[a] {
+            b = self.parent(b)?;
+        }
+        while a != b {
+            a = self.parent(a)?;
+            b = self.parent(b)?;
+        }
+        Some(a)
     }
 
     pub fn has_skin(&self) -> bool {
@@ -283,6 +334,21 @@ mod tests {
                         .max_by(|&a, &b| rig.sub_hi[a].total_cmp(&rig.sub_hi[b]))
                 });
                 assert_eq!(rig.highest_sibling[i], expected, "seed {seed} joint {i}");
+                // Ancestry by intervals, as walking up the parents finds it.
+                let mut up = Vec::new();
+                let mut at = rig.parent(i);
+                while let Some(p) = at {
+                    up.push(p);
+                    at = rig.parent(p);
+                }
+                for k in 0..rig.len() {
+                    assert_eq!(
+                        rig.is_ancestor(k, i),
+                        up.contains(&k),
+                        "seed {seed}: {k} above {i}"
+                    );
+                }
+                assert_eq!(rig.depth[i], up.len());
             }
         }
     }
