@@ -748,3 +748,28 @@ fn a_deep_chain_of_limb_names_is_read_in_linear_time() {
     assert!(t.elapsed().as_secs_f32() < 2.0, "{:?}", t.elapsed());
     assert!(!roles.humanoid);
 }
+
+/// Names that promise a humanoid on a skeleton that is not one (every limb lying flat on
+/// the ground) give a warning that says which check failed; honest names on a creature
+/// give none.
+#[test]
+fn names_that_promise_a_humanoid_the_skeleton_denies_give_a_warning() {
+    let plain = humanoid();
+    let mut flat = plain.clone();
+    let mut joints = plain.skeleton.joints().to_vec();
+    for j in &mut joints {
+        // Every offset turned to lie along the ground: nothing hangs, nothing rises.
+        let t = j.rest.translation;
+        j.rest.translation = Vec3::new(t.x, 0.0, t.z + t.y);
+        j.tip = j.tip.map(|t| Vec3::new(t.x, 0.0, t.z + t.y));
+    }
+    flat.skeleton = Skeleton::new(joints).unwrap();
+    let roles = recognise_roles(&flat);
+    assert!(!roles.humanoid);
+    let w = roles.warning.expect("a warning");
+    assert!(w.contains("joint names"), "{w}");
+    assert!(w.contains("knee"), "{w}");
+    let chain = renamed(&plain, |n| format!("link_{}", n.len()));
+    let roles = recognise_roles(&chain);
+    assert_eq!(roles.warning, None, "{}", roles.why);
+}

@@ -68,6 +68,10 @@ pub struct Roles {
     /// One sentence for the user: how the roles were found, or why the character is not
     /// taken for a humanoid.
     pub why: String,
+    /// Set when the joint names promise a humanoid (both thighs, shins, upper arms and
+    /// forearms named) but no check confirmed one: tools show it on every command, since
+    /// the ragdoll will not be what the user expects. The same sentence as [`Roles::why`].
+    pub warning: Option<String>,
 }
 
 /// The roles every humanoid is looked for, in the order reports list them.
@@ -193,8 +197,9 @@ pub fn recognise_roles(character: &Character) -> Roles {
             );
         }
     }
+    let promised = looks_humanoid(&hints);
     let why = match doubts.first() {
-        Some(d) if looks_humanoid(&hints) => format!("Not a humanoid: {d}, and no joint has two legs reaching the ground, a rising spine and two arms."),
+        Some(d) if promised => format!("Not a humanoid: {d}, and no joint has two legs reaching the ground, a rising spine and two arms."),
         _ => "Not a humanoid: no joint has two legs reaching the ground, a rising spine and two arms, and the names do not say thigh, shin, upper arm and forearm on both sides.".to_string(),
     };
     Roles {
@@ -202,6 +207,7 @@ pub fn recognise_roles(character: &Character) -> Roles {
         humanoid: false,
         forward: chain::creature_forward(&rest),
         height_m: rest.height,
+        warning: promised.then(|| why.clone()),
         why,
     }
 }
@@ -231,6 +237,7 @@ fn humanoid_roles(rig: &Rig, h: &structure::Humanoid, how: String) -> Roles {
         forward: h.forward,
         height_m: rig.height,
         why: format!("Humanoid: roles {how}."),
+        warning: None,
     }
 }
 
