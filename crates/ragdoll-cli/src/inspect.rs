@@ -58,6 +58,10 @@ pub fn inspect(a: &InspectArgs) -> Result<()> {
             "character": character.name,
             "humanoid": roles.humanoid,
             "forward": roles.forward.to_array(),
+            "roles_why": roles.why,
+            "roles_missing": roles.missing().iter().map(|(r, why)| serde_json::json!({
+                "role": r.as_str(), "why": why,
+            })).collect::<Vec<_>>(),
             "joints": joints,
             "bodies": spec.bodies,
             "constraints": spec.joints,
@@ -81,6 +85,7 @@ pub fn inspect(a: &InspectArgs) -> Result<()> {
             character.meshes.len(),
             clips.count()
         )?;
+        out.push_str(&role_summary(&roles));
         let mut depth = vec![0usize; s.len()];
         for i in 0..s.len() {
             if let Some(p) = s.parent(i) {
@@ -144,4 +149,18 @@ fn indent(depth: usize) -> String {
     } else {
         format!("{}(depth {depth}) ", "  ".repeat(MAX_INDENT))
     }
+}
+
+/// What role recognition found and what it did not, in sentences: a user whose rig is
+/// not taken for a humanoid, or lacks a hand, learns why.
+fn role_summary(roles: &spec::Roles) -> String {
+    let mut s = format!("{}\n", roles.why);
+    let found: Vec<&str> = roles.found().iter().map(|r| r.as_str()).collect();
+    if !found.is_empty() {
+        s += &format!("roles found: {}\n", found.join(", "));
+    }
+    for (r, why) in roles.missing() {
+        s += &format!("role not found: {}: {why}.\n", r.as_str());
+    }
+    s
 }

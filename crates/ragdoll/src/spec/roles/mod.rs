@@ -1,0 +1,499 @@
+//! Recognising what each joint is (pelvis, thigh, …) from topology and geometry.
+//!
+//! Names are unreliable (CesiumMan has none, mocap rigs disagree on every word), so the
+//! skeleton's shape decides and names are only a tie-breaker for left and right:
+//!
+//! 1. **Pelvis**: a joint with two child chains hanging down to the ground (legs, mirror
+//!    images of each other) and one rising chain (the spine).
+//! 2. **Chest**: along the spine, the joint where two lateral, mirror-image chains branch
+//!    (arms) that do not reach the ground (a quadruped's front legs do). The pelvis→chest
+//!    line must be near vertical; otherwise the creature is not a standing humanoid (Fox).
+//! 3. **Neck, head**: the joints continuing the spine above the chest.
+//! 4. **Limbs**: within each leg or arm chain the two longest consecutive segments are the
+//!    upper and lower limb (thigh/shin, upper arm/forearm); the joint ending the lower one
+//!    is the foot or hand. Collars, buttocks, toes, fingers ride on their neighbours.
+//! 5. **Facing**: from the feet (ankle → toes), else the knees' bend, else left/right in
+//!    the names, else +Z. Left is `up × forward`.
+//!
+//! Anything else becomes a [`Role::Chain`] link (non-humanoids) or rides on its parent.
+
+//! Recognising what each joint is (pelvis, thigh, …), in named passes each testable alone:
+//!
+//! 1. **Name hints** (`names.rs`): what each joint's name says across the naming styles
+//!    rigs come in (Mixamo, Unreal, Rigify, Blender `.L/.R`, `l-`/`_l`, CMU, KayKit,
+//!    Quaternius, VRM/Unity), and which bones are helpers (IK targets and poles, controls,
+//!    twist bones, sockets, eyes) that never get a body.
+//! 2. **Geometry** (`confirm.rs`): those hints, or a file's own humanoid bone table, are
+//!    accepted only if the hierarchy and the pose agree (knees below hips, head above
+//!    pelvis, the sides apart).
+//! 3. **Structure** (`structure.rs`): where names say nothing (CesiumMan's joints have
+//!    none) or fail the check, the skeleton's shape alone: two legs to the ground and a
+//!    rising spine from one joint, two mirror-image arms off the spine.
+//! 4. **Side** (`side.rs`): which way the character faces, so left limbs are on its left.
+//!
+//! Each is tried on the rest pose and then on the first animation frame, since some
+//! exporters' rest pose is not upright (Rokoko's bone-local BVH offsets lie along +X).
+//! Anything that is not a humanoid becomes [`Role::Chain`] links (`chain.rs`).
+
+mod chain;
+mod confirm;
+mod names;
+mod rig;
+mod side;
+mod structure;
+
+use glam::Vec3;
+
+pub(crate) use names::{NameHint, Part, name_hint};
+pub(crate) use rig::Rig;
+
+use super::Role;
+use crate::math::Transform;
+use crate::skeleton::Character;
+
+/// The outcome of role recognition.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Roles {
+    /// For each skeleton joint, its role, or `None` when the joint gets no body of its own
+    /// (it rides on the body of its nearest ancestor that has one).
+    pub per_joint: Vec<Option<Role>>,
+    /// Whether the skeleton was recognised as a standing humanoid.
+    pub humanoid: bool,
+    /// The character's forward direction in the pose roles were measured in (unit,
+    /// horizontal for humanoids).
+    pub forward: Vec3,
+    /// Standing height, metres: top of the skeleton (or skin) above its lowest point. Every
+    /// proportion-based estimate is a fraction of it, which keeps them scale-free.
+    pub height_m: f32,
+    /// One sentence for the user: how the roles were found, or why the character is not
+    /// taken for a humanoid.
+    pub why: String,
+    /// Set when the joint names promise a humanoid (both thighs, shins, upper arms and
+    /// forearms named) but no check confirmed one: tools show it on every command, since
+    /// the ragdoll will not be what the user expects. The same sentence as [`Roles::why`].
+    pub warning: Option<String>,
+}
+
+/// The roles every humanoid is looked for, in the order reports list them.
+const HUMANOID_ROLES: [Role; 17] = [
+    Role::Pelvis,
+    Role::Spine,
+    Role::Chest,
+    Role::Neck,
+    Role::Head,
+    Role::ThighL,
+    Role::ShinL,
+    Role::FootL,
+    Role::ThighR,
+    Role::ShinR,
+    Role::FootR,
+    Role::UpperArmL,
+    Role::ForearmL,
+    Role::HandL,
+    Role::UpperArmR,
+    Role::ForearmR,
+    Role::HandR,
+];
+
+impl Roles {
+    /// The first joint with `role` (for [`Role::Chain`], the first chain link).
+    pub fn joint(&self, role: Role) -> Option<usize> {
+        self.per_joint.iter().position(|r| *r == Some(role))
+    }
+
+    /// The character's left in the rest pose, `up × forward`, so a character facing +Z has
+    /// its left toward +X.
+    pub fn left(&self) -> Vec3 {
+        Vec3::Y.cross(self.forward).normalize_or(Vec3::X)
+    }
+
+    /// The humanoid roles some joint carries, in report order (empty for a non-humanoid).
+    pub fn found(&self) -> Vec<Role> {
+        HUMANOID_ROLES
+            .iter()
+            .copied()
+            .filter(|r| self.humanoid && self.joint(*r).is_some())
+            .collect()
+    }
+
+    /// The humanoid roles no joint carries, each with a sentence saying why (empty for a
+    /// non-humanoid, which has chain links instead).
+    pub fn missing(&self) -> Vec<(Role, &'static str)> {
+        if !self.humanoid {
+            return Vec::new();
+        }
+        HUMANOID_ROLES
+            .iter()
+            .filter(|r| self.joint(**r).is_none())
+            .map(|&r| {
+                let why = match r {
+                    Role::Spine => "no joint between the pelvis and the chest; the chest body reaches down to the pelvis",
+                    Role::Neck => "no joint between the chest and the head; the head pivots on the chest",
+                    Role::Head => "nothing above the chest is named or shaped as a head",
+                    Role::HandL | Role::HandR => "no hand joint past the forearm; fingers, if any, ride on the forearm",
+                    Role::FootL | Role::FootR => "no foot joint past the shin; the shin reaches the ground",
+                    _ => "no joint carries it",
+                };
+                (r, why)
+            })
+            .collect()
+    }
+}
+
+/// Recognises roles; never fails: a skeleton that is not a humanoid gets chain links.
+pub fn recognise_roles(character: &Character) -> Roles {
+    let rest = Rig::new(character);
+    let posed = first_frame(character).map(|w| Rig::posed(character, w));
+    let rigs: Vec<(&Rig, &str)> = std::iter::once((&rest, "rest pose"))
+        .chain(posed.as_ref().map(|r| (r, "first animation frame")))
+        .collect();
+    let hints: Vec<NameHint> = character
+        .skeleton
+        .joints()
+        .iter()
+        .map(|j| name_hint(&j.name))
+        .collect();
+    let mut doubts = Vec::new();
+    if !character.humanoid_bones.is_empty() {
+        for &(rig, pose) in &rigs {
+            let claims = confirm::claims_from_table(rig, &character.humanoid_bones);
+            match confirm::confirm(rig, &claims) {
+                Ok(h) => {
+                    return humanoid_roles(
+                        rig,
+                        &h,
+                        format!("from the file's humanoid bone table, checked in the {pose}"),
+                    );
+                }
+                Err(e) => doubts.push(format!(
+                    "the file's humanoid bone table does not hold in the {pose}: {e}"
+                )),
+            }
+        }
+    }
+    for &(rig, pose) in &rigs {
+        let claims = confirm::claims_from_names(rig, &hints);
+        match confirm::confirm(rig, &claims) {
+            Ok(h) => {
+                return humanoid_roles(
+                    rig,
+                    &h,
+                    format!("from the joint names, checked against the skeleton in the {pose}"),
+                );
+            }
+            Err(e) => doubts.push(format!(
+                "the joint names do not give a humanoid in the {pose}: {e}"
+            )),
+        }
+    }
+    for &(rig, pose) in &rigs {
+        if let Some(h) = structure::find_humanoid(rig) {
+            return humanoid_roles(
+                rig,
+                &h,
+                format!(
+                    "from the skeleton's shape in the {pose} (two legs to the ground, a spine, two arms)"
+                ),
+            );
+        }
+    }
+    let promised = looks_humanoid(&hints);
+    let why = match doubts.first() {
+        Some(d) if promised => format!("Not a humanoid: {d}, and no joint has two legs reaching the ground, a rising spine and two arms."),
+        _ => "Not a humanoid: no joint has two legs reaching the ground, a rising spine and two arms, and the names do not say thigh, shin, upper arm and forearm on both sides.".to_string(),
+    };
+    Roles {
+        per_joint: chain::chain_roles(&rest, &hints),
+        humanoid: false,
+        forward: chain::creature_forward(&rest),
+        height_m: rest.height,
+        warning: promised.then(|| why.clone()),
+        why,
+    }
+}
+
+/// Whether the names alone promise a humanoid: both thighs, shins, upper arms and
+/// forearms named. Such a character that fails every check deserves a warning.
+pub fn looks_humanoid(hints: &[NameHint]) -> bool {
+    [Part::Thigh, Part::Shin, Part::UpperArm, Part::Forearm]
+        .iter()
+        .all(|&p| {
+            [1, -1].iter().all(|&s| {
+                hints
+                    .iter()
+                    .any(|h| !h.helper && h.part == Some(p) && h.side == s)
+            })
+        })
+}
+
+fn humanoid_roles(rig: &Rig, h: &structure::Humanoid, how: String) -> Roles {
+    let mut per_joint = vec![None; rig.len()];
+    for (j, role) in h.assignments() {
+        per_joint[j] = Some(role);
+    }
+    Roles {
+        per_joint,
+        humanoid: true,
+        forward: h.forward,
+        height_m: rig.height,
+        why: format!("Humanoid: roles {how}."),
+        warning: None,
+    }
+}
+
+/// World transforms of the first frame of the first clip, when there is one that differs
+/// from the rest pose.
+fn first_frame(character: &Character) -> Option<Vec<Transform>> {
+    let skeleton = &character.skeleton;
+    let frame = character.clips.first()?.frames.first()?;
+    if frame.len() != skeleton.len() {
+        return None;
+    }
+    let mut world = vec![Transform::IDENTITY; skeleton.len()];
+    skeleton.world_from_local(frame, &mut world);
+    let rest = skeleton.rest_world();
+    let moved = world
+        .iter()
+        .zip(&rest)
+        .any(|(a, b)| a.translation.distance(b.translation) > 1e-6);
+    (moved && world.iter().all(|t| t.translation.is_finite())).then_some(world)
+}
+
+// --- Tuning, as fractions of the standing height H unless said otherwise ----------------
+
+/// A leg's lowest point is within this of the ground: feet stand on it in a rest pose,
+/// with room for a raised foot or a thick sole.
+const LEG_GROUND_TOLERANCE_H: f32 = 0.15;
+/// Legs hang at least this far below the pelvis (about half of H on real people).
+const LEG_MIN_DROP_H: f32 = 0.3;
+/// Legs do not rise more than this above the pelvis joint (CMU's buttock joints sit a
+/// little above it).
+const LEG_MAX_RISE_H: f32 = 0.1;
+/// The spine chain rises at least this far above the pelvis (the head is ~0.45 H above).
+const SPINE_MIN_RISE_H: f32 = 0.25;
+/// Largest angle of the pelvis→chest line from vertical for a standing humanoid; a
+/// quadruped's back is near horizontal.
+const SPINE_MAX_TILT_DEG: f32 = 40.0;
+/// An arm's joints are on average at least this far from the mid-plane (shoulders are
+/// about 0.1 H out).
+const ARM_MIN_LATERAL_H: f32 = 0.06;
+/// Arms stop at least this far above the ground (fingertips hang at ~0.38 H); front legs
+/// of a quadruped reach it.
+const ARM_MIN_CLEARANCE_H: f32 = 0.2;
+/// An arm chain (shoulder to fingertip ≈ 0.4 H) is at least this long.
+const ARM_MIN_LENGTH_H: f32 = 0.2;
+/// Mirror limbs differ in length by at most this fraction.
+const LIMB_LENGTH_TOLERANCE: f32 = 0.25;
+/// The legs' centres are at least this far apart sideways, else there is no left/right.
+const MIN_LEG_SEPARATION_H: f32 = 0.02;
+/// A facing cue (feet, knees) must be at least this big to be trusted.
+const FORWARD_CUE_MIN_H: f32 = 0.01;
+/// Feet must point mostly forward (|forward part| / |horizontal part|) to be a cue;
+/// a sideways foot says nothing.
+const FOOT_CUE_MIN_ALIGNMENT: f32 = 0.5;
+/// Non-humanoid bones shorter than this fraction of the skeleton's extent AND shorter
+/// than [`CHAIN_MIN_MEDIAN_FRACTION`] of the median bone ride on their parent: too short
+/// to be stable bodies (end sites, toe nubs, helper offsets).
+const CHAIN_MIN_EXTENT_FRACTION: f32 = 0.03;
+/// See [`CHAIN_MIN_EXTENT_FRACTION`].
+const CHAIN_MIN_MEDIAN_FRACTION: f32 = 0.25;
+/// A leaf without an end site is assumed to continue its parent bone for this fraction
+/// of the parent's length (tails and fingers taper).
+pub(crate) const LEAF_LENGTH_FRACTION: f32 = 0.5;
+/// A joint counts as skinned when its vertex weights add up to at least this (half a
+/// vertex): joints nothing is weighted to are helpers (Fox's `_rootJoint`, `b_Root_00`).
+const MIN_SKIN_WEIGHT: f32 = 0.5;
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use crate::skeleton::Skeleton;
+    use glam::Quat;
+
+    use super::*;
+    use crate::skeleton::humanoid;
+
+    /// `c` turned by `yaw` about the vertical through the origin.
+    pub(crate) fn yawed(c: &Character, yaw: f32) -> Character {
+        c.turned(yaw)
+    }
+
+    #[test]
+    fn spec_roles_builtin_humanoid_exact() {
+        let c = humanoid();
+        let roles = recognise_roles(&c);
+        assert!(roles.humanoid);
+        for (i, j) in c.skeleton.joints().iter().enumerate() {
+            assert_eq!(
+                roles.per_joint[i].map(Role::as_str),
+                Some(j.name.as_str()),
+                "joint {}",
+                j.name
+            );
+        }
+        assert!(
+            (roles.forward - Vec3::Z).length() < 1e-5,
+            "{:?}",
+            roles.forward
+        );
+        assert!((roles.left() - Vec3::X).length() < 1e-5);
+        // The toes' end site (3 cm up) is the lowest point the skeleton knows of.
+        assert!((roles.height_m - 1.72).abs() < 1e-4, "{}", roles.height_m);
+    }
+
+    #[test]
+    fn spec_roles_builtin_humanoid_any_yaw() {
+        let c = humanoid();
+        let base = recognise_roles(&c);
+        for k in 0..8 {
+            let yaw = (k as f32 * 45.0).to_radians();
+            let r = recognise_roles(&yawed(&c, yaw));
+            assert_eq!(r.per_joint, base.per_joint, "yaw {}", k * 45);
+            let f = Quat::from_rotation_y(yaw) * Vec3::Z;
+            assert!(
+                (r.forward - f).length() < 1e-4,
+                "yaw {}: {:?}",
+                k * 45,
+                r.forward
+            );
+        }
+    }
+
+    #[test]
+    fn spec_roles_names_give_facing_when_geometry_cannot() {
+        // Feet pointing straight down and straight knees: only the names tell left from
+        // right. Mirror the built-in humanoid's left/right names onto a skeleton whose
+        // geometry is symmetric front/back and check the names decide.
+        let c = humanoid();
+        let mut joints = c.skeleton.joints().to_vec();
+        for j in &mut joints {
+            if j.name.starts_with("foot") {
+                j.tip = Some(Vec3::new(0.0, -0.06, 0.0));
+            }
+            j.name = match j.name.as_str() {
+                "thigh_l" => "LeftUpLeg".into(),
+                "thigh_r" => "RightUpLeg".into(),
+                "upper_arm_l" => "lShldr".into(),
+                "upper_arm_r" => "rShldr".into(),
+                _ => j.name.clone(),
+            };
+        }
+        let mut c2 = c.clone();
+        c2.skeleton = Skeleton::new(joints).unwrap();
+        for k in [0, 3, 5] {
+            let yaw = (k as f32 * 45.0).to_radians();
+            let r = recognise_roles(&yawed(&c2, yaw));
+            assert!(r.humanoid);
+            let s = &c2.skeleton;
+            assert_eq!(
+                r.per_joint[s.find("LeftUpLeg").unwrap()],
+                Some(Role::ThighL)
+            );
+            assert_eq!(
+                r.per_joint[s.find("rShldr").unwrap()],
+                Some(Role::UpperArmR)
+            );
+            let f = Quat::from_rotation_y(yaw) * Vec3::Z;
+            assert!(
+                (r.forward - f).length() < 1e-4,
+                "yaw {}: {:?}",
+                k * 45,
+                r.forward
+            );
+        }
+    }
+
+    fn chain(points: &[Vec3]) -> Character {
+        let mut joints = Vec::new();
+        let mut prev = Vec3::ZERO;
+        for (i, p) in points.iter().enumerate() {
+            joints.push(crate::skeleton::Joint {
+                name: format!("link{i}"),
+                parent: i.checked_sub(1),
+                rest: Transform::from_translation(*p - prev),
+                tip: None,
+            });
+            prev = *p;
+        }
+        Character {
+            humanoid_bones: Vec::new(),
+            warnings: Vec::new(),
+            name: "chain".into(),
+            skeleton: Skeleton::new(joints).unwrap(),
+            meshes: Vec::new(),
+            clips: Vec::new(),
+            source: crate::skeleton::Source::BuiltIn,
+        }
+    }
+
+    #[test]
+    fn spec_roles_two_joint_chain_is_not_humanoid() {
+        let c = chain(&[Vec3::ZERO, Vec3::new(0.0, 0.0, 0.15)]);
+        let r = recognise_roles(&c);
+        assert!(!r.humanoid);
+        // The root bone is long; the bare leaf continues it by half.
+        assert_eq!(r.per_joint, vec![Some(Role::Chain), Some(Role::Chain)]);
+    }
+
+    #[test]
+    fn spec_roles_single_joint_still_gets_a_body() {
+        let c = chain(&[Vec3::new(0.0, 1.0, 0.0)]);
+        let r = recognise_roles(&c);
+        assert!(!r.humanoid);
+        assert_eq!(r.per_joint, vec![Some(Role::Chain)]);
+    }
+
+    #[test]
+    fn spec_roles_quadruped_is_not_humanoid() {
+        // A horizontal spine with four legs to the ground and a neck: the Fox's layout.
+        let c = quadruped();
+        let r = recognise_roles(&c);
+        assert!(!r.humanoid);
+        assert!(
+            r.per_joint.iter().all(|x| *x == Some(Role::Chain)),
+            "{:?}",
+            r.per_joint
+        );
+        assert!((r.forward - Vec3::Z).length() < 1e-4, "{:?}", r.forward);
+    }
+
+    pub(crate) fn quadruped() -> Character {
+        let rows: &[(&str, Option<usize>, Vec3)] = &[
+            ("hip", None, Vec3::new(0.0, 0.45, -0.3)),
+            ("spine", Some(0), Vec3::new(0.0, 0.5, 0.0)),
+            ("chest", Some(1), Vec3::new(0.0, 0.5, 0.3)),
+            ("neck", Some(2), Vec3::new(0.0, 0.6, 0.4)),
+            ("head", Some(3), Vec3::new(0.0, 0.7, 0.5)),
+            ("front_l", Some(2), Vec3::new(0.08, 0.45, 0.3)),
+            ("front_l2", Some(5), Vec3::new(0.08, 0.2, 0.3)),
+            ("front_l3", Some(6), Vec3::new(0.08, 0.0, 0.3)),
+            ("front_r", Some(2), Vec3::new(-0.08, 0.45, 0.3)),
+            ("front_r2", Some(8), Vec3::new(-0.08, 0.2, 0.3)),
+            ("front_r3", Some(9), Vec3::new(-0.08, 0.0, 0.3)),
+            ("back_l", Some(0), Vec3::new(0.08, 0.4, -0.3)),
+            ("back_l2", Some(11), Vec3::new(0.08, 0.2, -0.3)),
+            ("back_l3", Some(12), Vec3::new(0.08, 0.0, -0.3)),
+            ("back_r", Some(0), Vec3::new(-0.08, 0.4, -0.3)),
+            ("back_r2", Some(14), Vec3::new(-0.08, 0.2, -0.3)),
+            ("back_r3", Some(15), Vec3::new(-0.08, 0.0, -0.3)),
+            ("tail", Some(0), Vec3::new(0.0, 0.5, -0.5)),
+        ];
+        let joints = rows
+            .iter()
+            .map(|(name, parent, p)| crate::skeleton::Joint {
+                name: (*name).into(),
+                parent: *parent,
+                rest: Transform::from_translation(*p - parent.map_or(Vec3::ZERO, |q| rows[q].2)),
+                tip: None,
+            })
+            .collect();
+        Character {
+            humanoid_bones: Vec::new(),
+            warnings: Vec::new(),
+            name: "quadruped".into(),
+            skeleton: Skeleton::new(joints).unwrap(),
+            meshes: Vec::new(),
+            clips: Vec::new(),
+            source: crate::skeleton::Source::BuiltIn,
+        }
+    }
+}

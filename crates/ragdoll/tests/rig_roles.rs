@@ -1,0 +1,775 @@
+//! Roles on the rigs people actually have (issue 11): for every humanoid file in
+//! `../shared/data`, which joint must carry the pelvis, head, legs and arms, written from
+//! each file's joint list; the helper bones of real rigs (IK controls, poles, sockets) get
+//! no body; a humanoid bone table (VRM) is the strongest hint; and a foot the hierarchy
+//! detaches from its leg still joins the shin.
+
+mod common;
+
+use glam::Vec3;
+use ragdoll::import::{ImportOptions, load};
+use ragdoll::skeleton::{Character, Joint, Skeleton, humanoid};
+use ragdoll::spec::{BuildOptions, Role, build_spec, recognise_roles};
+
+/// The roles each row of [`HUMANOIDS`] names a joint for, in column order.
+const COLUMNS: [Role; 14] = [
+    Role::Pelvis,
+    Role::Head,
+    Role::ThighL,
+    Role::ShinL,
+    Role::FootL,
+    Role::ThighR,
+    Role::ShinR,
+    Role::FootR,
+    Role::UpperArmL,
+    Role::ForearmL,
+    Role::HandL,
+    Role::UpperArmR,
+    Role::ForearmR,
+    Role::HandR,
+];
+
+type Row = (&'static str, [Option<&'static str>; 14]);
+
+/// File, then the joint carrying each of [`COLUMNS`] (`None`: the rig has no such joint,
+/// and no other joint may take the role).
+const HUMANOIDS: [Row; 10] = [
+    (
+        "rigs/godot_mannequiny.glb",
+        [
+            Some("pelvis"),
+            Some("head"),
+            Some("thigh.l"),
+            Some("calf.l"),
+            Some("foot.l"),
+            Some("thigh.r"),
+            Some("calf.r"),
+            Some("foot.r"),
+            Some("upperarm.l"),
+            Some("lowerarm.l"),
+            Some("hand.l"),
+            Some("upperarm.r"),
+            Some("lowerarm.r"),
+            Some("hand.r"),
+        ],
+    ),
+    (
+        "rigs/godot_robi_ik.glb",
+        [
+            Some("hip"),
+            Some("head"),
+            Some("l-thigh"),
+            Some("l-leg"),
+            Some("l-foot"),
+            Some("r-thigh"),
+            Some("r-leg"),
+            Some("r-foot"),
+            Some("l-arm"),
+            Some("l-forearm"),
+            None,
+            Some("r-arm"),
+            Some("r-forearm"),
+            None,
+        ],
+    ),
+    (
+        "rigs/kaykit_knight.glb",
+        [
+            Some("hips"),
+            Some("head"),
+            Some("upperleg.l"),
+            Some("lowerleg.l"),
+            Some("foot.l"),
+            Some("upperleg.r"),
+            Some("lowerleg.r"),
+            Some("foot.r"),
+            Some("upperarm.l"),
+            Some("lowerarm.l"),
+            Some("wrist.l"),
+            Some("upperarm.r"),
+            Some("lowerarm.r"),
+            Some("wrist.r"),
+        ],
+    ),
+    (
+        "rigs/quaternius_um_orc_ikfeet.gltf",
+        [
+            Some("Hips"),
+            Some("Head"),
+            Some("UpperLeg.L"),
+            Some("LowerLeg.L"),
+            Some("Foot.L"),
+            Some("UpperLeg.R"),
+            Some("LowerLeg.R"),
+            Some("Foot.R"),
+            Some("UpperArm.L"),
+            Some("LowerArm.L"),
+            None,
+            Some("UpperArm.R"),
+            Some("LowerArm.R"),
+            None,
+        ],
+    ),
+    (
+        "rigs/animdraw_rokoko_jesse_dance.bvh",
+        [
+            Some("Hips"),
+            Some("Head"),
+            Some("LeftUpLeg"),
+            Some("LeftLeg"),
+            Some("LeftFoot"),
+            Some("RightUpLeg"),
+            Some("RightLeg"),
+            Some("RightFoot"),
+            Some("LeftArm"),
+            Some("LeftForeArm"),
+            Some("LeftHand"),
+            Some("RightArm"),
+            Some("RightForeArm"),
+            Some("RightHand"),
+        ],
+    ),
+    (
+        "rigs/bvh11_cmu_131_01.bvh",
+        [
+            Some("Hips"),
+            Some("Head"),
+            Some("LeftHip"),
+            Some("LeftKnee"),
+            Some("LeftAnkle"),
+            Some("RightHip"),
+            Some("RightKnee"),
+            Some("RightAnkle"),
+            Some("LeftShoulder"),
+            Some("LeftElbow"),
+            Some("LeftWrist"),
+            Some("RightShoulder"),
+            Some("RightElbow"),
+            Some("RightWrist"),
+        ],
+    ),
+    (
+        "bvh/cmu_pirouette_threejs.bvh",
+        [
+            Some("hip"),
+            Some("head"),
+            Some("lThigh"),
+            Some("lShin"),
+            Some("lFoot"),
+            Some("rThigh"),
+            Some("rShin"),
+            Some("rFoot"),
+            Some("lShldr"),
+            Some("lForeArm"),
+            Some("lHand"),
+            Some("rShldr"),
+            Some("rForeArm"),
+            Some("rHand"),
+        ],
+    ),
+    (
+        "bvh/mocapbank_bvh-python.bvh",
+        [
+            Some("Hips"),
+            Some("Head"),
+            Some("LeftHip"),
+            Some("LeftKnee"),
+            Some("LeftAnkle"),
+            Some("RightHip"),
+            Some("RightKnee"),
+            Some("RightAnkle"),
+            Some("LeftShoulder"),
+            Some("LeftElbow"),
+            Some("LeftWrist"),
+            Some("RightShoulder"),
+            Some("RightElbow"),
+            Some("RightWrist"),
+        ],
+    ),
+    (
+        "bvh/biovision_example_bvhio.bvh",
+        [
+            Some("Hips"),
+            Some("Head"),
+            Some("LeftUpLeg"),
+            Some("LeftLowLeg"),
+            Some("LeftFoot"),
+            Some("RightUpLeg"),
+            Some("RightLowLeg"),
+            Some("RightFoot"),
+            Some("LeftUpArm"),
+            Some("LeftLowArm"),
+            Some("LeftHand"),
+            Some("RightUpArm"),
+            Some("RightLowArm"),
+            Some("RightHand"),
+        ],
+    ),
+    (
+        // No names: labelled by index. Faces +X; its left is -Z.
+        "gltf/CesiumMan.glb",
+        [
+            Some("joint0"),
+            Some("joint4"),
+            Some("joint11"),
+            Some("joint13"),
+            Some("joint15"),
+            Some("joint12"),
+            Some("joint14"),
+            Some("joint16"),
+            Some("joint5"),
+            Some("joint7"),
+            Some("joint9"),
+            Some("joint6"),
+            Some("joint8"),
+            Some("joint10"),
+        ],
+    ),
+];
+
+/// Files that are not humanoids and must not be taken for one.
+const OTHERS: [&str; 4] = [
+    "rigs/webxr_generic_hand_left.glb",
+    "gltf/Fox.glb",
+    "gltf/SimpleSkin.gltf",
+    "bvh/two_joint_bvh_anim.bvh",
+];
+
+fn load_data(rel: &str) -> Character {
+    let path = common::shared_data().join(rel);
+    load(&path, &ImportOptions::default()).unwrap_or_else(|e| panic!("{rel}: {e}"))
+}
+
+/// Every role of the row is on the named joint and on no other; the failures of all rows
+/// are gathered so one run shows the whole table.
+fn check_row(rel: &str, want: &[Option<&str>; 14], c: &Character) -> Vec<String> {
+    let roles = recognise_roles(c);
+    let mut bad = Vec::new();
+    if !roles.humanoid {
+        return vec![format!("{rel}: not a humanoid ({})", roles.why)];
+    }
+    for (role, name) in COLUMNS.iter().zip(want) {
+        let got: Vec<String> = (0..c.skeleton.len())
+            .filter(|&j| roles.per_joint[j] == Some(*role))
+            .map(|j| c.skeleton.joint_label(j))
+            .collect();
+        let expected: Vec<String> = name.iter().map(|n| n.to_string()).collect();
+        if got != expected {
+            bad.push(format!(
+                "{rel}: {} on {got:?}, want {expected:?}",
+                role.as_str()
+            ));
+        }
+    }
+    bad
+}
+
+#[test]
+#[ignore = "needs ../shared/data"]
+fn every_humanoid_file_has_its_roles_on_the_right_joints() {
+    let mut bad = Vec::new();
+    for (rel, want) in &HUMANOIDS {
+        bad.extend(check_row(rel, want, &load_data(rel)));
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
+
+#[test]
+#[ignore = "needs ../shared/data"]
+fn other_files_are_not_humanoids() {
+    for rel in OTHERS {
+        let roles = recognise_roles(&load_data(rel));
+        assert!(!roles.humanoid, "{rel}");
+        assert!(
+            roles.why.starts_with("Not a humanoid"),
+            "{rel}: {}",
+            roles.why
+        );
+    }
+}
+
+/// The IK controls, poles and sockets of real rigs carry no body, and every spec builds.
+#[test]
+#[ignore = "needs ../shared/data"]
+fn helper_bones_get_no_body() {
+    for (rel, helpers) in [
+        (
+            "rigs/godot_robi_ik.glb",
+            &[
+                "MASTER",
+                "HEAD",
+                "l-LEGCONTROL",
+                "r-ARMORIENT",
+                "headtracker",
+            ][..],
+        ),
+        (
+            "rigs/quaternius_um_orc_ikfeet.gltf",
+            &["PoleTarget.L", "PoleTarget.R", "Root"][..],
+        ),
+        ("rigs/kaykit_knight.glb", &["handslot.l", "handslot.r"][..]),
+    ] {
+        let c = load_data(rel);
+        let roles = recognise_roles(&c);
+        for h in helpers {
+            let j = c
+                .skeleton
+                .find(h)
+                .unwrap_or_else(|| panic!("{rel}: no {h}"));
+            assert_eq!(roles.per_joint[j], None, "{rel}: {h}");
+        }
+        let spec = build_spec(&c, &BuildOptions::default()).unwrap();
+        assert!(
+            spec.bodies
+                .iter()
+                .all(|b| !helpers.contains(&b.bone.as_str()))
+        );
+    }
+}
+
+/// Quaternius's feet hang from the root bone, beside the legs: each still joins its shin.
+#[test]
+#[ignore = "needs ../shared/data"]
+fn detached_ik_feet_join_their_shins() {
+    let c = load_data("rigs/quaternius_um_orc_ikfeet.gltf");
+    let spec = build_spec(&c, &BuildOptions::default()).unwrap();
+    for (foot, shin) in [("foot_l", "shin_l"), ("foot_r", "shin_r")] {
+        let j = spec.joints.iter().find(|j| j.child == foot).unwrap();
+        assert_eq!(j.parent, shin);
+    }
+}
+
+/// The built-in humanoid with joints named `j0`, `j1`… and a VRM humanoid table.
+fn with_table(table: &[(&str, &str)]) -> Character {
+    let mut c = humanoid();
+    let names: Vec<String> = c.skeleton.joints().iter().map(|j| j.name.clone()).collect();
+    let joints: Vec<Joint> = c
+        .skeleton
+        .joints()
+        .iter()
+        .enumerate()
+        .map(|(i, j)| Joint {
+            name: format!("j{i}"),
+            ..j.clone()
+        })
+        .collect();
+    c.skeleton = Skeleton::new(joints).unwrap();
+    c.humanoid_bones = table
+        .iter()
+        .map(|(vrm, ours)| {
+            let j = names.iter().position(|n| n == ours).unwrap();
+            (vrm.to_string(), j)
+        })
+        .collect();
+    c
+}
+
+const VRM_TABLE: [(&str, &str); 15] = [
+    ("hips", "pelvis"),
+    ("spine", "spine"),
+    ("chest", "chest"),
+    ("neck", "neck"),
+    ("head", "head"),
+    ("leftUpperLeg", "thigh_l"),
+    ("leftLowerLeg", "shin_l"),
+    ("leftFoot", "foot_l"),
+    ("rightUpperLeg", "thigh_r"),
+    ("rightLowerLeg", "shin_r"),
+    ("rightFoot", "foot_r"),
+    ("leftUpperArm", "upper_arm_l"),
+    ("leftLowerArm", "forearm_l"),
+    ("rightUpperArm", "upper_arm_r"),
+    ("rightLowerArm", "forearm_r"),
+];
+
+#[test]
+fn a_humanoid_bone_table_gives_the_roles() {
+    let c = with_table(&VRM_TABLE);
+    let roles = recognise_roles(&c);
+    assert!(roles.humanoid, "{}", roles.why);
+    assert!(roles.why.contains("bone table"), "{}", roles.why);
+    let plain = humanoid();
+    for (vrm, ours) in VRM_TABLE {
+        let j = plain.skeleton.find(ours).unwrap();
+        assert_eq!(
+            roles.per_joint[j].map(Role::as_str),
+            Some(ours),
+            "{vrm} → {ours}"
+        );
+    }
+    // The table leaves the hands out: no joint is a hand, and the report says so.
+    assert_eq!(roles.joint(Role::HandL), None);
+    assert!(roles.missing().iter().any(|(r, _)| *r == Role::HandL));
+    assert!(
+        (roles.forward - Vec3::Z).length() < 1e-4,
+        "{:?}",
+        roles.forward
+    );
+}
+
+#[test]
+fn a_table_that_swaps_the_sides_still_puts_left_on_the_left_of_the_facing() {
+    // A table calling the +X leg and arm "right" says the character faces -Z: the roles
+    // follow the table and the facing turns with it, so left is never on the right.
+    let swapped: Vec<(&str, &str)> = VRM_TABLE
+        .iter()
+        .map(|&(vrm, ours)| {
+            let vrm = match vrm.strip_prefix("left") {
+                Some(rest) => Box::leak(format!("right{rest}").into_boxed_str()) as &str,
+                None => match vrm.strip_prefix("right") {
+                    Some(rest) => Box::leak(format!("left{rest}").into_boxed_str()) as &str,
+                    None => vrm,
+                },
+            };
+            (vrm, ours)
+        })
+        .collect();
+    let c = with_table(&swapped);
+    let roles = recognise_roles(&c);
+    assert!(roles.humanoid, "{}", roles.why);
+    let plain = humanoid();
+    assert_eq!(
+        roles.per_joint[plain.skeleton.find("thigh_l").unwrap()],
+        Some(Role::ThighR)
+    );
+    assert!(
+        (roles.forward + Vec3::Z).length() < 1e-4,
+        "{:?}",
+        roles.forward
+    );
+    let world = c.skeleton.rest_world();
+    let x = |r: Role| world[roles.joint(r).unwrap()].translation;
+    assert!((x(Role::ThighL) - x(Role::Pelvis)).dot(roles.left()) > 0.0);
+}
+
+#[test]
+fn a_table_the_skeleton_contradicts_is_overruled() {
+    // Legs mapped onto the arms: knees not below hips. The names (`j0`…) say nothing, so
+    // the structure pass finds the humanoid instead.
+    let mut table = VRM_TABLE.to_vec();
+    for (vrm, ours) in &mut table {
+        *ours = match *vrm {
+            "leftUpperLeg" => "upper_arm_l",
+            "leftLowerLeg" => "forearm_l",
+            "rightUpperLeg" => "upper_arm_r",
+            "rightLowerLeg" => "forearm_r",
+            _ => ours,
+        };
+    }
+    let c = with_table(&table);
+    let roles = recognise_roles(&c);
+    assert!(roles.humanoid);
+    assert!(roles.why.contains("shape"), "{}", roles.why);
+    let plain = humanoid();
+    assert_eq!(
+        roles.per_joint[plain.skeleton.find("thigh_l").unwrap()],
+        Some(Role::ThighL)
+    );
+}
+
+/// The built-in humanoid with `foot_l` re-hung from the pelvis (as IK rigs hang feet from
+/// the root), at the same place.
+fn detached_foot() -> Character {
+    let mut c = humanoid();
+    let world = c.skeleton.rest_world();
+    let pelvis = c.skeleton.find("pelvis").unwrap();
+    let foot = c.skeleton.find("foot_l").unwrap();
+    let mut joints = c.skeleton.joints().to_vec();
+    joints[foot].parent = Some(pelvis);
+    joints[foot].rest = world[pelvis].inverse().mul(&world[foot]);
+    c.skeleton = Skeleton::new(joints).unwrap();
+    c
+}
+
+#[test]
+fn a_foot_hung_from_the_pelvis_is_still_the_foot_and_joins_the_shin() {
+    let c = detached_foot();
+    let roles = recognise_roles(&c);
+    assert!(roles.humanoid, "{}", roles.why);
+    let foot = c.skeleton.find("foot_l").unwrap();
+    assert_eq!(roles.per_joint[foot], Some(Role::FootL));
+    let spec = build_spec(&c, &BuildOptions::default()).unwrap();
+    let j = spec.joints.iter().find(|j| j.child == "foot_l").unwrap();
+    assert_eq!(j.parent, "shin_l");
+    // Every body but the root has exactly one joint: one connected ragdoll.
+    assert_eq!(spec.joints.len() + 1, spec.bodies.len());
+}
+
+/// The built-in humanoid's joints (named by role) renamed by `style`: a rig in that naming
+/// style with a known answer.
+fn renamed(c: &Character, style: impl Fn(&str) -> String) -> Character {
+    let joints: Vec<Joint> = c
+        .skeleton
+        .joints()
+        .iter()
+        .map(|j| Joint {
+            name: style(&j.name),
+            ..j.clone()
+        })
+        .collect();
+    Character {
+        skeleton: Skeleton::new(joints).unwrap(),
+        ..c.clone()
+    }
+}
+
+/// `thigh_l` → (`thigh`, Some(true)); `pelvis` → (`pelvis`, None).
+fn split_side(role: &str) -> (&str, Option<bool>) {
+    match (role.strip_suffix("_l"), role.strip_suffix("_r")) {
+        (Some(base), _) => (base, Some(true)),
+        (_, Some(base)) => (base, Some(false)),
+        _ => (role, None),
+    }
+}
+
+/// One naming style: the name of each of our roles, given (role base, left?).
+type Style = fn(&str, Option<bool>) -> String;
+
+const STYLES: [(&str, Style); 8] = [
+    ("Mixamo", |base, side| {
+        let word = match base {
+            "pelvis" => "Hips",
+            "spine" => "Spine",
+            "chest" => "Spine2",
+            "neck" => "Neck",
+            "head" => "Head",
+            "thigh" => "UpLeg",
+            "shin" => "Leg",
+            "foot" => "Foot",
+            "upper_arm" => "Arm",
+            "forearm" => "ForeArm",
+            _ => "Hand",
+        };
+        let side = match side {
+            Some(true) => "Left",
+            Some(false) => "Right",
+            None => "",
+        };
+        format!("mixamorig5:{side}{word}")
+    }),
+    ("Unreal", |base, side| {
+        let word = match base {
+            "spine" => "spine_01",
+            "chest" => "spine_03",
+            "neck" => "neck_01",
+            "shin" => "calf",
+            "upper_arm" => "upperarm",
+            "forearm" => "lowerarm",
+            other => other,
+        };
+        match side {
+            Some(true) => format!("{word}_l"),
+            Some(false) => format!("{word}_r"),
+            None => word.to_string(),
+        }
+    }),
+    ("Godot", |base, side| {
+        let word = match base {
+            "shin" => "calf",
+            "upper_arm" => "upperarm",
+            "forearm" => "lowerarm",
+            other => other,
+        };
+        match side {
+            Some(true) => format!("{word}.l"),
+            Some(false) => format!("{word}.r"),
+            None => word.to_string(),
+        }
+    }),
+    ("Rigify", |base, side| {
+        let word = match base {
+            "pelvis" => "spine",
+            "spine" => "spine.001",
+            "chest" => "spine.003",
+            "neck" => "spine.004",
+            "head" => "spine.005",
+            other => other,
+        };
+        match side {
+            Some(true) => format!("DEF-{word}.L"),
+            Some(false) => format!("DEF-{word}.R"),
+            None => format!("DEF-{word}"),
+        }
+    }),
+    ("KayKit", |base, side| {
+        let word = match base {
+            "pelvis" => "hips",
+            "thigh" => "upperleg",
+            "shin" => "lowerleg",
+            "upper_arm" => "upperarm",
+            "forearm" => "lowerarm",
+            "hand" => "wrist",
+            other => other,
+        };
+        match side {
+            Some(true) => format!("{word}.l"),
+            Some(false) => format!("{word}.r"),
+            None => word.to_string(),
+        }
+    }),
+    ("l-/r- prefixes", |base, side| {
+        let word = match base {
+            "pelvis" => "hip",
+            "shin" => "leg",
+            "upper_arm" => "arm",
+            other => other,
+        };
+        match side {
+            Some(true) => format!("l-{word}"),
+            Some(false) => format!("r-{word}"),
+            None => word.to_string(),
+        }
+    }),
+    ("VRoid", |base, side| {
+        let word = match base {
+            "pelvis" => "Hips",
+            "spine" => "Spine",
+            "chest" => "Chest",
+            "neck" => "Neck",
+            "head" => "Head",
+            "thigh" => "UpperLeg",
+            "shin" => "LowerLeg",
+            "foot" => "Foot",
+            "upper_arm" => "UpperArm",
+            "forearm" => "LowerArm",
+            _ => "Hand",
+        };
+        let side = match side {
+            Some(true) => "L",
+            Some(false) => "R",
+            None => "C",
+        };
+        format!("J_Bip_{side}_{word}")
+    }),
+    ("Quaternius", |base, side| {
+        let word = match base {
+            "pelvis" => "Hips",
+            "spine" => "Abdomen",
+            "chest" => "Torso",
+            "neck" => "Neck",
+            "head" => "Head",
+            "thigh" => "UpperLeg",
+            "shin" => "LowerLeg",
+            "foot" => "Foot",
+            "upper_arm" => "UpperArm",
+            "forearm" => "LowerArm",
+            _ => "Fist",
+        };
+        match side {
+            Some(true) => format!("{word}.L"),
+            Some(false) => format!("{word}.R"),
+            None => word.to_string(),
+        }
+    }),
+];
+
+/// Rigs in each naming style get every role on the joint it names, whichever way they
+/// face, and the roles come from the names.
+#[test]
+fn every_naming_style_gets_its_roles() {
+    let plain = humanoid();
+    for (label, style) in STYLES {
+        let c = renamed(&plain, |n| {
+            let (base, side) = split_side(n);
+            style(base, side)
+        });
+        for k in [0, 3, 6] {
+            let cy = c.turned((k as f32 * 45.0).to_radians());
+            let roles = recognise_roles(&cy);
+            assert!(roles.why.contains("joint names"), "{label}: {}", roles.why);
+            for (i, j) in plain.skeleton.joints().iter().enumerate() {
+                assert_eq!(
+                    roles.per_joint[i].map(Role::as_str),
+                    Some(j.name.as_str()),
+                    "{label} at yaw {}: {}",
+                    k * 45,
+                    c.skeleton.joints()[i].name
+                );
+            }
+        }
+    }
+}
+
+/// A mech whose feet and knees point backward (every geometric facing cue says it faces
+/// -Z) but whose names say `.L` on +X: the names decide, so left stays left.
+#[test]
+fn names_decide_the_sides_when_the_feet_point_back() {
+    let plain = humanoid();
+    let blender = renamed(&plain, |n| match split_side(n) {
+        (base, Some(true)) => format!("{base}.L"),
+        (base, Some(false)) => format!("{base}.R"),
+        (base, None) => base.to_string(),
+    });
+    let mut joints = blender.skeleton.joints().to_vec();
+    for j in &mut joints {
+        assert!(j.rest.rotation.abs_diff_eq(glam::Quat::IDENTITY, 1e-6));
+        j.rest.translation.z = -j.rest.translation.z;
+        if let Some(t) = &mut j.tip {
+            t.z = -t.z;
+        }
+    }
+    let mech = Character {
+        skeleton: Skeleton::new(joints).unwrap(),
+        ..blender
+    };
+    let roles = recognise_roles(&mech);
+    for (i, j) in plain.skeleton.joints().iter().enumerate() {
+        assert_eq!(roles.per_joint[i].map(Role::as_str), Some(j.name.as_str()));
+    }
+    assert!(
+        (roles.forward - Vec3::Z).length() < 1e-4,
+        "{:?}",
+        roles.forward
+    );
+}
+
+/// Hostile names: a chain as deep as a skeleton may be (65,536 joints), every joint named
+/// a left or right shin with no thigh above any: a walk up the chain from each candidate
+/// looking for its thigh would take two billion steps; recognition stays linear.
+#[test]
+fn a_deep_chain_of_limb_names_is_read_in_linear_time() {
+    let n = ragdoll::skeleton::MAX_JOINTS;
+    let words = ["l-leg", "r-leg"];
+    let joints: Vec<Joint> = (0..n)
+        .map(|i| Joint {
+            name: words[i % words.len()].to_string(),
+            parent: i.checked_sub(1),
+            rest: ragdoll::math::Transform::from_translation(Vec3::new(0.0, -0.01, 0.001)),
+            tip: None,
+        })
+        .collect();
+    let c = Character {
+        skeleton: Skeleton::new(joints).unwrap(),
+        ..humanoid()
+    };
+    let t = std::time::Instant::now();
+    let roles = recognise_roles(&c);
+    // Linear work takes milliseconds; the quadratic walk took seconds.
+    assert!(t.elapsed().as_secs_f32() < 2.0, "{:?}", t.elapsed());
+    assert!(!roles.humanoid);
+}
+
+/// Names that promise a humanoid on a skeleton that is not one (every limb lying flat on
+/// the ground) give a warning that says which check failed; honest names on a creature
+/// give none.
+#[test]
+fn names_that_promise_a_humanoid_the_skeleton_denies_give_a_warning() {
+    let plain = humanoid();
+    let mut flat = plain.clone();
+    let mut joints = plain.skeleton.joints().to_vec();
+    for j in &mut joints {
+        // Every offset turned to lie along the ground: nothing hangs, nothing rises.
+        let t = j.rest.translation;
+        j.rest.translation = Vec3::new(t.x, 0.0, t.z + t.y);
+        j.tip = j.tip.map(|t| Vec3::new(t.x, 0.0, t.z + t.y));
+    }
+    flat.skeleton = Skeleton::new(joints).unwrap();
+    let roles = recognise_roles(&flat);
+    assert!(!roles.humanoid);
+    let w = roles.warning.expect("a warning");
+    assert!(w.contains("joint names"), "{w}");
+    assert!(w.contains("knee"), "{w}");
+    let chain = renamed(&plain, |n| format!("link_{}", n.len()));
+    let roles = recognise_roles(&chain);
+    assert_eq!(roles.warning, None, "{}", roles.why);
+}
