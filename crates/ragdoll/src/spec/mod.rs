@@ -3,7 +3,9 @@
 //! [`Skeleton`](crate::skeleton::Skeleton) and serialisable to TOML so users can tweak it.
 //! Runtime worlds are only ever made from a spec.
 //!
-//! - `roles.rs` recognises pelvis, spine, limbs… from topology and geometry;
+//! - `roles/` recognises pelvis, spine, limbs… in named passes: name hints (or a VRM bone
+//!   table) confirmed by geometry, the shape-only structure search as the fallback, and
+//!   the side from names and facing together;
 //! - `anthropometry.rs` holds body-segment masses and joint ranges (de Leva 1996, DESIGN §3);
 //! - `build.rs` turns a skeleton plus its roles into a spec;
 //! - `validate.rs` holds the bounds every value of a spec is checked against, `file.rs`
