@@ -375,3 +375,56 @@ fn compressed_geometry_is_refused_in_one_sentence_naming_the_extension() {
         );
     }
 }
+
+/// The binary chunk of a GLB.
+fn glb_bin(bytes: &[u8]) -> &[u8] {
+    let json_len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    let at = 20 + json_len;
+    let len = u32::from_le_bytes(bytes[at..at + 4].try_into().unwrap()) as usize;
+    &bytes[at + 8..at + 8 + len]
+}
+
+#[test]
+fn normals_off_unit_length_are_written_at_unit_length() {
+    let joints = [0u16, 1, 0, 0].repeat(7);
+    let (mut json, mut bin) = skinned(&joints, &[1.0, 0.0, 0.0, 0.0].repeat(7));
+    // Twice too long, a little short, zero, and unit ones: as exporters write them.
+    #[rustfmt::skip]
+    let normals = f32s(&[
+        0.0, 0.0, 2.0,  0.0, 0.0, 0.99,  0.0, 0.0, 0.0,  0.0, 0.0, 1.0,
+        0.6, 0.0, 0.8,  0.0, 1.0, 0.0,   0.0, 0.0, 1.0,
+    ]);
+    let view = json["bufferViews"].as_array().unwrap().len();
+    json["bufferViews"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": normals.len()}));
+    bin.extend_from_slice(&normals);
+    json["buffers"][0]["byteLength"] = json!(bin.len());
+    let acc = json["accessors"].as_array().unwrap().len();
+    json["accessors"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({"bufferView": view, "componentType": 5126, "count": 7, "type": "VEC3"}));
+    json["meshes"][0]["primitives"][0]["attributes"]["NORMAL"] = json!(acc);
+    let c = gltf::from_bytes(&glb(&json, &bin), Path::new("normals.glb")).unwrap();
+    let out = export(&c);
+    keep("normals.glb", &out);
+    let (doc, data) = (glb_json(&out), glb_bin(&out));
+    let a = &doc["accessors"][doc["meshes"][0]["primitives"][0]["attributes"]["NORMAL"]
+        .as_u64()
+        .unwrap() as usize];
+    let v = &doc["bufferViews"][a["bufferView"].as_u64().unwrap() as usize];
+    let start = v["byteOffset"].as_u64().unwrap_or(0) as usize
+        + a["byteOffset"].as_u64().unwrap_or(0) as usize;
+    let floats: Vec<f32> = data[start..start + 7 * 12]
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes(b.try_into().unwrap()))
+        .collect();
+    for (i, n) in floats.chunks_exact(3).enumerate() {
+        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        assert!((len - 1.0).abs() < 1e-5, "normal {i}: {n:?}");
+    }
+    // Directions kept: the long one still points along +Z.
+    assert!(floats[2] > 0.999, "{floats:?}");
+}

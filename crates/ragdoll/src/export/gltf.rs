@@ -7,7 +7,8 @@
 //!   buffers are merged into the binary chunk and external or `data:` images become buffer
 //!   views. Skin weights are renormalised to sum 1 (CesiumMan's do not, which the Khronos
 //!   validator counts as errors), joint indices with zero weight are set to 0, and joint
-//!   nodes given as a `matrix` are rewritten as TRS (animated nodes must not use `matrix`).
+//!   nodes given as a `matrix` are rewritten as TRS (animated nodes must not use `matrix`);
+//!   normals off unit length are rescaled (the validator counts each as an error).
 //! - **BVH or built-in input** (no mesh): a fresh glTF with one node per joint, a skin, and
 //!   the ragdoll's bodies drawn as their capsules and boxes, each bound rigidly to its own
 //!   bone (so they never bend or stretch), so the motion is visible in any viewer.
@@ -24,6 +25,7 @@
 
 mod images;
 mod merge;
+mod normals;
 mod shapes;
 
 pub(crate) use shapes::bodies_mesh;
@@ -439,6 +441,7 @@ fn from_source(character: &Character, src: &GltfSource, track: &Track) -> Result
     bin.accessors = take_array(obj, "accessors");
     images::embed_images(obj, &mut bin, src)?;
     renormalise_weights(obj, &doc, &mut bin, src)?;
+    normals::renormalise_normals(obj, &doc, &mut bin, src)?;
     let node_scales = joint_nodes_as_trs(obj, &src.joint_nodes, path)?;
     let animation = ragdoll_animation(
         &mut bin,
