@@ -63,7 +63,7 @@ fn unit_copy(
     }
     let off_unit = |n: &[f32]| {
         let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-        !((len - 1.0).abs() <= UNIT_TOLERANCE)
+        !len.is_finite() || (len - 1.0).abs() > UNIT_TOLERANCE
     };
     if !values.chunks_exact(3).any(off_unit) {
         return Ok(None);
