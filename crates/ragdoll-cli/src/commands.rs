@@ -49,6 +49,11 @@ pub(crate) fn load(file: &Path, a: &ImportArgs) -> Result<Character> {
     for w in &character.warnings {
         eprintln!("warning: {w}");
     }
+    // Names that promise a humanoid the skeleton denies: the ragdoll will not be what the
+    // user expects, so every command says so (recognition is near-linear in joints).
+    if let Some(w) = spec::recognise_roles(&character).warning {
+        eprintln!("warning: {}: {w}", file.display());
+    }
     Ok(character)
 }
 
