@@ -575,3 +575,32 @@ fn bvh_layout_from_skeleton_channels() {
     let head = humanoid().skeleton.find("head").unwrap();
     assert!((l.joints[head].end_site.unwrap() - Vec3::new(0.0, 19.0, 0.0)).length() < 1e-4);
 }
+
+/// A Rokoko export's offsets are bone-local, so its rest pose lies along the ground and its
+/// breadth once passed for its height (9.4 m tall, bodies five times too big); the first
+/// frame, standing, gives the units.
+#[test]
+#[ignore = "needs ../shared/data"]
+fn a_rest_pose_lying_down_takes_its_units_from_the_first_frame() {
+    let path = common::shared_data().join("rigs/animdraw_rokoko_jesse_dance.bvh");
+    let c = bvh::load(&path, &ImportOptions::default()).unwrap();
+    let mut world = vec![Transform::IDENTITY; c.skeleton.len()];
+    c.skeleton
+        .world_from_local(&c.clips[0].frames[0], &mut world);
+    let ys = world.iter().map(|t| t.translation.y);
+    let h = ys.clone().fold(f32::MIN, f32::max) - ys.fold(f32::MAX, f32::min);
+    assert!(
+        (1.4..=2.0).contains(&h),
+        "standing {h} m tall in its first frame"
+    );
+    assert_eq!(layout(&c).metres_per_unit, 0.01);
+    // Units the user gives still win.
+    let opts = ImportOptions {
+        units: Some(Units::M),
+        ..Default::default()
+    };
+    assert_eq!(
+        layout(&bvh::load(&path, &opts).unwrap()).metres_per_unit,
+        1.0
+    );
+}

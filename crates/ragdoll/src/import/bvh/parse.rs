@@ -122,7 +122,7 @@ pub fn parse(text: &str, path: &Path, opts: &ImportOptions) -> Result<Character>
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "bvh".into());
-    Ok(Character {
+    let mut character = Character {
         humanoid_bones: Vec::new(),
         warnings: Vec::new(),
         name,
@@ -130,7 +130,41 @@ pub fn parse(text: &str, path: &Path, opts: &ImportOptions) -> Result<Character>
         meshes: Vec::new(),
         clips,
         source: Source::Bvh(layout),
-    })
+    };
+    if opts.units.is_none()
+        && let Some(better) = units_from_first_frame(&character, metres_per_unit)
+    {
+        crate::import::size::scale(&mut character, (better / metres_per_unit) as f32, path)?;
+    }
+    Ok(character)
+}
+
+/// Metres per unit measured in the first frame, when the rest pose lies down and the first
+/// frame stands up: some exporters (Rokoko) write bone-local offsets, so the rest pose lies
+/// along the ground and the height units are guessed from is its width (a dancer came out
+/// 9.4 m tall, its bodies five times too big). `None` when the rest pose is the better
+/// measure or the first frame picks the same unit.
+fn units_from_first_frame(c: &Character, metres_per_unit: f64) -> Option<f64> {
+    let frame = c.clips.first()?.frames.first()?;
+    let skeleton = &c.skeleton;
+    let mut world = vec![Transform::IDENTITY; skeleton.len()];
+    let in_units = |w: &[Transform]| -> Vec<DVec3> {
+        w.iter()
+            .map(|t| t.translation.as_dvec3() / metres_per_unit)
+            .collect()
+    };
+    let rest = in_units(&skeleton.rest_world());
+    skeleton.world_from_local(frame, &mut world);
+    let posed = in_units(&world);
+    let (rest_e, posed_e) = (extent(&rest), extent(&posed));
+    // Lying down: the rest pose's height under half its breadth, the first frame's at
+    // least twice the rest pose's.
+    let lies = rest_e.y < 0.5 * rest_e.x.max(rest_e.z);
+    if !(lies && posed_e.y > 2.0 * rest_e.y) {
+        return None;
+    }
+    let better = detect_metres_per_unit(&posed, UpAxis::Y);
+    (better != metres_per_unit).then_some(better)
 }
 
 /// File units and axes to the crate's: the up-axis rotation `c` goes into the roots only,
