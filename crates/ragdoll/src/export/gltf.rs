@@ -720,20 +720,27 @@ fn set_influence_attributes(
     prim: usize,
     key: &[(usize, usize)],
 ) {
-    let Some(attrs) = obj
-        .get_mut("meshes")
-        .and_then(|m| m.get_mut(mesh))
-        .and_then(|m| m.get_mut("primitives"))
-        .and_then(|p| p.get_mut(prim))
-        .and_then(|p| p.get_mut("attributes"))
-        .and_then(Value::as_object_mut)
-    else {
+    let Some(attrs) = primitive_attributes(obj, mesh, prim) else {
         return;
     };
     for (k, &(j, w)) in key.iter().enumerate() {
         attrs.insert(format!("JOINTS_{k}"), json!(j));
         attrs.insert(format!("WEIGHTS_{k}"), json!(w));
     }
+}
+
+/// The `attributes` object of primitive `prim` of mesh `mesh`.
+fn primitive_attributes(
+    obj: &mut Map<String, Value>,
+    mesh: usize,
+    prim: usize,
+) -> Option<&mut Map<String, Value>> {
+    obj.get_mut("meshes")
+        .and_then(|m| m.get_mut(mesh))
+        .and_then(|m| m.get_mut("primitives"))
+        .and_then(|p| p.get_mut(prim))
+        .and_then(|p| p.get_mut("attributes"))
+        .and_then(Value::as_object_mut)
 }
 
 /// Rewrites joint nodes given by `matrix` as TRS (glTF forbids animating a `matrix` node)

@@ -43,8 +43,11 @@ pub(super) fn renormalise_normals(
                     new
                 }
             };
-            if let Some(new) = new {
-                set_attribute(obj, mesh.index(), prim.index(), new);
+            if let (Some(new), Some(attrs)) = (
+                new,
+                super::primitive_attributes(obj, mesh.index(), prim.index()),
+            ) {
+                attrs.insert("NORMAL".into(), json!(new));
             }
         }
     }
@@ -81,17 +84,4 @@ fn unit_copy(
         "count": acc.count(),
         "type": "VEC3",
     }))))
-}
-
-fn set_attribute(obj: &mut Map<String, Value>, mesh: usize, prim: usize, accessor: usize) {
-    if let Some(attrs) = obj
-        .get_mut("meshes")
-        .and_then(|m| m.get_mut(mesh))
-        .and_then(|m| m.get_mut("primitives"))
-        .and_then(|p| p.get_mut(prim))
-        .and_then(|p| p.get_mut("attributes"))
-        .and_then(Value::as_object_mut)
-    {
-        attrs.insert("NORMAL".into(), json!(accessor));
-    }
 }
