@@ -7,7 +7,7 @@
 //!   table) confirmed by geometry, the shape-only structure search as the fallback, and
 //!   the side from names and facing together;
 //! - `anthropometry.rs` holds body-segment masses and joint ranges (de Leva 1996, DESIGN §3);
-//! - `build.rs` turns a skeleton plus its roles into a spec;
+//! - `build/` turns a skeleton plus its roles into a spec;
 //! - `validate.rs` holds the bounds every value of a spec is checked against, `file.rs`
 //!   reads a spec file with the line of every mistake.
 
