@@ -408,7 +408,7 @@ impl<'a> Preview<'a> {
                 }
             }
             let meshes: Vec<Cow<'a, SkinnedMesh>> = if character.meshes.is_empty() {
-                vec![Cow::Owned(skinning::bodies_mesh(
+                vec![Cow::Owned(ragdoll::spec::bodies_mesh(
                     &character.skeleton,
                     spec,
                 )?)]

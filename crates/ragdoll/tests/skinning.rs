@@ -124,7 +124,7 @@ fn bad_inputs_are_errors_not_panics() {
 fn rest_pose_gives_back_the_bind_mesh_of_the_humanoid_bodies() {
     let c = ragdoll::skeleton::humanoid();
     let spec = spec::build_spec(&c, &BuildOptions::default()).unwrap();
-    let mesh = skinning::bodies_mesh(&c.skeleton, &spec).unwrap();
+    let mesh = ragdoll::spec::bodies_mesh(&c.skeleton, &spec).unwrap();
     let rest = c.skeleton.rest_world();
     let (p, n) = skinned(&mesh, &rest, &rest);
     assert_close(&p, &mesh.positions, 1e-5, "positions");

@@ -28,8 +28,6 @@ mod merge;
 mod normals;
 mod shapes;
 
-pub(crate) use shapes::bodies_mesh;
-
 use std::collections::{HashMap, HashSet};
 
 use glam::{Mat4, Quat, Vec3};

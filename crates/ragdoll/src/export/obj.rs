@@ -39,7 +39,7 @@ impl ObjSequence {
     /// Prepares the character's skinned meshes, or its ragdoll bodies when it has none.
     pub fn new(character: &Character, spec: &RagdollSpec) -> Result<Self> {
         let meshes = if character.meshes.is_empty() {
-            vec![skinning::bodies_mesh(&character.skeleton, spec)?]
+            vec![crate::spec::bodies_mesh(&character.skeleton, spec)?]
         } else {
             character.meshes.clone()
         };
@@ -120,7 +120,7 @@ mod tests {
         let character = crate::skeleton::humanoid();
         let spec =
             crate::spec::build_spec(&character, &crate::spec::BuildOptions::default()).unwrap();
-        let mesh = skinning::bodies_mesh(&character.skeleton, &spec).unwrap();
+        let mesh = crate::spec::bodies_mesh(&character.skeleton, &spec).unwrap();
         let mut seq = ObjSequence::new(&character, &spec).unwrap();
         let text = seq.frame(&character.skeleton.rest_world()).unwrap();
         let v = text.lines().filter(|l| l.starts_with("v ")).count();

@@ -14,14 +14,13 @@
 
 use glam::{Mat3, Mat4, Vec3, Vec4};
 
-use super::{Skeleton, SkinnedMesh};
+use super::SkinnedMesh;
 use crate::error::{Error, Result};
 use crate::math::Transform;
-use crate::spec::RagdollSpec;
 
 /// Fills `out` with one skinning matrix per joint: `pose_world[j] · rest_world[j]⁻¹`.
 ///
-/// `rest_world` is [`Skeleton::rest_world`] (computed once per character); `pose_world` is
+/// `rest_world` is [`Skeleton::rest_world`](super::Skeleton::rest_world) (computed once per character); `pose_world` is
 /// a frame of a [`Track`](crate::track::Track). Fails when the two differ in length or a
 /// rest transform cannot be inverted (a zero scale).
 ///
@@ -126,31 +125,4 @@ fn blend(joints: &[u16; 4], weights: Vec4, matrices: &[Mat4]) -> Option<Mat4> {
     }
     // A vertex with no weight at all would collapse to the origin; leave it where it is.
     Some(if total == 0.0 { Mat4::IDENTITY } else { m })
-}
-
-/// The ragdoll's bodies (capsules and boxes, as the simulation sees them) as one mesh in
-/// the world rest pose, each vertex bound rigidly (weight 1) to its own body's bone, so
-/// every shape moves exactly as its body did: what a character without a skinned mesh (BVH,
-/// the built-in humanoid) is drawn as. The same triangles and weights the glTF exporter
-/// writes for such characters.
-///
-/// ```
-/// use ragdoll::{skeleton::{humanoid, skinning}, spec};
-///
-/// let character = humanoid();
-/// let spec = spec::build_spec(&character, &spec::BuildOptions::default()).unwrap();
-/// let mesh = skinning::bodies_mesh(&character.skeleton, &spec).unwrap();
-/// assert_eq!(mesh.positions.len(), mesh.weights.len());
-/// assert!(mesh.weights.iter().all(|w| (w.x + w.y + w.z + w.w - 1.0).abs() < 1e-5));
-/// ```
-pub fn bodies_mesh(skeleton: &Skeleton, spec: &RagdollSpec) -> Result<SkinnedMesh> {
-    let body = crate::export::gltf::bodies_mesh(skeleton, spec)?;
-    Ok(SkinnedMesh {
-        name: format!("{} ragdoll bodies", spec.name),
-        positions: body.positions,
-        normals: body.normals,
-        indices: body.indices,
-        joints: body.joints,
-        weights: body.weights,
-    })
 }

@@ -269,6 +269,7 @@ mod anthropometry;
 mod build;
 mod file;
 mod frames;
+mod mesh;
 mod roles;
 mod validate;
 
@@ -278,6 +279,7 @@ pub use frames::{
 
 pub(crate) use build::shapes_overlap;
 pub use build::{BuildOptions, build_spec};
+pub use mesh::bodies_mesh;
 pub use roles::{Roles, recognise_roles};
 pub use validate::{
     MAX_BODIES, MAX_BODY_KG, MAX_CONE_TILT_DEG, MAX_DISABLED_PAIRS, MAX_JOINT_MASS_RATIO,
