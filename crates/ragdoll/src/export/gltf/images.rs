@@ -147,6 +147,12 @@ fn remap(v: &mut Value, key: &str, map: &[Option<usize>]) -> bool {
 /// textures, renumbering what remains.
 fn drop_images(obj: &mut Map<String, Value>, gone: &HashSet<usize>) {
     let image_map = remove_entries(obj, "images", gone);
+    if let Some(meta) = obj
+        .get_mut("extensions")
+        .and_then(|e| e.pointer_mut("/VRMC_vrm/meta"))
+    {
+        remap_or_remove(meta, "thumbnailImage", &image_map);
+    }
     let mut dead_textures = HashSet::new();
     if let Some(Value::Array(textures)) = obj.get_mut("textures") {
         for (t, texture) in textures.iter_mut().enumerate() {
@@ -169,6 +175,44 @@ fn drop_images(obj: &mut Map<String, Value>, gone: &HashSet<usize>) {
         materials
             .iter_mut()
             .for_each(|m| remap_texture_infos(m, &texture_map));
+    }
+    remap_vrm0_textures(obj, &texture_map);
+}
+
+/// Points `v[key]` at its entry's new index, removing the key when that entry is gone.
+fn remap_or_remove(v: &mut Value, key: &str, map: &[Option<usize>]) {
+    if !remap(v, key, map)
+        && let Some(o) = v.as_object_mut()
+    {
+        o.remove(key);
+    }
+}
+
+/// VRM 0.x names textures outside the core materials: the avatar's thumbnail
+/// (`VRM.meta.texture`) and each MToon material's `textureProperties` (name → texture
+/// index). Left unrenumbered they would show the wrong texture, or none that exists.
+fn remap_vrm0_textures(obj: &mut Map<String, Value>, map: &[Option<usize>]) {
+    let Some(vrm) = obj.get_mut("extensions").and_then(|e| e.get_mut("VRM")) else {
+        return;
+    };
+    if let Some(meta) = vrm.get_mut("meta") {
+        remap_or_remove(meta, "texture", map);
+    }
+    if let Some(Value::Array(materials)) = vrm.get_mut("materialProperties") {
+        for m in materials {
+            if let Some(Value::Object(props)) = m.get_mut("textureProperties") {
+                props.retain(|_, index| {
+                    match index.as_u64().and_then(|i| map.get(i as usize).copied()) {
+                        Some(Some(new)) => {
+                            *index = json!(new);
+                            true
+                        }
+                        Some(None) => false,
+                        None => true,
+                    }
+                });
+            }
+        }
     }
 }
 
@@ -219,6 +263,38 @@ mod tests {
                 "extensions": {"KHR_materials_clearcoat": {}}
             })
         );
+    }
+
+    #[test]
+    fn vrm_thumbnails_and_mtoon_textures_follow_the_renumbering() {
+        let mut doc = json!({
+            "images": [{"uri": "gone.png"}, {"uri": "b.png"}, {"uri": "c.png"}],
+            "textures": [{"source": 0}, {"source": 1}, {"source": 2}],
+            "extensions": {
+                "VRMC_vrm": {"meta": {"name": "x", "thumbnailImage": 2}},
+                "VRM": {
+                    "meta": {"title": "x", "texture": 0},
+                    "materialProperties": [{"textureProperties": {"_MainTex": 2, "_ShadeTexture": 0}}]
+                }
+            }
+        });
+        drop_images(doc.as_object_mut().unwrap(), &HashSet::from([0]));
+        assert_eq!(
+            doc["extensions"]["VRMC_vrm"]["meta"],
+            json!({"name": "x", "thumbnailImage": 1})
+        );
+        assert_eq!(doc["extensions"]["VRM"]["meta"], json!({"title": "x"}));
+        assert_eq!(
+            doc["extensions"]["VRM"]["materialProperties"][0]["textureProperties"],
+            json!({"_MainTex": 1})
+        );
+        // The thumbnail image itself gone: the reference goes with it.
+        let mut doc = json!({
+            "images": [{"uri": "gone.png"}],
+            "extensions": {"VRMC_vrm": {"meta": {"thumbnailImage": 0}}}
+        });
+        drop_images(doc.as_object_mut().unwrap(), &HashSet::from([0]));
+        assert_eq!(doc["extensions"]["VRMC_vrm"]["meta"], json!({}));
     }
 
     #[test]
