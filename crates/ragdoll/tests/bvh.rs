@@ -604,3 +604,65 @@ fn a_rest_pose_lying_down_takes_its_units_from_the_first_frame() {
         1.0
     );
 }
+
+/// Bone-local offsets (every bone along +X, as Rokoko writes them): the zero-rotation pose
+/// lies on the ground, the first frame stands. The skeleton takes the first frame's
+/// rotations as its rest, so the ragdoll is built standing, while every frame's world pose
+/// stays what the file says, and survives a BVH round trip.
+const LYING_REST: &str = "HIERARCHY
+ROOT Hips
+{
+  OFFSET 0 0 0
+  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+  JOINT Spine
+  {
+    OFFSET 20 0 0
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    JOINT Head
+    {
+      OFFSET 40 0 0
+      CHANNELS 3 Zrotation Xrotation Yrotation
+      End Site
+      {
+        OFFSET 20 0 0
+      }
+    }
+  }
+  JOINT LeftLeg
+  {
+    OFFSET -90 10 0
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    End Site
+    {
+      OFFSET 0 0 0
+    }
+  }
+}
+MOTION
+Frames: 2
+Frame Time: 0.033333
+0 90 0 90 0 0 0 0 0 0 0 0 0 0 0
+0 90 0 90 0 0 30 0 0 0 0 0 0 0 0
+";
+
+#[test]
+fn a_rest_pose_lying_down_stands_in_the_first_frame_and_keeps_every_world_pose() {
+    let c = parse(LYING_REST).unwrap();
+    let rest = c.skeleton.rest_world();
+    let head = c.skeleton.find("Head").unwrap();
+    let leg = c.skeleton.find("LeftLeg").unwrap();
+    // Standing: the head 0.6 m above the hips, the leg's joint 0.9 m below them.
+    let up = rest[head].translation - rest[0].translation;
+    assert!((up - Vec3::new(0.0, 0.6, 0.0)).length() < 1e-4, "{up}");
+    let down = rest[leg].translation - rest[0].translation;
+    assert!((down.y + 0.9).abs() < 1e-4, "{down}");
+    // The frames still put every joint where the file does: frame 1 turns the spine 30°.
+    let track = track_of_clip(&c);
+    let spine_to_head = track.frames[1][head].translation - track.frames[1][1].translation;
+    let tilt = spine_to_head.angle_between(Vec3::Y).to_degrees();
+    assert!((tilt - 30.0).abs() < 1e-3, "{tilt}");
+    let text = to_bvh(&c, &track).unwrap();
+    let again = parse(&text).unwrap();
+    let err = max_position_error(&c, &track, &again, &track_of_clip(&again));
+    assert!(err < 1e-3, "{err} m");
+}

@@ -131,31 +131,40 @@ pub fn parse(text: &str, path: &Path, opts: &ImportOptions) -> Result<Character>
         clips,
         source: Source::Bvh(layout),
     };
-    if opts.units.is_none()
-        && let Some(better) = units_from_first_frame(&character, metres_per_unit)
-    {
-        crate::import::size::scale(&mut character, (better / metres_per_unit) as f32, path)?;
+    if let Some(standing) = standing_first_frame(&character) {
+        character.skeleton = standing;
+        if opts.units.is_none() {
+            let rest: Vec<DVec3> = (character.skeleton.rest_world().iter())
+                .map(|t| t.translation.as_dvec3() / metres_per_unit)
+                .collect();
+            let better = detect_metres_per_unit(&rest, UpAxis::Y);
+            if better != metres_per_unit {
+                let factor = (better / metres_per_unit) as f32;
+                crate::import::size::scale(&mut character, factor, path)?;
+            }
+        }
     }
     Ok(character)
 }
 
-/// Metres per unit measured in the first frame, when the rest pose lies down and the first
-/// frame stands up: some exporters (Rokoko) write bone-local offsets, so the rest pose lies
-/// along the ground and the height units are guessed from is its width (a dancer came out
-/// 9.4 m tall, its bodies five times too big). `None` when the rest pose is the better
-/// measure or the first frame picks the same unit.
-fn units_from_first_frame(c: &Character, metres_per_unit: f64) -> Option<f64> {
+/// The skeleton with the first frame's rotations as its rest rotations, when the rest pose
+/// lies down and the first frame stands up. Some exporters (Rokoko) write bone-local
+/// offsets, so the zero-rotation pose lies along the ground: the height units are guessed
+/// from would be its width (a dancer came out 9.4 m tall, its bodies five times too big),
+/// and the ragdoll's joint axes and limits, which are built in the rest pose, would be
+/// those of a body lying in a pose it never takes (a knee hinge about the wrong axis).
+/// Offsets and the motion are unchanged, so every frame's world pose is what the file
+/// says; only the pose the skeleton calls rest, and that BVH export measures its channels
+/// from, stands. `None` when the rest pose already stands (or the file has no frame).
+fn standing_first_frame(c: &Character) -> Option<Skeleton> {
     let frame = c.clips.first()?.frames.first()?;
     let skeleton = &c.skeleton;
     let mut world = vec![Transform::IDENTITY; skeleton.len()];
-    let in_units = |w: &[Transform]| -> Vec<DVec3> {
-        w.iter()
-            .map(|t| t.translation.as_dvec3() / metres_per_unit)
-            .collect()
-    };
-    let rest = in_units(&skeleton.rest_world());
+    let points =
+        |w: &[Transform]| -> Vec<DVec3> { w.iter().map(|t| t.translation.as_dvec3()).collect() };
+    let rest = points(&skeleton.rest_world());
     skeleton.world_from_local(frame, &mut world);
-    let posed = in_units(&world);
+    let posed = points(&world);
     let (rest_e, posed_e) = (extent(&rest), extent(&posed));
     // Lying down: the rest pose's height under half its breadth, the first frame's at
     // least twice the rest pose's.
@@ -163,8 +172,13 @@ fn units_from_first_frame(c: &Character, metres_per_unit: f64) -> Option<f64> {
     if !(lies && posed_e.y > 2.0 * rest_e.y) {
         return None;
     }
-    let better = detect_metres_per_unit(&posed, UpAxis::Y);
-    (better != metres_per_unit).then_some(better)
+    let joints: Vec<Joint> = (skeleton.joints().iter().zip(frame))
+        .map(|(j, f)| Joint {
+            rest: Transform::new(j.rest.translation, f.rotation),
+            ..j.clone()
+        })
+        .collect();
+    Skeleton::new(joints).ok()
 }
 
 /// File units and axes to the crate's: the up-axis rotation `c` goes into the roots only,
