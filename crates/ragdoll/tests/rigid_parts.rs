@@ -1,0 +1,763 @@
+//! Characters made of rigid mesh parts under a node hierarchy, without a skin (issue 11
+//! item 5): the hierarchy is the skeleton and each part rides on one body. The files are
+//! made here: a box robot with humanoid names, a four-link arm, VRM 0.x and 1.0 bare
+//! hierarchies, and a single unskinned mesh that still goes to the automatic rig.
+//!
+//! The baked robot is read back with the `gltf` crate and posed here, node by node, from
+//! its own animation (not through our importer), so a defect shared by our writer and our
+//! reader cannot cancel out.
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+
+use glam::{Mat4, Quat, Vec3};
+use ragdoll::import::{self, ImportOptions};
+use ragdoll::skeleton::{Character, Source};
+use ragdoll::spec::{self, Role};
+use ragdoll::world::{World, WorldSettings};
+use serde_json::{Value, json};
+
+/// A glTF document under construction: one binary buffer, its views and accessors.
+#[derive(Default)]
+struct Doc {
+    bin: Vec<u8>,
+    views: Vec<Value>,
+    accessors: Vec<Value>,
+    meshes: Vec<Value>,
+    nodes: Vec<Value>,
+}
+
+impl Doc {
+    fn view(&mut self, bytes: &[u8]) -> usize {
+        while self.bin.len() % 4 != 0 {
+            self.bin.push(0);
+        }
+        self.views
+            .push(json!({"buffer": 0, "byteOffset": self.bin.len(), "byteLength": bytes.len()}));
+        self.bin.extend_from_slice(bytes);
+        self.views.len() - 1
+    }
+
+    fn accessor(&mut self, a: Value) -> usize {
+        self.accessors.push(a);
+        self.accessors.len() - 1
+    }
+
+    /// A box mesh `size` wide, centred on `centre` in its node's space; returns its index.
+    fn cuboid(&mut self, name: &str, size: Vec3, centre: Vec3) -> usize {
+        let h = size / 2.0;
+        let mut pos = Vec::new();
+        for k in 0..8 {
+            let s = Vec3::new(
+                if k & 1 == 0 { -1.0 } else { 1.0 },
+                if k & 2 == 0 { -1.0 } else { 1.0 },
+                if k & 4 == 0 { -1.0 } else { 1.0 },
+            );
+            pos.push(centre + s * h);
+        }
+        let faces: [[u16; 4]; 6] = [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ];
+        let idx: Vec<u16> = faces
+            .iter()
+            .flat_map(|f| [f[0], f[1], f[2], f[0], f[2], f[3]])
+            .collect();
+        let pbytes: Vec<u8> = pos
+            .iter()
+            .flat_map(|p| p.to_array())
+            .flat_map(f32::to_le_bytes)
+            .collect();
+        let ibytes: Vec<u8> = idx.iter().flat_map(|i| i.to_le_bytes()).collect();
+        let pv = self.view(&pbytes);
+        let iv = self.view(&ibytes);
+        let lo = centre - h;
+        let hi = centre + h;
+        let pa = self.accessor(json!({"bufferView": pv, "componentType": 5126, "count": 8,
+            "type": "VEC3", "min": lo.to_array(), "max": hi.to_array()}));
+        let ia = self.accessor(
+            json!({"bufferView": iv, "componentType": 5123, "count": idx.len(), "type": "SCALAR"}),
+        );
+        self.meshes.push(
+            json!({"name": name, "primitives": [{"attributes": {"POSITION": pa}, "indices": ia}]}),
+        );
+        self.meshes.len() - 1
+    }
+
+    /// A node at `at` (relative to its parent) carrying `mesh`; returns its index.
+    fn node(&mut self, name: &str, at: Vec3, mesh: Option<usize>) -> usize {
+        let mut n = json!({"name": name, "translation": at.to_array()});
+        if let Some(m) = mesh {
+            n["mesh"] = json!(m);
+        }
+        self.nodes.push(n);
+        self.nodes.len() - 1
+    }
+
+    fn child(&mut self, parent: usize, child: usize) {
+        let c = self.nodes[parent]
+            .as_object_mut()
+            .unwrap()
+            .entry("children")
+            .or_insert(json!([]));
+        c.as_array_mut().unwrap().push(json!(child));
+    }
+
+    /// The GLB, with `extensions` at the top level and `roots` as the scene.
+    fn glb(self, roots: &[usize], extensions: Value) -> Vec<u8> {
+        let mut doc = json!({
+            "asset": {"version": "2.0"},
+            "buffers": [{"byteLength": self.bin.len()}],
+            "bufferViews": self.views,
+            "accessors": self.accessors,
+            "meshes": self.meshes,
+            "nodes": self.nodes,
+            "scenes": [{"nodes": roots}],
+            "scene": 0,
+        });
+        if self.bufferless() {
+            for k in ["buffers", "bufferViews", "accessors", "meshes"] {
+                doc.as_object_mut().unwrap().remove(k);
+            }
+        }
+        if let Some(o) = extensions.as_object().filter(|o| !o.is_empty()) {
+            let used: Vec<&String> = o.keys().collect();
+            doc["extensionsUsed"] = json!(used);
+            doc["extensions"] = extensions;
+        }
+        glb(&doc, &self.bin)
+    }
+
+    fn bufferless(&self) -> bool {
+        self.bin.is_empty()
+    }
+}
+
+fn glb(json: &Value, bin: &[u8]) -> Vec<u8> {
+    let mut j = serde_json::to_vec(json).unwrap();
+    while j.len() % 4 != 0 {
+        j.push(b' ');
+    }
+    let mut b = bin.to_vec();
+    while b.len() % 4 != 0 {
+        b.push(0);
+    }
+    let total = 12 + 8 + j.len() + if b.is_empty() { 0 } else { 8 + b.len() };
+    let mut out = b"glTF".to_vec();
+    out.extend(2u32.to_le_bytes());
+    out.extend((total as u32).to_le_bytes());
+    out.extend((j.len() as u32).to_le_bytes());
+    out.extend(b"JSON");
+    out.extend(j);
+    if !b.is_empty() {
+        out.extend((b.len() as u32).to_le_bytes());
+        out.extend(b"BIN\0");
+        out.extend(b);
+    }
+    out
+}
+
+/// A fresh folder of this test process.
+fn scratch() -> PathBuf {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    static N: AtomicUsize = AtomicUsize::new(0);
+    let k = N.fetch_add(1, Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!("ragdoll-rigid-{}-{k}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn load_as(name: &str, bytes: &[u8]) -> Character {
+    let dir = scratch();
+    let path = dir.join(name);
+    std::fs::write(&path, bytes).unwrap();
+    let c = import::load(&path, &ImportOptions::default()).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    c
+}
+
+/// The parts of the box robot: name, parent part, position relative to the parent node,
+/// box size and box centre in the node's space. Faces +Z, so its left is +X; 1.85 m tall,
+/// its feet's soles at y = 0.
+const ROBOT: [(&str, Option<&str>, [f32; 3], [f32; 3], [f32; 3]); 14] = [
+    (
+        "Hips",
+        None,
+        [0.0, 1.0, 0.0],
+        [0.30, 0.16, 0.20],
+        [0.0, 0.0, 0.0],
+    ),
+    (
+        "Spine",
+        Some("Hips"),
+        [0.0, 0.1, 0.0],
+        [0.28, 0.18, 0.18],
+        [0.0, 0.1, 0.0],
+    ),
+    (
+        "Chest",
+        Some("Spine"),
+        [0.0, 0.2, 0.0],
+        [0.38, 0.28, 0.22],
+        [0.0, 0.14, 0.0],
+    ),
+    (
+        "Head",
+        Some("Chest"),
+        [0.0, 0.32, 0.0],
+        [0.20, 0.23, 0.22],
+        [0.0, 0.115, 0.0],
+    ),
+    (
+        "UpperArm.L",
+        Some("Chest"),
+        [0.24, 0.24, 0.0],
+        [0.08, 0.28, 0.08],
+        [0.0, -0.14, 0.0],
+    ),
+    (
+        "LowerArm.L",
+        Some("UpperArm.L"),
+        [0.0, -0.28, 0.0],
+        [0.07, 0.26, 0.07],
+        [0.0, -0.13, 0.0],
+    ),
+    (
+        "UpperArm.R",
+        Some("Chest"),
+        [-0.24, 0.24, 0.0],
+        [0.08, 0.28, 0.08],
+        [0.0, -0.14, 0.0],
+    ),
+    (
+        "LowerArm.R",
+        Some("UpperArm.R"),
+        [0.0, -0.28, 0.0],
+        [0.07, 0.26, 0.07],
+        [0.0, -0.13, 0.0],
+    ),
+    (
+        "UpperLeg.L",
+        Some("Hips"),
+        [0.1, -0.05, 0.0],
+        [0.12, 0.42, 0.12],
+        [0.0, -0.21, 0.0],
+    ),
+    (
+        "LowerLeg.L",
+        Some("UpperLeg.L"),
+        [0.0, -0.42, 0.0],
+        [0.10, 0.40, 0.10],
+        [0.0, -0.2, 0.0],
+    ),
+    (
+        "Foot.L",
+        Some("LowerLeg.L"),
+        [0.0, -0.4, 0.0],
+        [0.10, 0.08, 0.24],
+        [0.0, -0.09, 0.05],
+    ),
+    (
+        "UpperLeg.R",
+        Some("Hips"),
+        [-0.1, -0.05, 0.0],
+        [0.12, 0.42, 0.12],
+        [0.0, -0.21, 0.0],
+    ),
+    (
+        "LowerLeg.R",
+        Some("UpperLeg.R"),
+        [0.0, -0.42, 0.0],
+        [0.10, 0.40, 0.10],
+        [0.0, -0.2, 0.0],
+    ),
+    (
+        "Foot.R",
+        Some("LowerLeg.R"),
+        [0.0, -0.4, 0.0],
+        [0.10, 0.08, 0.24],
+        [0.0, -0.09, 0.05],
+    ),
+];
+
+/// The robot under an `Armature` node (folded away: it carries nothing and has one
+/// child), with an empty `HeadTop` marker leaf (dropped); the two upper arms share one mesh,
+/// as instanced parts do.
+fn robot() -> Vec<u8> {
+    let mut d = Doc::default();
+    let armature = d.node("Armature", Vec3::ZERO, None);
+    let mut index = HashMap::new();
+    let mut arm_mesh = None;
+    for (name, parent, at, size, centre) in ROBOT {
+        let mesh = if name.starts_with("UpperArm") {
+            *arm_mesh
+                .get_or_insert_with(|| d.cuboid("upper arm", Vec3::from(size), Vec3::from(centre)))
+        } else {
+            d.cuboid(name, Vec3::from(size), Vec3::from(centre))
+        };
+        let n = d.node(name, Vec3::from(at), Some(mesh));
+        d.child(parent.map_or(armature, |p| index[p]), n);
+        index.insert(name, n);
+    }
+    let marker = d.node("HeadTop", Vec3::new(0.0, 0.25, 0.0), None);
+    d.child(index["Head"], marker);
+    d.glb(&[armature], json!({}))
+}
+
+/// Each node's world matrix at every key of the baked file's `ragdoll` animation, and each
+/// mesh node's vertices (in the node's space), read with the `gltf` crate alone.
+struct Baked {
+    /// Per frame, per node.
+    worlds: Vec<Vec<Mat4>>,
+    /// (node, vertices) of every mesh node.
+    parts: Vec<(usize, Vec<Vec3>)>,
+}
+
+fn read_baked(bytes: &[u8]) -> Baked {
+    let g = gltf::Gltf::from_slice(bytes).unwrap();
+    let blob = g.blob.clone().unwrap();
+    let get = |_: gltf::Buffer| Some(blob.as_slice());
+    let n = g.nodes().len();
+    let mut parent = vec![None; n];
+    let mut trs = Vec::new();
+    for node in g.nodes() {
+        for c in node.children() {
+            parent[c.index()] = Some(node.index());
+        }
+        let (t, r, s) = node.transform().decomposed();
+        trs.push((Vec3::from(t), Quat::from_array(r), Vec3::from(s)));
+    }
+    let anim = g
+        .animations()
+        .find(|a| a.name() == Some("ragdoll"))
+        .unwrap();
+    let mut keys: Vec<Vec<(usize, gltf::animation::Property, Vec<[f32; 4]>)>> = Vec::new();
+    let mut frames = 0;
+    for ch in anim.channels() {
+        let r = ch.reader(get);
+        let times: Vec<f32> = r.read_inputs().unwrap().collect();
+        frames = times.len();
+        use gltf::animation::util::ReadOutputs;
+        let vals: Vec<[f32; 4]> = match r.read_outputs().unwrap() {
+            ReadOutputs::Translations(t) => t.map(|v| [v[0], v[1], v[2], 0.0]).collect(),
+            ReadOutputs::Scales(t) => t.map(|v| [v[0], v[1], v[2], 0.0]).collect(),
+            ReadOutputs::Rotations(q) => q.into_f32().collect(),
+            ReadOutputs::MorphTargetWeights(_) => continue,
+        };
+        keys.push(vec![(
+            ch.target().node().index(),
+            ch.target().property(),
+            vals,
+        )]);
+    }
+    let order: Vec<usize> = {
+        let mut o: Vec<usize> = (0..n).filter(|&i| parent[i].is_none()).collect();
+        let mut k = 0;
+        while k < o.len() {
+            let i = o[k];
+            o.extend(g.nodes().nth(i).unwrap().children().map(|c| c.index()));
+            k += 1;
+        }
+        o
+    };
+    let mut worlds = Vec::new();
+    for f in 0..frames {
+        let mut local = trs.clone();
+        for (node, prop, vals) in keys.iter().flatten() {
+            let v = vals[f];
+            use gltf::animation::Property as P;
+            match prop {
+                P::Translation => local[*node].0 = Vec3::new(v[0], v[1], v[2]),
+                P::Rotation => local[*node].1 = Quat::from_array(v),
+                P::Scale => local[*node].2 = Vec3::new(v[0], v[1], v[2]),
+                P::MorphTargetWeights => {}
+            }
+        }
+        let mut w = vec![Mat4::IDENTITY; n];
+        for &i in &order {
+            let (t, r, s) = local[i];
+            let m = Mat4::from_scale_rotation_translation(s, r, t);
+            w[i] = parent[i].map_or(m, |p| w[p] * m);
+        }
+        worlds.push(w);
+    }
+    let mut parts = Vec::new();
+    for node in g.nodes() {
+        let Some(mesh) = node.mesh() else { continue };
+        let mut verts = Vec::new();
+        for p in mesh.primitives() {
+            verts.extend(p.reader(get).read_positions().unwrap().map(Vec3::from));
+        }
+        parts.push((node.index(), verts));
+    }
+    Baked { worlds, parts }
+}
+
+/// (a) The box robot is a humanoid with one body per part; dropped for 3 s, every part
+/// keeps its shape (no distance between two of its vertices changes by 1e-3 of the height)
+/// and nothing goes more than 4 % of the height below the floor.
+#[test]
+fn a_box_robot_of_rigid_parts_is_a_humanoid_whose_parts_stay_rigid() {
+    let c = load_as("robot.glb", &robot());
+    let names: Vec<&str> = c
+        .skeleton
+        .joints()
+        .iter()
+        .map(|j| j.name.as_str())
+        .collect();
+    let parts: Vec<&str> = ROBOT.iter().map(|p| p.0).collect();
+    assert_eq!(
+        names, parts,
+        "the parts, without Armature or the HeadTop marker"
+    );
+    assert!(matches!(c.source, Source::Gltf(_)));
+    assert_eq!(
+        c.meshes.len(),
+        14,
+        "one mesh per part, the shared arm mesh twice"
+    );
+    // Every vertex on its own part's joint, with weight 1, where the file puts it.
+    let rest = c.skeleton.rest_world();
+    for (m, (name, ..)) in c.meshes.iter().zip(ROBOT) {
+        let j = c.skeleton.find(name).unwrap();
+        assert!(m.joints.iter().all(|js| js[0] as usize == j), "{name}");
+        assert!(m.weights.iter().all(|w| *w == glam::Vec4::X), "{name}");
+        let centre = m.positions.iter().sum::<Vec3>() / m.positions.len() as f32;
+        let local = rest[j].inverse().transform_point(centre);
+        let want = Vec3::from(ROBOT.iter().find(|p| p.0 == name).unwrap().4);
+        assert!((local - want).length() < 1e-5, "{name}: {local} vs {want}");
+    }
+    let lowest = c
+        .meshes
+        .iter()
+        .flat_map(|m| &m.positions)
+        .map(|p| p.y)
+        .fold(f32::INFINITY, f32::min);
+    assert!(
+        lowest.abs() < 1e-5,
+        "the soles stand on y = 0, not {lowest}"
+    );
+
+    let roles = spec::recognise_roles(&c);
+    assert!(roles.humanoid, "{}", roles.why);
+    for (role, name) in [
+        (Role::Pelvis, "Hips"),
+        (Role::Chest, "Chest"),
+        (Role::Head, "Head"),
+        (Role::UpperArmL, "UpperArm.L"),
+        (Role::ForearmR, "LowerArm.R"),
+        (Role::ThighL, "UpperLeg.L"),
+        (Role::ShinR, "LowerLeg.R"),
+        (Role::FootL, "Foot.L"),
+    ] {
+        let j = roles.joint(role).unwrap_or_else(|| panic!("no {role:?}"));
+        assert_eq!(c.skeleton.joints()[j].name, name, "{role:?}");
+    }
+    let spec = spec::build_spec(&c, &Default::default()).unwrap();
+    let mut bones: Vec<&str> = spec.bodies.iter().map(|b| b.bone.as_str()).collect();
+    bones.sort();
+    let mut want = parts.clone();
+    want.sort();
+    assert_eq!(bones, want, "one body per part");
+
+    let (mut world, _) = World::with_ragdoll(&c, &spec, &WorldSettings::default()).unwrap();
+    world.run(3.0);
+    let track = world.into_track();
+    let out = ragdoll::export::gltf::to_glb(&c, &spec, &track).unwrap();
+    let baked = read_baked(&out);
+    assert_eq!(baked.parts.len(), 14);
+    assert!(baked.worlds.len() > 60, "{} frames", baked.worlds.len());
+    let height = 1.85;
+    let mut lowest = f32::INFINITY;
+    let mut worst = 0.0f32;
+    let mut moved = 0.0f32;
+    for w in &baked.worlds {
+        for (node, verts) in &baked.parts {
+            let posed: Vec<Vec3> = verts
+                .iter()
+                .map(|v| w[*node].transform_point3(*v))
+                .collect();
+            let at_rest: Vec<Vec3> = verts
+                .iter()
+                .map(|v| baked.worlds[0][*node].transform_point3(*v))
+                .collect();
+            for a in 0..posed.len() {
+                lowest = lowest.min(posed[a].y);
+                moved = moved.max(posed[a].distance(at_rest[a]));
+                for b in a + 1..posed.len() {
+                    let d = posed[a].distance(posed[b]) - at_rest[a].distance(at_rest[b]);
+                    worst = worst.max(d.abs());
+                }
+            }
+        }
+    }
+    eprintln!(
+        "robot: moved {moved} m, worst {worst} m, lowest {lowest} m, {} frames",
+        baked.worlds.len()
+    );
+    assert!(moved > 0.3, "the robot only moved {moved} m: not a fall");
+    assert!(worst < 1e-3 * height, "a part changed shape by {worst} m");
+    assert!(
+        lowest > -0.04 * height,
+        "a vertex went {} m below the floor",
+        -lowest
+    );
+}
+
+/// (b) Four nested links that no name calls a humanoid: a chain, one body per link.
+#[test]
+fn a_four_link_arm_is_a_chain_of_its_links() {
+    let mut d = Doc::default();
+    let mut parent = None;
+    for k in 0..4 {
+        let mesh = d.cuboid(
+            &format!("link{k}"),
+            Vec3::new(0.1, 0.4, 0.1),
+            Vec3::new(0.0, 0.2, 0.0),
+        );
+        let at = if k == 0 {
+            Vec3::new(0.0, 0.05, 0.0)
+        } else {
+            Vec3::new(0.0, 0.4, 0.0)
+        };
+        let n = d.node(&format!("Link{k}"), at, Some(mesh));
+        if let Some(p) = parent {
+            d.child(p, n);
+        }
+        parent = Some(n);
+    }
+    let c = load_as("arm.glb", &d.glb(&[0], json!({})));
+    assert_eq!(c.skeleton.len(), 4);
+    for (k, j) in c.skeleton.joints().iter().enumerate() {
+        assert_eq!(j.name, format!("Link{k}"));
+        assert_eq!(j.parent, k.checked_sub(1));
+    }
+    let roles = spec::recognise_roles(&c);
+    assert!(!roles.humanoid);
+    assert_eq!(roles.per_joint, vec![Some(Role::Chain); 4], "{}", roles.why);
+    let spec = spec::build_spec(&c, &Default::default()).unwrap();
+    assert_eq!(spec.bodies.len(), 4);
+    assert_eq!(spec.joints.len(), 3);
+}
+
+/// A bare humanoid hierarchy (no skin, no mesh) in centimetres-free metres: hips, spine,
+/// chest, neck, head, and two arms and legs, under a `Root` node; with `meshes`, the hips
+/// and head carry a box each.
+fn bare(extension: &str, meshes: bool) -> Vec<u8> {
+    let mut d = Doc::default();
+    let root = d.node("Root", Vec3::ZERO, None);
+    let bones: [(&str, &str, Option<&str>, [f32; 3]); 17] = [
+        ("hips", "J_Bip_C_Hips", None, [0.0, 1.0, 0.0]),
+        ("spine", "J_Bip_C_Spine", Some("hips"), [0.0, 0.1, 0.0]),
+        ("chest", "J_Bip_C_Chest", Some("spine"), [0.0, 0.2, 0.0]),
+        ("neck", "J_Bip_C_Neck", Some("chest"), [0.0, 0.25, 0.0]),
+        ("head", "J_Bip_C_Head", Some("neck"), [0.0, 0.1, 0.0]),
+        (
+            "leftUpperArm",
+            "J_Bip_L_UpperArm",
+            Some("chest"),
+            [0.2, 0.22, 0.0],
+        ),
+        (
+            "leftLowerArm",
+            "J_Bip_L_LowerArm",
+            Some("leftUpperArm"),
+            [0.28, 0.0, 0.0],
+        ),
+        (
+            "leftHand",
+            "J_Bip_L_Hand",
+            Some("leftLowerArm"),
+            [0.25, 0.0, 0.0],
+        ),
+        (
+            "rightUpperArm",
+            "J_Bip_R_UpperArm",
+            Some("chest"),
+            [-0.2, 0.22, 0.0],
+        ),
+        (
+            "rightLowerArm",
+            "J_Bip_R_LowerArm",
+            Some("rightUpperArm"),
+            [-0.28, 0.0, 0.0],
+        ),
+        (
+            "rightHand",
+            "J_Bip_R_Hand",
+            Some("rightLowerArm"),
+            [-0.25, 0.0, 0.0],
+        ),
+        (
+            "leftUpperLeg",
+            "J_Bip_L_UpperLeg",
+            Some("hips"),
+            [0.1, -0.05, 0.0],
+        ),
+        (
+            "leftLowerLeg",
+            "J_Bip_L_LowerLeg",
+            Some("leftUpperLeg"),
+            [0.0, -0.45, 0.0],
+        ),
+        (
+            "leftFoot",
+            "J_Bip_L_Foot",
+            Some("leftLowerLeg"),
+            [0.0, -0.42, 0.0],
+        ),
+        (
+            "rightUpperLeg",
+            "J_Bip_R_UpperLeg",
+            Some("hips"),
+            [-0.1, -0.05, 0.0],
+        ),
+        (
+            "rightLowerLeg",
+            "J_Bip_R_LowerLeg",
+            Some("rightUpperLeg"),
+            [0.0, -0.45, 0.0],
+        ),
+        (
+            "rightFoot",
+            "J_Bip_R_Foot",
+            Some("rightLowerLeg"),
+            [0.0, -0.42, 0.0],
+        ),
+    ];
+    let mut index = HashMap::new();
+    for (bone, name, parent, at) in bones {
+        let mesh = (meshes && matches!(bone, "hips" | "head"))
+            .then(|| d.cuboid(bone, Vec3::new(0.25, 0.2, 0.2), Vec3::new(0.0, 0.1, 0.0)));
+        let n = d.node(name, Vec3::from(at), mesh);
+        d.child(parent.map_or(root, |p| index[p]), n);
+        index.insert(bone, n);
+    }
+    // Spring-bone and look-at leaves that carry nothing: not joints.
+    let hair = d.node("HairJoint", Vec3::new(0.0, 0.2, 0.0), None);
+    d.child(index["head"], hair);
+    let table = if extension == "VRM" {
+        let list: Vec<Value> = bones
+            .iter()
+            .map(|b| json!({"bone": b.0, "node": index[b.0]}))
+            .collect();
+        json!({"VRM": {"humanoid": {"humanBones": list}}})
+    } else {
+        let map: serde_json::Map<String, Value> = bones
+            .iter()
+            .map(|b| (b.0.to_string(), json!({"node": index[b.0]})))
+            .collect();
+        json!({"VRMC_vrm": {"specVersion": "1.0", "humanoid": {"humanBones": map}}})
+    };
+    d.glb(&[root], table)
+}
+
+/// (c) VRM 0.x and 1.0 bare hierarchies, with no mesh or with rigid meshes on two bones,
+/// are humanoids from their tables: every table bone a joint, `HairJoint` dropped.
+#[test]
+fn vrm_bare_hierarchies_are_humanoids_from_their_tables() {
+    for ext in ["VRM", "VRMC_vrm"] {
+        for meshes in [false, true] {
+            let what = format!("{ext}, meshes: {meshes}");
+            let c = load_as("bare.vrm", &bare(ext, meshes));
+            assert_eq!(c.skeleton.len(), 17, "{what}");
+            assert!(c.skeleton.find("HairJoint").is_none(), "{what}");
+            assert!(c.skeleton.find("Root").is_none(), "{what}");
+            assert_eq!(c.humanoid_bones.len(), 17, "{what}");
+            assert_eq!(c.meshes.len(), if meshes { 2 } else { 0 }, "{what}");
+            assert!(c.warnings.is_empty(), "{what}: {:?}", c.warnings);
+            let roles = spec::recognise_roles(&c);
+            assert!(roles.humanoid, "{what}: {}", roles.why);
+            assert!(
+                roles.why.contains("humanoid bone table"),
+                "{what}: {}",
+                roles.why
+            );
+            for (role, name) in [
+                (Role::Pelvis, "J_Bip_C_Hips"),
+                (Role::Head, "J_Bip_C_Head"),
+                (Role::HandL, "J_Bip_L_Hand"),
+                (Role::FootR, "J_Bip_R_Foot"),
+            ] {
+                let j = roles.joint(role).unwrap();
+                assert_eq!(c.skeleton.joints()[j].name, name, "{what}: {role:?}");
+            }
+            let spec = spec::build_spec(&c, &Default::default()).unwrap();
+            let (mut world, _) = World::with_ragdoll(&c, &spec, &WorldSettings::default()).unwrap();
+            world.run(0.5);
+            let track = world.into_track();
+            ragdoll::export::gltf::to_glb(&c, &spec, &track).unwrap();
+        }
+    }
+}
+
+/// (d) One unskinned mesh on one node (a statue) is rigged automatically, as before; so are
+/// parts that are all siblings, which say nothing about joints.
+#[test]
+fn one_mesh_or_sibling_parts_are_still_rigged_automatically() {
+    let mut d = Doc::default();
+    let mesh = d.cuboid("statue", Vec3::new(0.4, 1.6, 0.3), Vec3::new(0.0, 0.8, 0.0));
+    d.node("Statue", Vec3::ZERO, Some(mesh));
+    let c = load_as("statue.glb", &d.glb(&[0], json!({})));
+    assert!(matches!(c.source, Source::Mesh(_)));
+    assert!(c.skeleton.len() > 1, "the automatic rig has several joints");
+
+    let mut d = Doc::default();
+    let group = d.node("Group", Vec3::ZERO, None);
+    for k in 0..3 {
+        let m = d.cuboid("piece", Vec3::new(0.3, 0.5, 0.3), Vec3::new(0.0, 0.25, 0.0));
+        let n = d.node(
+            &format!("Piece{k}"),
+            Vec3::new(0.0, 0.5 * k as f32, 0.0),
+            Some(m),
+        );
+        d.child(group, n);
+    }
+    let c = load_as("pieces.glb", &d.glb(&[group], json!({})));
+    assert!(matches!(c.source, Source::Mesh(_)));
+}
+
+/// A rigid-part file with its own animation of the part nodes reads it as a clip.
+#[test]
+fn animated_part_nodes_are_the_clip() {
+    let mut d = Doc::default();
+    let a = d.cuboid("a", Vec3::splat(0.2), Vec3::ZERO);
+    let b = d.cuboid("b", Vec3::splat(0.2), Vec3::ZERO);
+    let base = d.node("Base", Vec3::new(0.0, 0.5, 0.0), Some(a));
+    let tip = d.node("Tip", Vec3::new(0.0, 0.4, 0.0), Some(b));
+    d.child(base, tip);
+    let times: Vec<u8> = [0.0f32, 1.0].iter().flat_map(|x| x.to_le_bytes()).collect();
+    let rots: Vec<u8> = [Quat::IDENTITY, Quat::from_rotation_z(1.0)]
+        .iter()
+        .flat_map(|q| q.to_array())
+        .flat_map(f32::to_le_bytes)
+        .collect();
+    let tv = d.view(&times);
+    let rv = d.view(&rots);
+    let ta = d.accessor(json!({"bufferView": tv, "componentType": 5126, "count": 2,
+        "type": "SCALAR", "min": [0.0], "max": [1.0]}));
+    let ra =
+        d.accessor(json!({"bufferView": rv, "componentType": 5126, "count": 2, "type": "VEC4"}));
+    let mut doc_bytes = d.glb(&[base], json!({}));
+    // Add the animation to the JSON chunk.
+    let json_len = u32::from_le_bytes(doc_bytes[12..16].try_into().unwrap()) as usize;
+    let mut doc: Value = serde_json::from_slice(&doc_bytes[20..20 + json_len]).unwrap();
+    doc["animations"] = json!([{"name": "Wag", "samplers": [{"input": ta, "output": ra}],
+        "channels": [{"sampler": 0, "target": {"node": tip, "path": "rotation"}}]}]);
+    let bin_start = 20 + json_len + 8;
+    doc_bytes = glb(&doc, &doc_bytes[bin_start..]);
+    let c = load_as("wag.glb", &doc_bytes);
+    assert_eq!(c.clips.len(), 1);
+    assert_eq!(c.clips[0].name, "Wag");
+    let tip_j = c.skeleton.find("Tip").unwrap();
+    let last = c.clips[0].frames.last().unwrap();
+    assert!(
+        last[tip_j]
+            .rotation
+            .abs_diff_eq(Quat::from_rotation_z(1.0), 1e-5)
+    );
+}
