@@ -155,7 +155,16 @@ pub fn glb(json: &Value, bin: &[u8]) -> Vec<u8> {
 /// The parts of the box robot: name, parent part, position relative to the parent node,
 /// box size and box centre in the node's space. Faces +Z, so its left is +X; 1.85 m tall,
 /// its feet's soles at y = 0.
-pub const ROBOT: [(&str, Option<&str>, [f32; 3], [f32; 3], [f32; 3]); 14] = [
+/// A part: name, parent part, position relative to the parent node, box size, box centre.
+pub type Part = (
+    &'static str,
+    Option<&'static str>,
+    [f32; 3],
+    [f32; 3],
+    [f32; 3],
+);
+
+pub const ROBOT: [Part; 14] = [
     (
         "Hips",
         None,
