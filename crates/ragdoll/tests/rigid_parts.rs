@@ -195,6 +195,11 @@ fn a_box_robot_of_rigid_parts_is_a_humanoid_whose_parts_stay_rigid() {
     world.run(3.0);
     let track = world.into_track();
     let out = ragdoll::export::gltf::to_glb(&c, &spec, &track).unwrap();
+    // Read back, the baked file is the same rigid-part robot playing the fall.
+    let back = load_as("baked.glb", &out);
+    assert_eq!(back.skeleton, c.skeleton);
+    assert_eq!(back.clips[0].name, "ragdoll");
+    assert_eq!(back.clips[0].frames.len(), track.frames.len());
     let baked = read_baked(&out);
     assert_eq!(baked.parts.len(), 14);
     assert!(baked.worlds.len() > 60, "{} frames", baked.worlds.len());
