@@ -3,8 +3,9 @@
 //! Choices, and why:
 //! - **VRM** avatars are GLB files; their humanoid bone table (VRM 0.x or 1.0) becomes
 //!   [`Character::humanoid_bones`] (see `vrm.rs`): the file's own word on which joint is
-//!   the hips or the left hand. A file with a table but no skin is rigged like any mesh
-//!   without one, with a warning that the table is not used.
+//!   the hips or the left hand. A file with a table but no skin (a bare node hierarchy,
+//!   perhaps with rigid meshes on its nodes) gets its skeleton from that hierarchy
+//!   (`rigid.rs`).
 //! - **Units**: glTF says metres, but files exported in centimetres are common (the Fox
 //!   sample is 79 m tall read as metres). [`ImportOptions::units`] reads the numbers in
 //!   another unit and [`ImportOptions::height_m`] scales to a height; the scale goes into
@@ -28,12 +29,17 @@
 //!   Morph targets are ignored. Up to four influences are kept per vertex (the strongest,
 //!   renormalised to sum 1). Bad weights are repaired with a warning, not refused (see
 //!   `mesh::read_influences`), and so are missing image files (`data::missing_images`).
-//! - **No skin**: a file with triangle meshes but no skin (a scanned or modelled prop) is
-//!   rigged like an OBJ ([`crate::rig`]): every triangle primitive of every node in the
-//!   default scene (or of every node, when there is no scene) in world space. Its source is
-//!   then [`Source::Mesh`] (a fresh glTF is written on export; materials are not kept).
+//! - **No skin, rigid parts**: when the meshes sit on nodes of a hierarchy (a robot whose
+//!   parts are separate meshes on nested nodes), or a VRM table names the nodes, the node
+//!   hierarchy is the skeleton and each part is bound rigidly to its node (`rigid.rs` has
+//!   the exact rule). The file is written back as it came, its nodes animated.
+//! - **No skin, one part**: a file with triangle meshes but no skin and no such hierarchy
+//!   (a scanned or modelled prop) is rigged like an OBJ ([`crate::rig`]): every triangle
+//!   primitive of every node in the default scene (or of every node, when there is no
+//!   scene) in world space. Its source is then [`Source::Mesh`] (a fresh glTF is written on
+//!   export; materials are not kept).
 //! - **Clips**: one per animation that moves at least one joint (animations of other nodes
-//!   only are skipped), sampled from its first to its last key at the key spacing when the
+//!   only are skipped; a rigid-part character's joints are its nodes), sampled from its first to its last key at the key spacing when the
 //!   keys are regular, else at 30 fps. `CUBICSPLINE` is evaluated as the cubic Hermite
 //!   spline it is (better than the key values alone, and just as cheap). Joints without a
 //!   channel keep their rest; channels on non-joint nodes are ignored.
@@ -48,6 +54,7 @@
 mod clips;
 mod data;
 mod mesh;
+mod rigid;
 mod skin;
 mod vrm;
 
@@ -62,7 +69,7 @@ pub use data::{MAX_ACCESSOR_COMPONENTS, MAX_BUFFER_BYTES, MAX_JSON_OBJECTS, MAX_
 use mesh::Reads;
 pub use mesh::{MAX_INFLUENCE_SETS, WEIGHT_SUM_TOLERANCE};
 pub(crate) use mesh::{SkinSlots, read_influences};
-use mesh::{read_meshes, read_unskinned};
+use mesh::{read_meshes, read_unskinned, scene_nodes};
 use skin::{NodeGraph, Rig, choose_skin};
 
 use super::{ImportOptions, size};
@@ -84,7 +91,8 @@ pub struct GltfSource {
     /// Every buffer's bytes, resolved (GLB chunk, `data:` URI or file) and cut to the
     /// declared `byteLength`.
     pub buffers: Vec<Vec<u8>>,
-    /// Index of the skin the skeleton was built from.
+    /// Index of the skin the skeleton was built from; 0, and unused, for a file without a
+    /// skin whose skeleton is its node hierarchy (rigid parts, a bare VRM hierarchy).
     pub skin: usize,
     /// Node index of each skeleton joint, in skeleton order.
     pub joint_nodes: Vec<usize>,
@@ -184,31 +192,29 @@ pub fn from_bytes_with(
     };
     let graph = NodeGraph::new(&doc, path)?;
     let table = vrm::read_table(&json, doc.nodes().len(), path)?;
-    if doc.skins().len() == 0 {
-        let mut meshes = read_unskinned(&doc, &graph, &reader)?;
-        if meshes.is_empty() {
-            return Err(format_err(
-                path,
-                "skins",
-                "has no skin and no triangle mesh: nothing to build a ragdoll from",
-            ));
-        }
-        for p in meshes.iter_mut().flat_map(|m| &mut m.positions) {
-            *p *= units;
-        }
-        size::scale_meshes_to_height(&mut meshes, opts.height_m, path)?;
-        let mut c = super::obj::rigged_character(file_stem(path), meshes, rig, path)?;
-        c.warnings.extend(table.map(|t| t.unused_warning(path)));
-        return Ok(c);
-    }
-    let skin_index = choose_skin(&doc, path)?;
-    let skin = doc
-        .skins()
-        .nth(skin_index)
-        .ok_or_else(|| format_err(path, "skins", "skin index out of range"))?;
-    let rig = Rig::new(&doc, &skin, &graph, path)?;
+    let no_skin = doc.skins().len() == 0;
+    let (skin_index, rig, meshes, mut warnings) = if no_skin {
+        let in_scene = scene_nodes(&doc);
+        let table_nodes = table.as_ref().map(vrm::Table::nodes);
+        let Some(nodes) =
+            rigid::part_nodes(&doc, &graph, in_scene.as_ref(), table_nodes.as_deref())
+        else {
+            return rig_unskinned(&doc, &graph, &reader, opts, rig, path);
+        };
+        let rig = Rig::from_nodes(&doc, nodes, &graph);
+        let meshes = rigid::read_parts(&doc, &rig, &graph, in_scene.as_ref(), &reader)?;
+        (0, rig, meshes, Vec::new())
+    } else {
+        let skin_index = choose_skin(&doc, path)?;
+        let skin = doc
+            .skins()
+            .nth(skin_index)
+            .ok_or_else(|| format_err(path, "skins", "skin index out of range"))?;
+        let rig = Rig::new(&doc, &skin, &graph, path)?;
+        let (meshes, warnings) = read_meshes(&doc, &skin, &rig, &graph, &reader)?;
+        (skin_index, rig, meshes, warnings)
+    };
     let skeleton = Skeleton::new(rig.joints.clone())?;
-    let (meshes, mut warnings) = read_meshes(&doc, &skin, &rig, &graph, &reader)?;
     warnings.extend(data::missing_images(&json, &dir));
     let clips = read_clips(&doc, &rig, &skeleton, &reader)?;
     let (humanoid_bones, table_warnings) = match table {
@@ -238,6 +244,32 @@ pub fn from_bytes_with(
         size::scale_to_height(&mut character, h, path)?;
     }
     Ok(character)
+}
+
+/// A file without a skin whose meshes are one part: every triangle primitive in world
+/// space, rigged automatically like an OBJ.
+fn rig_unskinned(
+    doc: &gltf::Document,
+    graph: &NodeGraph,
+    reader: &Reads,
+    opts: &ImportOptions,
+    rig: &RigOptions,
+    path: &Path,
+) -> Result<Character> {
+    let units = opts.units.map_or(1.0, |u| u.to_metres());
+    let mut meshes = read_unskinned(doc, graph, reader)?;
+    if meshes.is_empty() {
+        return Err(format_err(
+            path,
+            "skins",
+            "has no skin and no triangle mesh: nothing to build a ragdoll from",
+        ));
+    }
+    for p in meshes.iter_mut().flat_map(|m| &mut m.positions) {
+        *p *= units;
+    }
+    size::scale_meshes_to_height(&mut meshes, opts.height_m, path)?;
+    super::obj::rigged_character(file_stem(path), meshes, rig, path)
 }
 
 fn file_stem(path: &Path) -> String {

@@ -18,6 +18,23 @@ use super::skin::{NodeGraph, Rig};
 use crate::error::Result;
 use crate::skeleton::SkinnedMesh;
 
+/// The nodes of the default scene (of the first scene when none is the default), or
+/// `None` when the file has no scene: then every node counts.
+pub(super) fn scene_nodes(doc: &gltf::Document) -> Option<HashSet<usize>> {
+    doc.default_scene()
+        .or_else(|| doc.scenes().next())
+        .map(|scene| {
+            let mut keep = HashSet::new();
+            let mut stack: Vec<gltf::Node> = scene.nodes().collect();
+            while let Some(n) = stack.pop() {
+                if keep.insert(n.index()) {
+                    stack.extend(n.children());
+                }
+            }
+            keep
+        })
+}
+
 /// Every triangle primitive of the nodes of the default scene (all nodes when the file
 /// has no scene), in world space: the meshes of a file without a skin, to be rigged.
 pub(super) fn read_unskinned(
@@ -25,65 +42,73 @@ pub(super) fn read_unskinned(
     graph: &NodeGraph,
     reader: &Reads,
 ) -> Result<Vec<SkinnedMesh>> {
-    let in_scene: Option<HashSet<usize>> =
-        doc.default_scene()
-            .or_else(|| doc.scenes().next())
-            .map(|scene| {
-                let mut keep = HashSet::new();
-                let mut stack: Vec<gltf::Node> = scene.nodes().collect();
-                while let Some(n) = stack.pop() {
-                    if keep.insert(n.index()) {
-                        stack.extend(n.children());
-                    }
-                }
-                keep
-            });
+    let in_scene = scene_nodes(doc);
     let mut out = Vec::new();
     for node in doc.nodes() {
-        let Some(mesh) = node.mesh() else { continue };
         if in_scene
             .as_ref()
             .is_some_and(|k| !k.contains(&node.index()))
         {
             continue;
         }
-        let world = graph.world[node.index()];
-        let normal_mat = Mat3::from_mat4(world).inverse().transpose();
-        for prim in mesh.primitives() {
-            let Some(pos_acc) = prim.get(&Semantic::Positions) else {
-                continue;
-            };
-            if prim.mode() != Mode::Triangles {
-                continue;
-            }
-            reader.expect_dims(&pos_acc, &[Dimensions::Vec3], "POSITION")?;
-            let (pos, _) = reader.floats(&pos_acc)?;
-            let n = pos.len() / 3;
-            let indices = read_indices(reader, &prim, n)?;
-            let normals = match prim.get(&Semantic::Normals) {
-                Some(a) if a.count() == n && a.dimensions() == Dimensions::Vec3 => {
-                    let (f, _) = reader.floats(&a)?;
-                    f.chunks_exact(3)
-                        .map(|c| (normal_mat * Vec3::from_slice(c)).normalize_or(Vec3::Y))
-                        .collect()
-                }
-                _ => Vec::new(),
-            };
-            out.push(SkinnedMesh {
-                name: mesh
-                    .name()
-                    .map(str::to_string)
-                    .unwrap_or_else(|| format!("mesh{}", mesh.index())),
-                positions: pos
-                    .chunks_exact(3)
-                    .map(|c| world.transform_point3(Vec3::from_slice(c)))
-                    .collect(),
-                normals,
-                indices: indices[..indices.len() / 3 * 3].to_vec(),
-                joints: Vec::new(),
-                weights: Vec::new(),
-            });
+        out.extend(read_node_meshes(&node, graph, reader)?);
+    }
+    Ok(out)
+}
+
+/// Whether `mesh` has a primitive [`read_node_meshes`] reads: triangles with positions.
+pub(super) fn has_triangles(mesh: &gltf::Mesh) -> bool {
+    mesh.primitives()
+        .any(|p| p.mode() == Mode::Triangles && p.get(&Semantic::Positions).is_some())
+}
+
+/// The triangle primitives of a node's mesh, in world space (the node's rest world
+/// transform applied), without skin weights; none when the node has no mesh.
+pub(super) fn read_node_meshes(
+    node: &gltf::Node,
+    graph: &NodeGraph,
+    reader: &Reads,
+) -> Result<Vec<SkinnedMesh>> {
+    let Some(mesh) = node.mesh() else {
+        return Ok(Vec::new());
+    };
+    let world = graph.world[node.index()];
+    let normal_mat = Mat3::from_mat4(world).inverse().transpose();
+    let mut out = Vec::new();
+    for prim in mesh.primitives() {
+        let Some(pos_acc) = prim.get(&Semantic::Positions) else {
+            continue;
+        };
+        if prim.mode() != Mode::Triangles {
+            continue;
         }
+        reader.expect_dims(&pos_acc, &[Dimensions::Vec3], "POSITION")?;
+        let (pos, _) = reader.floats(&pos_acc)?;
+        let n = pos.len() / 3;
+        let indices = read_indices(reader, &prim, n)?;
+        let normals = match prim.get(&Semantic::Normals) {
+            Some(a) if a.count() == n && a.dimensions() == Dimensions::Vec3 => {
+                let (f, _) = reader.floats(&a)?;
+                f.chunks_exact(3)
+                    .map(|c| (normal_mat * Vec3::from_slice(c)).normalize_or(Vec3::Y))
+                    .collect()
+            }
+            _ => Vec::new(),
+        };
+        out.push(SkinnedMesh {
+            name: mesh
+                .name()
+                .map(str::to_string)
+                .unwrap_or_else(|| format!("mesh{}", mesh.index())),
+            positions: pos
+                .chunks_exact(3)
+                .map(|c| world.transform_point3(Vec3::from_slice(c)))
+                .collect(),
+            normals,
+            indices: indices[..indices.len() / 3 * 3].to_vec(),
+            joints: Vec::new(),
+            weights: Vec::new(),
+        });
     }
     Ok(out)
 }

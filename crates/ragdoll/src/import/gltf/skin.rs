@@ -178,6 +178,13 @@ impl Rig {
                 ));
             }
         }
+        Ok(Self::from_nodes(doc, slots, graph))
+    }
+
+    /// The skeleton of these nodes (distinct, each a valid node index), as if they were
+    /// the joints of a skin in this order: what a file without a skin gets from its node
+    /// hierarchy (`rigid.rs`).
+    pub(super) fn from_nodes(doc: &gltf::Document, slots: Vec<usize>, graph: &NodeGraph) -> Self {
         // Nearest ancestor joint of each slot, then the skin's own order with any joint
         // listed before its parent moved after it: files already in parent-first order
         // (most, and every file we write) keep their joint order through a round trip.
@@ -229,14 +236,14 @@ impl Rig {
             offsets.push(offset);
             node_rest.push(graph.local[node]);
         }
-        Ok(Rig {
+        Rig {
             joints,
             nodes,
             offsets,
             slot_to_joint,
             node_to_joint,
             node_rest,
-        })
+        }
     }
 
     /// The skin slot of the skeleton's first root joint (joints are ordered parents

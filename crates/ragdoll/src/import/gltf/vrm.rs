@@ -254,14 +254,10 @@ impl Table {
         (bones, warnings)
     }
 
-    /// The warning for a table that cannot be used because the file has no skin.
-    pub(super) fn unused_warning(&self, path: &Path) -> String {
-        format!(
-            "{}: {}: names {} bones, but the file has no skin and a bare node hierarchy is not read as a skeleton yet, so the mesh is rigged automatically and the table is not used",
-            path.display(),
-            self.key,
-            self.bones.len()
-        )
+    /// The nodes the table names: joints of a skeleton read from a bare node hierarchy
+    /// (`rigid.rs`), whatever else they carry.
+    pub(super) fn nodes(&self) -> Vec<usize> {
+        self.bones.iter().map(|&(_, n)| n).collect()
     }
 }
 
