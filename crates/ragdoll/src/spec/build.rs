@@ -19,7 +19,7 @@ use std::collections::{HashMap, HashSet};
 use glam::{Mat3, Quat, Vec3};
 
 use super::anthropometry::*;
-use super::roles::{Rig, Roles, recognise_roles};
+use super::roles::{Rig, Roles};
 use super::{
     BodySpec, CollisionSpec, JointKind, JointSpec, RagdollSpec, Role, SPEC_FORMAT_VERSION, Shape,
 };
@@ -104,6 +104,16 @@ pub fn cone_centre(cone_tilt_deg: [f32; 2]) -> Vec3 {
 
 /// Builds a spec from a character's skeleton, skin and recognised roles.
 pub fn build_spec(character: &Character, opts: &BuildOptions) -> Result<RagdollSpec> {
+    build_spec_with_roles(character, opts, None)
+}
+
+/// [`build_spec`] with the roles a roles file gives ([`super::roles_with_file`]) where
+/// there is one.
+pub fn build_spec_with_roles(
+    character: &Character,
+    opts: &BuildOptions,
+    roles: Option<&super::RoleFile>,
+) -> Result<RagdollSpec> {
     if let Some(m) = opts.total_mass_kg
         && !(m.is_finite() && m > 0.0)
     {
@@ -112,7 +122,7 @@ pub fn build_spec(character: &Character, opts: &BuildOptions) -> Result<RagdollS
             message: format!("must be a positive number of kilograms, got {m}"),
         });
     }
-    let roles = recognise_roles(character);
+    let roles = super::roles_for(character, roles)?;
     let rig = Rig::new(character);
     let b = Builder::new(&rig, &roles, opts);
     let mut spec = b.spec(character)?;
