@@ -92,8 +92,9 @@ impl RoleFile {
             let mut message = e.message().trim().replace('\n', " ");
             // toml names neither the key nor why a repeated one matters here.
             if message == "duplicate key" {
-                let start = text[..pos.min(text.len())].rfind('\n').map_or(0, |i| i + 1);
-                let key = text[start..].split(['=', '\n']).next().unwrap_or("").trim();
+                let before = text.get(..pos).unwrap_or("");
+                let start = before.rfind('\n').map_or(0, |i| i + 1);
+                let key = text.get(start..).unwrap_or("").split(['=', '\n']).next().unwrap_or("").trim();
                 message = format!("{key}: given twice; each role names one joint");
             }
             err(pos, message)
