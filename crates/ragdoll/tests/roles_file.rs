@@ -7,11 +7,13 @@ use glam::{Quat, Vec3};
 use ragdoll::math::Transform;
 use ragdoll::skeleton::{Character, Joint, Skeleton, humanoid};
 use ragdoll::spec::{
-    BuildOptions, RoleFile, Role, build_spec_with_roles, recognise_roles, roles_with_file,
+    BuildOptions, Role, RoleFile, build_spec_with_roles, recognise_roles, roles_with_file,
 };
 
 fn example(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/roles").join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples/roles")
+        .join(name)
 }
 
 /// The built-in humanoid with Mixamo's joint names and the `HeadTop_End` leaf it has.
@@ -79,7 +81,11 @@ fn the_mixamo_example_gives_every_role_to_the_joint_it_names() {
     let end = c.skeleton.find("mixamorig:HeadTop_End").unwrap();
     assert_eq!(roles.per_joint[end], None);
     assert!(roles.from_file[end]);
-    assert!((roles.forward - Vec3::Z).length() < 1e-4, "{:?}", roles.forward);
+    assert!(
+        (roles.forward - Vec3::Z).length() < 1e-4,
+        "{:?}",
+        roles.forward
+    );
     let spec = build_spec_with_roles(&c, &BuildOptions::default(), Some(&file)).unwrap();
     assert_eq!(spec.bodies.len(), 16, "one body per role but the neck's");
 }
@@ -92,7 +98,14 @@ fn a_partial_file_changes_only_what_it_names() {
     let s = &c.skeleton;
     assert_eq!(roles.per_joint[s.find("neck").unwrap()], Some(Role::Head));
     assert_eq!(roles.per_joint[s.find("head").unwrap()], None);
-    for name in ["pelvis", "chest", "thigh_l", "forearm_r", "hand_l", "foot_r"] {
+    for name in [
+        "pelvis",
+        "chest",
+        "thigh_l",
+        "forearm_r",
+        "hand_l",
+        "foot_r",
+    ] {
         let j = s.find(name).unwrap();
         assert_eq!(roles.per_joint[j], recognised.per_joint[j], "{name}");
         assert!(!roles.from_file[j], "{name}");
@@ -116,15 +129,42 @@ fn ignoring_a_joint_takes_its_body_away() {
 fn mistakes_are_one_sentence_naming_the_line_and_the_key() {
     let c = humanoid();
     let cases: &[(&str, &str)] = &[
-        ("[roles]\nknee_l = \"shin_l\"\n", "roles.toml: line 2: knee_l: not a role"),
-        ("[roles]\nthigh_l = \"thig_l\"\n", "line 2: thigh_l: \"thig_l\" is not a joint of humanoid; the closest names are \"thigh_l\""),
-        ("[roles]\npelvis = \"pelvis\"\nchest = \"pelvis\"\n", "line 3: chest: \"pelvis\" is already given as pelvis (line 2)"),
-        ("[roles]\nthigh_l = \"thigh_l\"\nthigh_r = \"thigh_l\"\n", "line 3: thigh_r: \"thigh_l\" is also thigh_l (line 2): the left and right sides must be different joints"),
-        ("[roles]\nthigh_l = \"thigh_l\"\nthigh_l = \"thigh_r\"\n", "line 3: thigh_l: given twice"),
-        ("[roles]\nthigh_l = \"shin_l\"\nshin_l = \"thigh_l\"\n", "line 3: shin_l: \"thigh_l\" does not hang from \"shin_l\""),
-        ("[roles]\nupper_arm_l = \"upper_arm_r\"\nforearm_l = \"forearm_r\"\nupper_arm_r = \"upper_arm_l\"\nforearm_r = \"forearm_l\"\n", "line 2: upper_arm_l: the left arm is on the right leg's side"),
-        ("[roles]\nthigh_l = 3\n", "line 2: thigh_l: must be a joint name in quotes"),
-        ("ignore = \"hand_l\"\n", "line 1: ignore: must be a list of joint names"),
+        (
+            "[roles]\nknee_l = \"shin_l\"\n",
+            "roles.toml: line 2: knee_l: not a role",
+        ),
+        (
+            "[roles]\nthigh_l = \"thig_l\"\n",
+            "line 2: thigh_l: \"thig_l\" is not a joint of humanoid; the closest names are \"thigh_l\"",
+        ),
+        (
+            "[roles]\npelvis = \"pelvis\"\nchest = \"pelvis\"\n",
+            "line 3: chest: \"pelvis\" is already given as pelvis (line 2)",
+        ),
+        (
+            "[roles]\nthigh_l = \"thigh_l\"\nthigh_r = \"thigh_l\"\n",
+            "line 3: thigh_r: \"thigh_l\" is also thigh_l (line 2): the left and right sides must be different joints",
+        ),
+        (
+            "[roles]\nthigh_l = \"thigh_l\"\nthigh_l = \"thigh_r\"\n",
+            "line 3: thigh_l: given twice",
+        ),
+        (
+            "[roles]\nthigh_l = \"shin_l\"\nshin_l = \"thigh_l\"\n",
+            "line 3: shin_l: \"thigh_l\" does not hang from \"shin_l\"",
+        ),
+        (
+            "[roles]\nupper_arm_l = \"upper_arm_r\"\nforearm_l = \"forearm_r\"\nupper_arm_r = \"upper_arm_l\"\nforearm_r = \"forearm_l\"\n",
+            "line 2: upper_arm_l: the left arm is on the right leg's side",
+        ),
+        (
+            "[roles]\nthigh_l = 3\n",
+            "line 2: thigh_l: must be a joint name in quotes",
+        ),
+        (
+            "ignore = \"hand_l\"\n",
+            "line 1: ignore: must be a list of joint names",
+        ),
         ("bones = 1\n", "line 1: bones: unknown key"),
         ("\n", "line 1: names no role"),
     ];
@@ -159,11 +199,8 @@ fn a_knee_above_its_hip_is_refused() {
 #[ignore = "needs RAGDOLL_DATA"]
 fn the_robi_example_holds_on_the_real_rig() {
     let data = PathBuf::from(std::env::var("RAGDOLL_DATA").expect("RAGDOLL_DATA"));
-    let c = ragdoll::import::load(
-        &data.join("rigs/godot_robi_ik.glb"),
-        &Default::default(),
-    )
-    .unwrap();
+    let c =
+        ragdoll::import::load(&data.join("rigs/godot_robi_ik.glb"), &Default::default()).unwrap();
     let file = RoleFile::load(&example("godot_robi_ik.toml")).unwrap();
     let roles = roles_with_file(&c, &file).unwrap();
     assert!(roles.humanoid, "{}", roles.why);

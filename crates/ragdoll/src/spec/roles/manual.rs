@@ -94,7 +94,13 @@ impl RoleFile {
             if message == "duplicate key" {
                 let before = text.get(..pos).unwrap_or("");
                 let start = before.rfind('\n').map_or(0, |i| i + 1);
-                let key = text.get(start..).unwrap_or("").split(['=', '\n']).next().unwrap_or("").trim();
+                let key = text
+                    .get(start..)
+                    .unwrap_or("")
+                    .split(['=', '\n'])
+                    .next()
+                    .unwrap_or("")
+                    .trim();
                 message = format!("{key}: given twice; each role names one joint");
             }
             err(pos, message)
@@ -123,7 +129,15 @@ impl RoleFile {
                         if key == "ignore" {
                             for (joint, pos) in joint_list(rv, |m| err(rv.span().start, m))? {
                                 let line = crate::spec::line_at(text, pos);
-                                push(&mut file, Entry { role: None, joint, line }, pos)?;
+                                push(
+                                    &mut file,
+                                    Entry {
+                                        role: None,
+                                        joint,
+                                        line,
+                                    },
+                                    pos,
+                                )?;
                             }
                             continue;
                         }
@@ -132,35 +146,63 @@ impl RoleFile {
                             .copied()
                             .find(|r| r.as_str() == key)
                             .ok_or_else(|| {
-                                err(rk.span().start, format!("{key}: not a role; {}", role_names()))
+                                err(
+                                    rk.span().start,
+                                    format!("{key}: not a role; {}", role_names()),
+                                )
                             })?;
                         let DeValue::String(joint) = rv.get_ref() else {
                             return Err(err(
                                 rv.span().start,
-                                format!("{key}: must be a joint name in quotes, not a {}", rv.get_ref().type_str()),
+                                format!(
+                                    "{key}: must be a joint name in quotes, not a {}",
+                                    rv.get_ref().type_str()
+                                ),
                             ));
                         };
-                        let (line, pos) = (crate::spec::line_at(text, rk.span().start), rk.span().start);
+                        let (line, pos) =
+                            (crate::spec::line_at(text, rk.span().start), rk.span().start);
                         let joint = joint.to_string();
-                        push(&mut file, Entry { role: Some(role), joint, line }, pos)?;
+                        push(
+                            &mut file,
+                            Entry {
+                                role: Some(role),
+                                joint,
+                                line,
+                            },
+                            pos,
+                        )?;
                     }
                 }
                 ("roles", other) => {
                     return Err(err(
                         k.span().start,
-                        format!("roles: must be a table ([roles]), not a {}", other.type_str()),
+                        format!(
+                            "roles: must be a table ([roles]), not a {}",
+                            other.type_str()
+                        ),
                     ));
                 }
                 ("ignore", _) => {
                     for (joint, pos) in joint_list(v, |m| err(v.span().start, m))? {
                         let line = crate::spec::line_at(text, pos);
-                        push(&mut file, Entry { role: None, joint, line }, pos)?;
+                        push(
+                            &mut file,
+                            Entry {
+                                role: None,
+                                joint,
+                                line,
+                            },
+                            pos,
+                        )?;
                     }
                 }
                 (key, _) => {
                     return Err(err(
                         k.span().start,
-                        format!("{key}: unknown key; a roles file holds a [roles] table and an ignore list"),
+                        format!(
+                            "{key}: unknown key; a roles file holds a [roles] table and an ignore list"
+                        ),
                     ));
                 }
             }
@@ -168,7 +210,8 @@ impl RoleFile {
         if file.entries.is_empty() {
             return Err(err(
                 0,
-                "names no role and ignores no joint; write role = \"joint\" lines under [roles]".into(),
+                "names no role and ignores no joint; write role = \"joint\" lines under [roles]"
+                    .into(),
             ));
         }
         file.entries.sort_by_key(|e| e.line);
@@ -327,7 +370,10 @@ fn resolve(character: &Character, file: &RoleFile) -> Result<Vec<usize>> {
             return Err(file.err(
                 e.line,
                 e.key(),
-                format!("\"{}\" names {count} joints of {}, so it does not say which", e.joint, character.name),
+                format!(
+                    "\"{}\" names {count} joints of {}, so it does not say which",
+                    e.joint, character.name
+                ),
             ));
         }
         if let Some(other) = owner.get(&j) {
@@ -523,7 +569,10 @@ fn check(
     let mut legs = Vec::new();
     let mut arms = Vec::new();
     for s in 0..2 {
-        for (limbs, claimed, roles) in [(&mut legs, c.legs[s], LEGS[s]), (&mut arms, c.arms[s], ARMS[s])] {
+        for (limbs, claimed, roles) in [
+            (&mut legs, c.legs[s], LEGS[s]),
+            (&mut arms, c.arms[s], ARMS[s]),
+        ] {
             let upper = need(claimed[0], roles[0])?;
             let lower = need(claimed[1], roles[1])?;
             if !rig.is_ancestor(upper, lower) {
@@ -543,7 +592,11 @@ fn check(
         if rig.pos[shin].y >= rig.pos[thigh].y {
             return Err((
                 Some(LEGS[s][1]),
-                format!("the knee {} is not below the hip {} in the {pose}", name(shin), name(thigh)),
+                format!(
+                    "the knee {} is not below the hip {} in the {pose}",
+                    name(shin),
+                    name(thigh)
+                ),
             ));
         }
     }
@@ -552,17 +605,30 @@ fn check(
     if !rig.is_ancestor(pelvis, chest) {
         return Err((
             Some(Role::Chest),
-            format!("{} does not rise from the pelvis {} in the skeleton", name(chest), name(pelvis)),
+            format!(
+                "{} does not rise from the pelvis {} in the skeleton",
+                name(chest),
+                name(pelvis)
+            ),
         ));
     }
     let across = |a: [usize; 2], b: [usize; 2]| {
         horizontal((rig.pos[a[0]] + rig.pos[a[1]] - rig.pos[b[0]] - rig.pos[b[1]]) * 0.5)
     };
-    let legs_across = across([legs[0].upper, legs[0].lower], [legs[1].upper, legs[1].lower]);
-    let arms_across = across([arms[0].upper, arms[0].lower], [arms[1].upper, arms[1].lower]);
+    let legs_across = across(
+        [legs[0].upper, legs[0].lower],
+        [legs[1].upper, legs[1].lower],
+    );
+    let arms_across = across(
+        [arms[0].upper, arms[0].lower],
+        [arms[1].upper, arms[1].lower],
+    );
     let apart = MIN_LEG_SEPARATION_H * rig.height;
     if legs_across.length() < apart {
-        return Err((Some(Role::ThighR), format!("the left and right legs stand in one place in the {pose}")));
+        return Err((
+            Some(Role::ThighR),
+            format!("the left and right legs stand in one place in the {pose}"),
+        ));
     }
     if arms_across.length() >= apart && arms_across.dot(legs_across) < 0.0 {
         return Err((
@@ -573,9 +639,8 @@ fn check(
         ));
     }
     let sides = |s: usize| [legs[s].upper, legs[s].lower, arms[s].upper, arms[s].lower];
-    let forward = forward_from_sides(rig, &sides(0), &sides(1)).unwrap_or_else(|| {
-        legs_across.normalize_or(Vec3::X).cross(Vec3::Y)
-    });
+    let forward = forward_from_sides(rig, &sides(0), &sides(1))
+        .unwrap_or_else(|| legs_across.normalize_or(Vec3::X).cross(Vec3::Y));
     let (Ok(legs), Ok(arms)) = (<[_; 2]>::try_from(legs), <[_; 2]>::try_from(arms)) else {
         return Err((None, "not two legs and two arms".into()));
     };
@@ -592,12 +657,24 @@ fn check(
     let mut seen: HashMap<usize, Role> = HashMap::new();
     for (j, r) in h.assignments() {
         if ignored[j] {
-            return Err((Some(r), format!("{} is listed in ignore, but the {} needs it", name(j), r.as_str())));
+            return Err((
+                Some(r),
+                format!(
+                    "{} is listed in ignore, but the {} needs it",
+                    name(j),
+                    r.as_str()
+                ),
+            ));
         }
         if let Some(other) = seen.insert(j, r) {
             return Err((
                 Some(r),
-                format!("{} would carry both {} and {}; name each of them under [roles]", name(j), other.as_str(), r.as_str()),
+                format!(
+                    "{} would carry both {} and {}; name each of them under [roles]",
+                    name(j),
+                    other.as_str(),
+                    r.as_str()
+                ),
             ));
         }
     }
