@@ -11,7 +11,7 @@ use ragdoll::export;
 use ragdoll::import::{self, ClipChoice, ImportOptions, Units, UpAxis};
 use ragdoll::report::Report;
 use ragdoll::skeleton::{self, Character};
-use ragdoll::spec::{self, BuildOptions, RagdollSpec};
+use ragdoll::spec::{self, BuildOptions, RagdollSpec, RoleFile, Roles};
 use ragdoll::track::Track;
 use ragdoll::world::{StartPose, World, WorldSettings};
 
@@ -49,12 +49,27 @@ pub(crate) fn load(file: &Path, a: &ImportArgs) -> Result<Character> {
     for w in &character.warnings {
         eprintln!("warning: {w}");
     }
-    // Names that promise a humanoid the skeleton denies: the ragdoll will not be what the
-    // user expects, so every command says so (recognition is near-linear in joints).
-    if let Some(w) = spec::recognise_roles(&character).warning {
-        eprintln!("warning: {}: {w}", file.display());
-    }
     Ok(character)
+}
+
+/// The roles the ragdoll is built from: recognised, or with the `--roles` file. Names
+/// that promise a humanoid the skeleton denies get a warning on every command that reads
+/// a character (recognition is near-linear in joints), since the ragdoll will not be what
+/// the user expects; `label` names the character in it.
+pub(crate) fn roles(
+    character: &Character,
+    label: &str,
+    a: &RagdollArgs,
+) -> Result<(Roles, Option<RoleFile>)> {
+    let file = match &a.roles {
+        Some(path) => Some(RoleFile::load(path)?),
+        None => None,
+    };
+    let roles = spec::roles_for(character, file.as_ref())?;
+    if let Some(w) = &roles.warning {
+        eprintln!("warning: {label}: {w}");
+    }
+    Ok((roles, file))
 }
 
 /// An import error, with `--height` or `--clip` named when it is about the flag's value
@@ -81,28 +96,41 @@ pub(crate) fn in_file(path: &Path, e: ragdoll::Error) -> anyhow::Error {
 }
 
 /// The spec from `--spec` (its masses scaled to `--mass` when given), or one built from
-/// the character.
-pub(crate) fn ragdoll_spec(character: &Character, a: &RagdollArgs) -> Result<RagdollSpec> {
+/// the character (with `--roles` when given); `label` names the character in warnings.
+pub(crate) fn ragdoll_spec(
+    character: &Character,
+    label: &str,
+    a: &RagdollArgs,
+) -> Result<RagdollSpec> {
+    Ok(ragdoll(character, label, a)?.0)
+}
+
+/// [`ragdoll_spec`], with the roles it was built from.
+pub(crate) fn ragdoll(
+    character: &Character,
+    label: &str,
+    a: &RagdollArgs,
+) -> Result<(RagdollSpec, Roles)> {
     if let Some(m) = a.mass
         && !(m.is_finite() && m > 0.0)
     {
         bail!("--mass: the total mass must be a positive number of kilograms, not {m}");
     }
+    let (roles, file) = roles(character, label, a)?;
     let Some(path) = &a.spec else {
-        return Ok(spec::build_spec(
-            character,
-            &BuildOptions {
-                total_mass_kg: a.mass,
-                female: a.female,
-            },
-        )?);
+        let opts = BuildOptions {
+            total_mass_kg: a.mass,
+            female: a.female,
+        };
+        let spec = spec::build_spec_with_roles(character, &opts, file.as_ref())?;
+        return Ok((spec, roles));
     };
     let mut spec = RagdollSpec::load(path).map_err(|e| in_file(path, e))?;
     if let Some(m) = a.mass {
         scale_masses(&mut spec, m);
         spec.validate().map_err(|e| in_file(path, e))?;
     }
-    Ok(spec)
+    Ok((spec, roles))
 }
 
 /// Scales every body's mass by one factor so they add up to `total_kg`: the spec's mass
@@ -220,7 +248,7 @@ pub fn shoot(a: &ShootArgs) -> Result<()> {
     checks::activation(&a.sim, false, true)?;
     out.check()?;
     let (character, input) = load_or_builtin(a.file.as_deref(), &a.import)?;
-    let spec = ragdoll_spec(&character, &a.ragdoll)?;
+    let spec = ragdoll_spec(&character, &input, &a.ragdoll)?;
     let events = Events {
         projectiles: vec![shot],
         ..Default::default()
@@ -377,7 +405,7 @@ pub fn demo(a: &DemoArgs) -> Result<()> {
     output::check_folder(&a.output)?;
     a.preview.check()?;
     let character = skeleton::humanoid();
-    let spec = ragdoll_spec(&character, &a.ragdoll)?;
+    let spec = ragdoll_spec(&character, "built-in", &a.ragdoll)?;
     let sim = SimArgs {
         run: a.run.clone(),
         anim: AnimArgs::default(),
@@ -419,8 +447,8 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
     checks::activation(&a.sim, false, false)?;
     out.check()?;
     let character = load(&a.file, &a.import)?;
-    let spec = ragdoll_spec(&character, &a.ragdoll)?;
     let input = a.file.display().to_string();
+    let spec = ragdoll_spec(&character, &input, &a.ragdoll)?;
     let (track, report) = simulate_character(
         &input,
         &character,
@@ -503,7 +531,7 @@ pub fn blast(a: &BlastArgs) -> Result<()> {
     checks::activation(&a.sim, true, false)?;
     out.check()?;
     let (character, input) = load_or_builtin(a.file.as_deref(), &a.import)?;
-    let spec = ragdoll_spec(&character, &a.ragdoll)?;
+    let spec = ragdoll_spec(&character, &input, &a.ragdoll)?;
     let (track, report) = simulate_character(
         &input,
         &character,

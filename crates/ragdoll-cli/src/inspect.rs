@@ -4,13 +4,13 @@
 use anyhow::{Context, Result};
 use ragdoll::spec;
 
-use crate::commands::{load, ragdoll_spec};
+use crate::commands::{load, ragdoll, ragdoll_spec};
 use crate::{BuildArgs, ImportArgs, InspectArgs, clip_list, output};
 
 pub fn build(a: &BuildArgs) -> Result<()> {
     output::check_file(&a.output)?;
     let character = load(&a.file, &a.import)?;
-    let spec = ragdoll_spec(&character, &a.ragdoll)?;
+    let spec = ragdoll_spec(&character, &a.file.display().to_string(), &a.ragdoll)?;
     let text = format!(
         "# Ragdoll spec for {} (built by ragdoll {} from {}).\n# Edit any number and pass it back with --spec. Lengths in metres, masses in kg,\n# angles in degrees; centres and rotations are in each bone's rest frame.\n\n{}",
         spec.name,
@@ -38,9 +38,9 @@ pub fn inspect(a: &InspectArgs) -> Result<()> {
     };
     let mut character = load(&a.file, &import)?;
     let clips = clip_list::list_and_choose(&mut character, a.import.clip.as_deref(), &a.file)?;
-    let roles = spec::recognise_roles(&character);
-    let spec = ragdoll_spec(&character, &a.ragdoll)
-        .with_context(|| format!("{}: building the ragdoll", a.file.display()))?;
+    let label = a.file.display().to_string();
+    let (spec, roles) = ragdoll(&character, &label, &a.ragdoll)
+        .with_context(|| format!("{label}: building the ragdoll"))?;
     let s = &character.skeleton;
     let mut out = String::new();
     if a.json {
@@ -51,6 +51,7 @@ pub fn inspect(a: &InspectArgs) -> Result<()> {
                     "name": s.joint_label(i),
                     "parent": s.parent(i).map(|p| s.joint_label(p)),
                     "role": roles.per_joint[i].map(|r| r.as_str()),
+                    "role_from_file": roles.from_file.get(i).copied().unwrap_or(false),
                 })
             })
             .collect();
@@ -92,7 +93,17 @@ pub fn inspect(a: &InspectArgs) -> Result<()> {
                 depth[i] = depth[p] + 1;
             }
             let role = roles.per_joint[i].map_or("-".to_string(), |r| r.as_str().to_string());
-            writeln!(out, "{}{}  [{}]", indent(depth[i]), s.joint_label(i), role)?;
+            let given = if roles.from_file.get(i).copied().unwrap_or(false) {
+                " (roles file)"
+            } else {
+                ""
+            };
+            writeln!(
+                out,
+                "{}{}  [{role}]{given}",
+                indent(depth[i]),
+                s.joint_label(i)
+            )?;
         }
         writeln!(out, "\nbodies:")?;
         for b in &spec.bodies {
@@ -158,6 +169,19 @@ fn role_summary(roles: &spec::Roles) -> String {
     let found: Vec<&str> = roles.found().iter().map(|r| r.as_str()).collect();
     if !found.is_empty() {
         s += &format!("roles found: {}\n", found.join(", "));
+    }
+    let given: Vec<&str> = roles
+        .found()
+        .into_iter()
+        .filter(|&r| {
+            roles
+                .joint(r)
+                .is_some_and(|j| roles.from_file.get(j).copied().unwrap_or(false))
+        })
+        .map(|r| r.as_str())
+        .collect();
+    if !given.is_empty() {
+        s += &format!("roles from the roles file: {}\n", given.join(", "));
     }
     for (r, why) in roles.missing() {
         s += &format!("role not found: {}: {why}.\n", r.as_str());

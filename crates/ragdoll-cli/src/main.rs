@@ -163,6 +163,11 @@ struct RagdollArgs {
     /// With --mass, its body masses are scaled to that total.
     #[arg(long, value_name = "SPEC.toml")]
     spec: Option<PathBuf>,
+    /// Roles by hand, for a rig recognition gets wrong: a TOML file mapping roles to joints
+    /// (`[roles]` with `thigh_l = "LeftUpLeg"`…, `ignore = [...]` for helper joints; see
+    /// examples/roles/). Joints it does not name are recognised as before.
+    #[arg(long, value_name = "ROLES.toml", conflicts_with = "spec")]
+    roles: Option<PathBuf>,
 }
 
 /// Which physics backend runs the simulation.

@@ -73,7 +73,7 @@ pub fn run(a: &ViewArgs) -> Result<()> {
         }
         _ => {
             let (character, input) = load_or_builtin(a.file.as_deref(), &a.import)?;
-            let spec = ragdoll_spec(&character, &a.ragdoll)?;
+            let spec = ragdoll_spec(&character, &input, &a.ragdoll)?;
             let settings = WorldSettings {
                 start: if a.rest_pose {
                     StartPose::Rest

@@ -30,6 +30,13 @@ fn check(rows: Vec<Case>) {
         ] {
             std::fs::copy(fx.path(name), dir.path().join(name)).unwrap();
         }
+        // Roles files for `--roles`: the fixture's joints are named by their roles.
+        std::fs::write(dir.path().join("roles.toml"), "ignore = [\"hand_l\"]\n").unwrap();
+        std::fs::write(
+            dir.path().join("bad_roles.toml"),
+            "[roles]\nthigh_l = \"no_such_joint\"\n",
+        )
+        .unwrap();
         let valid: Vec<&str> = c.valid.iter().map(String::as_str).collect();
         let o = if c.sub == "view" && c.flag != "--help" {
             serve_briefly(dir.path(), &valid)

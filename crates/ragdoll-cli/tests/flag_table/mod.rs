@@ -67,6 +67,19 @@ fn number(dir: &Path, pointer: &str) -> f64 {
         .unwrap_or_else(|| panic!("no number at {pointer} in {r}"))
 }
 
+/// `inspect --json --roles roles.toml`: the ignored hand has no role, and says why.
+fn hand_l_from_file(dir: &Path, _: &Output) {
+    let r = report(dir);
+    let hand = r["joints"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|j| j["name"] == "hand_l")
+        .unwrap();
+    assert_eq!(hand["role"], serde_json::Value::Null, "{hand}");
+    assert_eq!(hand["role_from_file"], true, "{hand}");
+}
+
 fn helps(_: &Path, o: &Output) {
     assert!(out(o).contains("Usage:"), "{}", out(o));
 }
@@ -224,6 +237,9 @@ fn ragdoll_rows(sub: &'static str, base: &[&str], effects: bool) -> Vec<Case> {
         case(sub, "--mass", base, &["--mass", "80"], mass, &["--mass", "-5"], "--mass"),
         case(sub, "--female", base, &["--female"], None, &["--female", "--spec", "spec.toml"], "--female"),
         case(sub, "--spec", base, &["--spec", "spec.toml"], spec, &["--spec", "missing.toml"], "missing.toml"),
+        // The runner writes roles.toml (`ignore = ["hand_l"]`) and bad_roles.toml (a role
+        // given a joint the skeleton lacks, on line 2).
+        case(sub, "--roles", base, &["--roles", "roles.toml"], (sub == "inspect").then_some(hand_l_from_file as Effect), &["--roles", "bad_roles.toml"], "bad_roles.toml: line 2: thigh_l"),
     ]
 }
 

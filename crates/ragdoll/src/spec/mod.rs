@@ -278,9 +278,11 @@ pub use frames::{
 };
 
 pub(crate) use build::shapes_overlap;
-pub use build::{BuildOptions, build_spec};
+pub use build::{BuildOptions, build_spec, build_spec_with_roles};
 pub use mesh::bodies_mesh;
-pub use roles::{Roles, recognise_roles};
+pub use roles::{
+    MAX_ROLE_FILE_ENTRIES, RoleFile, Roles, recognise_roles, roles_for, roles_with_file,
+};
 pub use validate::{
     MAX_BODIES, MAX_BODY_KG, MAX_CONE_TILT_DEG, MAX_DISABLED_PAIRS, MAX_JOINT_MASS_RATIO,
     MAX_JOINTS, MAX_LIMIT_END_DEG, MAX_NAME_BYTES, MAX_OFFSET_M, MAX_SHAPE_M, MAX_SWING_DEG,

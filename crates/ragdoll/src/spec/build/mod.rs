@@ -26,7 +26,7 @@ use std::collections::HashSet;
 
 use glam::{Quat, Vec3};
 
-use super::roles::{Rig, Roles, recognise_roles};
+use super::roles::{Rig, Roles};
 use super::{BodySpec, JointSpec, RagdollSpec, Role, SPEC_FORMAT_VERSION, Shape};
 use crate::error::{Error, Result};
 use crate::skeleton::Character;
@@ -52,6 +52,16 @@ const MIN_GROUP_WEIGHT: f32 = 0.5;
 
 /// Builds a spec from a character's skeleton, skin and recognised roles.
 pub fn build_spec(character: &Character, opts: &BuildOptions) -> Result<RagdollSpec> {
+    build_spec_with_roles(character, opts, None)
+}
+
+/// [`build_spec`] with the roles a roles file gives ([`super::roles_with_file`]) where
+/// there is one.
+pub fn build_spec_with_roles(
+    character: &Character,
+    opts: &BuildOptions,
+    roles: Option<&super::RoleFile>,
+) -> Result<RagdollSpec> {
     if let Some(m) = opts.total_mass_kg
         && !(m.is_finite() && m > 0.0)
     {
@@ -60,7 +70,7 @@ pub fn build_spec(character: &Character, opts: &BuildOptions) -> Result<RagdollS
             message: format!("must be a positive number of kilograms, got {m}"),
         });
     }
-    let roles = recognise_roles(character);
+    let roles = super::roles_for(character, roles)?;
     let rig = Rig::new(character);
     let b = Builder::new(&rig, &roles, opts);
     let mut spec = b.spec(character)?;

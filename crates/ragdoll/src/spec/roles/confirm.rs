@@ -128,7 +128,7 @@ pub(super) fn claims_from_names(rig: &Rig, hints: &[NameHint]) -> Claims {
 /// Where no joint is named a head (Rigify's `spine.006`): the chain rising highest from
 /// the chest, beside the arms; its second joint is the head when it has two or more (the
 /// first being the neck), as the structure pass reads it.
-fn unnamed_head(rig: &Rig, chest: usize, arms: &[usize]) -> Option<usize> {
+pub(super) fn unnamed_head(rig: &Rig, chest: usize, arms: &[usize]) -> Option<usize> {
     let top = |c: usize| rig.subtree_stats(c).1;
     let beside_arms = |c: &usize| !arms.iter().any(|&a| a == *c || is_ancestor(rig, *c, a));
     let mut path = Vec::new();
@@ -327,7 +327,7 @@ fn confirm_limbs(rig: &Rig, c: &Claims) -> Result<([Limb; 2], [Limb; 2]), String
     Ok((legs, arms))
 }
 
-fn limb(rig: &Rig, upper: usize, lower: usize, end: Option<usize>) -> Limb {
+pub(super) fn limb(rig: &Rig, upper: usize, lower: usize, end: Option<usize>) -> Limb {
     let end_pos = end
         .map(|e| rig.pos[e])
         .or_else(|| rig.chain_bone_end(lower));
@@ -354,7 +354,7 @@ fn common_ancestor(rig: &Rig, a: usize, b: usize) -> Option<usize> {
 }
 
 /// The joints strictly between `top` and its descendant `bottom`, top first.
-fn path_down(rig: &Rig, top: usize, bottom: usize) -> Vec<usize> {
+pub(super) fn path_down(rig: &Rig, top: usize, bottom: usize) -> Vec<usize> {
     let mut out = Vec::new();
     let mut at = rig.parent(bottom);
     while let Some(j) = at

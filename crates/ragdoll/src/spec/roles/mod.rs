@@ -37,6 +37,7 @@
 
 mod chain;
 mod confirm;
+mod manual;
 mod names;
 mod rig;
 mod side;
@@ -44,6 +45,7 @@ mod structure;
 
 use glam::Vec3;
 
+pub use manual::{MAX_ROLE_FILE_ENTRIES, RoleFile, roles_for, roles_with_file};
 pub(crate) use names::{NameHint, Part, name_hint};
 pub(crate) use rig::Rig;
 
@@ -72,6 +74,9 @@ pub struct Roles {
     /// forearms named) but no check confirmed one: tools show it on every command, since
     /// the ragdoll will not be what the user expects. The same sentence as [`Roles::why`].
     pub warning: Option<String>,
+    /// For each skeleton joint, whether a roles file ([`RoleFile`]) gave its role or listed
+    /// it as a helper; all `false` when roles were only recognised.
+    pub from_file: Vec<bool>,
 }
 
 /// The roles every humanoid is looked for, in the order reports list them.
@@ -142,6 +147,13 @@ impl Roles {
 
 /// Recognises roles; never fails: a skeleton that is not a humanoid gets chain links.
 pub fn recognise_roles(character: &Character) -> Roles {
+    recognise_with_helpers(character, &[])
+}
+
+/// [`recognise_roles`], taking the joints flagged in `helpers` (by index; a shorter slice
+/// flags none past its end) for helper bones whatever their names say, as a roles file's
+/// `ignore` list asks.
+fn recognise_with_helpers(character: &Character, helpers: &[bool]) -> Roles {
     let rest = Rig::new(character);
     let posed = first_frame(character).map(|w| Rig::posed(character, w));
     let rigs: Vec<(&Rig, &str)> = std::iter::once((&rest, "rest pose"))
@@ -151,7 +163,12 @@ pub fn recognise_roles(character: &Character) -> Roles {
         .skeleton
         .joints()
         .iter()
-        .map(|j| name_hint(&j.name))
+        .enumerate()
+        .map(|(i, j)| {
+            let mut h = name_hint(&j.name);
+            h.helper |= helpers.get(i).copied().unwrap_or(false);
+            h
+        })
         .collect();
     let mut doubts = Vec::new();
     if !character.humanoid_bones.is_empty() {
@@ -209,6 +226,7 @@ pub fn recognise_roles(character: &Character) -> Roles {
         height_m: rest.height,
         warning: promised.then(|| why.clone()),
         why,
+        from_file: vec![false; rest.len()],
     }
 }
 
@@ -238,6 +256,7 @@ fn humanoid_roles(rig: &Rig, h: &structure::Humanoid, how: String) -> Roles {
         height_m: rig.height,
         why: format!("Humanoid: roles {how}."),
         warning: None,
+        from_file: vec![false; rig.len()],
     }
 }
 
