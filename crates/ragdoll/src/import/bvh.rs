@@ -63,7 +63,7 @@
 mod motion;
 mod parse;
 
-use glam::{DMat3, DQuat, DVec3, Vec3};
+use glam::{DMat3, DQuat, DVec3};
 
 #[cfg(doc)]
 use crate::{
@@ -105,27 +105,7 @@ pub const FRAME_TIME_RANGE_S: [f64; 2] = [1e-4, 10.0];
 /// angle as gimbal-locked and puts the whole remaining turn into the last angle.
 const GIMBAL_EPS: f64 = 1e-6;
 
-/// A coordinate axis, as named by a BVH channel.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Axis {
-    /// The X axis.
-    X,
-    /// The Y axis.
-    Y,
-    /// The Z axis.
-    Z,
-}
-
 impl Axis {
-    /// 0, 1 or 2: the component this axis selects.
-    pub fn index(self) -> usize {
-        match self {
-            Axis::X => 0,
-            Axis::Y => 1,
-            Axis::Z => 2,
-        }
-    }
-
     fn from_index(i: usize) -> Axis {
         match i % 3 {
             0 => Axis::X,
@@ -143,70 +123,7 @@ impl Axis {
     }
 }
 
-/// One BVH channel: which quantity one column of the motion data drives.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Channel {
-    /// `Xposition`, `Yposition` or `Zposition`: a component of the joint's translation, in
-    /// file units.
-    Position(Axis),
-    /// `Xrotation`, `Yrotation` or `Zrotation`: a rotation about that local axis, degrees.
-    Rotation(Axis),
-}
-
-impl Channel {
-    /// The keyword as BVH files spell it, e.g. `Zrotation`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Channel::Position(Axis::X) => "Xposition",
-            Channel::Position(Axis::Y) => "Yposition",
-            Channel::Position(Axis::Z) => "Zposition",
-            Channel::Rotation(Axis::X) => "Xrotation",
-            Channel::Rotation(Axis::Y) => "Yrotation",
-            Channel::Rotation(Axis::Z) => "Zrotation",
-        }
-    }
-
-    /// Reads a channel keyword; case-insensitive because exporters disagree on case.
-    pub fn parse(s: &str) -> Option<Channel> {
-        let lower = s.to_ascii_lowercase();
-        Some(match lower.as_str() {
-            "xposition" => Channel::Position(Axis::X),
-            "yposition" => Channel::Position(Axis::Y),
-            "zposition" => Channel::Position(Axis::Z),
-            "xrotation" => Channel::Rotation(Axis::X),
-            "yrotation" => Channel::Rotation(Axis::Y),
-            "zrotation" => Channel::Rotation(Axis::Z),
-            _ => return None,
-        })
-    }
-}
-
-/// The file layout of one joint, kept so the exporter can write it back unchanged.
-#[derive(Clone, Debug, PartialEq)]
-pub struct BvhJoint {
-    /// The name exactly as in the file (the exporter sanitises it only if it must).
-    pub name: String,
-    /// The joint's channels, in file order.
-    pub channels: Vec<Channel>,
-    /// The `End Site` offset in file units and file axes, when the file has one.
-    pub end_site: Option<Vec3>,
-}
-
-/// What the BVH exporter needs to write a file back in the source's own layout.
-///
-/// `joints[i]` describes skeleton joint `i`; for an imported file the skeleton's joint order
-/// is the file's order, so writing the hierarchy depth-first reproduces it.
-#[derive(Clone, Debug, PartialEq)]
-pub struct BvhLayout {
-    /// One entry per skeleton joint, in skeleton order.
-    pub joints: Vec<BvhJoint>,
-    /// Metres per file unit (detected or given on import).
-    pub metres_per_unit: f32,
-    /// The file's up axis (detected or given on import).
-    pub up: UpAxis,
-    /// Seconds per frame of the file's motion, a natural default output rate.
-    pub frame_time: f32,
-}
+pub use crate::skeleton::source::{Axis, BvhJoint, BvhLayout, Channel};
 
 impl BvhLayout {
     /// A layout for a character that did not come from a BVH file (glTF, the built-in
@@ -403,6 +320,8 @@ pub(crate) fn up_rotation(up: UpAxis) -> DQuat {
 #[cfg(test)]
 mod tests {
     use std::path::Path;
+
+    use glam::Vec3;
 
     use super::parse::detect_metres_per_unit;
     use super::*;

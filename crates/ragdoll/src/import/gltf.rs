@@ -74,35 +74,10 @@ use skin::{NodeGraph, Rig, choose_skin};
 
 use super::{ImportOptions, size};
 use crate::error::Result;
-use crate::math::Transform;
 use crate::rig::RigOptions;
 use crate::skeleton::{Character, Skeleton, Source};
 
-/// What the glTF exporter needs to write the input back, untouched but for a new animation
-/// and renormalised skin weights.
-#[derive(Clone, Debug)]
-pub struct GltfSource {
-    /// The file read, for error messages.
-    pub path: PathBuf,
-    /// Its folder, where external images and buffers are found.
-    pub dir: PathBuf,
-    /// The whole glTF JSON document as read, extensions and extras included.
-    pub json: serde_json::Value,
-    /// Every buffer's bytes, resolved (GLB chunk, `data:` URI or file) and cut to the
-    /// declared `byteLength`.
-    pub buffers: Vec<Vec<u8>>,
-    /// Index of the skin the skeleton was built from; 0, and unused, for a file without a
-    /// skin whose skeleton is its node hierarchy (rigid parts, a bare VRM hierarchy).
-    pub skin: usize,
-    /// Node index of each skeleton joint, in skeleton order.
-    pub joint_nodes: Vec<usize>,
-    /// For each skeleton joint, the static transform between its parent joint's node (for a
-    /// root joint: the world) and its own node's parent, i.e. the product of the non-joint
-    /// nodes in between; identity when the node's parent is the parent joint itself.
-    /// The node's animated local transform is then
-    /// `(parent joint world · parent_offsets[j])⁻¹ · joint world`.
-    pub parent_offsets: Vec<Transform>,
-}
+pub use crate::skeleton::source::GltfSource;
 
 /// Loads a glTF 2.0 file (.glb, or .gltf with `data:` URIs or external buffers).
 pub fn load(path: &Path) -> Result<Character> {

@@ -60,15 +60,7 @@ impl Units {
     }
 }
 
-/// Up axis of a file whose format does not say (BVH).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum UpAxis {
-    /// +Y is up (glTF, most BVH).
-    Y,
-    /// +Z is up (some mocap exports).
-    Z,
-}
+pub use crate::skeleton::source::UpAxis;
 
 /// Overrides for what importers otherwise detect.
 #[derive(Clone, Debug, Default, PartialEq)]

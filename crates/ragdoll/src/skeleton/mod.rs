@@ -4,8 +4,10 @@
 
 mod humanoid;
 pub mod skinning;
+pub mod source;
 
 pub use humanoid::{DEFAULT_HEIGHT_M, humanoid};
+pub use source::Source;
 
 use glam::{Vec3, Vec4};
 
@@ -344,21 +346,6 @@ impl Character {
         }
         out
     }
-}
-
-/// Where a [`Character`] came from, with what its exporters need to keep its layout.
-#[derive(Clone, Debug)]
-pub enum Source {
-    /// The built-in default humanoid.
-    BuiltIn,
-    /// A BVH file.
-    Bvh(crate::import::bvh::BvhLayout),
-    /// A glTF 2.0 file.
-    Gltf(Box<crate::import::gltf::GltfSource>),
-    /// A mesh that came without a skeleton (an OBJ, a glTF without a skin), rigged by
-    /// [`crate::rig`]: its exporters write a fresh glTF of the mesh and its automatic skin.
-    /// Holds the file read.
-    Mesh(std::path::PathBuf),
 }
 
 #[cfg(test)]
