@@ -46,6 +46,7 @@
 #![deny(missing_docs)]
 
 mod backend;
+pub mod bounds;
 pub mod error;
 pub mod events;
 pub mod export;

@@ -13,9 +13,9 @@ pub mod blast;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
+use crate::bounds::{MAX_COORDINATE_M, MAX_GRAVITY_MPS2, MAX_SECONDS};
 use crate::error::{Error, Result};
 use crate::spec::{MAX_NAME_BYTES, check_above, check_within, show};
-use crate::world::{MAX_COORDINATE_M, MAX_GRAVITY_MPS2, MAX_SECONDS};
 
 /// Largest charge, kg of TNT: 10 kt.
 ///

@@ -39,13 +39,7 @@ use crate::track::{Metrics, Track};
 /// Standard gravity, m/s².
 pub const STANDARD_GRAVITY: f32 = 9.80665;
 
-/// Longest run, seconds: an hour, as the CLI's `--seconds` and a scene's `duration_s`.
-/// Every event time and key lies within it.
-pub const MAX_SECONDS: f32 = 3600.0;
-
-/// Strongest gravity (and any field's acceleration), m/s²: about 100 g. Jupiter's is
-/// 25 m/s²; at 100 g a humanoid still lands with contacts within 6 cm on both backends.
-pub const MAX_GRAVITY_MPS2: f32 = 1000.0;
+pub use crate::bounds::{MAX_GRAVITY_MPS2, MAX_SECONDS};
 
 /// Shortest and longest fixed step, seconds: 10 kHz (a shorter one only makes a run that
 /// cannot finish) to 10 Hz (a longer one lets a falling body pass through another).

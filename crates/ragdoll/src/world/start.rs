@@ -10,12 +10,7 @@ use crate::math::Transform;
 use crate::skeleton::Character;
 use crate::spec::RagdollSpec;
 
-/// Farthest any position given to a world may lie from the origin along an axis, metres:
-/// bodies at the start, pins and drags, charges, shots. f32 positions keep about a
-/// millimetre there (the spacing of f32 at 10 km is 1 mm); a ragdoll placed at 1,000 km
-/// came apart on the particle backend (6 cm spacing), and one at 2^32 m made non-finite
-/// frames. (On the rigid backend ragdolls must also start on its ground, a 1 km square.)
-pub const MAX_COORDINATE_M: f32 = 1.0e4;
+pub use crate::bounds::MAX_COORDINATE_M;
 
 /// Whether `p` is finite and within [`MAX_COORDINATE_M`] of the origin along every axis.
 pub(crate) fn within_world(p: Vec3) -> bool {
