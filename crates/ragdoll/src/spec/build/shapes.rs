@@ -407,13 +407,21 @@ impl Builder<'_> {
             _ => (CHEST_WIDTH_H * h, CHEST_DEPTH_H * h),
         };
         let (mut width, mut depth, mut cx, mut cz) = (w0, d0, 0.0, 0.0);
-        if group.len() >= MIN_FIT_VERTICES {
+        if !group.is_empty() {
+            let measured = group.len() >= MIN_FIT_VERTICES;
             let span = |axis: Vec3| {
                 let v: Vec<f32> = group.iter().map(|p| (*p - a).dot(axis)).collect();
                 let lo = percentile(v.clone(), 1.0 - RADIUS_PERCENTILE);
                 (lo, percentile(v, RADIUS_PERCENTILE))
             };
+            // Too few vertices to measure the trunk (its skin carried by its neighbours):
+            // the proportional box, grown to hold them.
             let fit = |(lo, hi): (f32, f32), proportional: f32| {
+                let (lo, hi) = if measured {
+                    (lo, hi)
+                } else {
+                    (lo.min(-0.5 * proportional), hi.max(0.5 * proportional))
+                };
                 let size = (hi - lo).clamp(MIN_TRUNK_FIT * proportional, MAX_TRUNK_SIZE_H * h);
                 (size, 0.5 * (hi + lo))
             };
