@@ -207,6 +207,12 @@ pub const CHEST_DEPTH_H: f32 = 0.12;
 /// none past it; the carpus, the one that extends past straight, reaches 196°, so 10° of
 /// hyperextension is allowed.
 pub const CREATURE_LIMB_FLEXION_DEG: [f32; 2] = [-10.0, 140.0];
+/// How much further than its rest pose a creature's limb hinge flexes, degrees, within
+/// [`CREATURE_LIMB_FLEXION_DEG`]. A game creature's skin is weighted for the poses its
+/// animations use; bent 97° past rest, the Fox's hind legs stretched its mesh's
+/// 99th-percentile edge from 2.27× to 3.15× (`mesh_check`), where the 45° cones before
+/// them stretched none of it further.
+pub const CREATURE_SKIN_FLEXION_DEG: f32 = 45.0;
 /// A limb joint is a hinge only when its rest pose bends at least this much: a straight
 /// leg does not say which way it bends, and keeps a cone.
 pub const CREATURE_MIN_HINGE_BEND_DEG: f32 = 10.0;

@@ -103,7 +103,9 @@ impl Builder<'_> {
             && (CREATURE_MIN_HINGE_BEND_DEG..=180.0 - CREATURE_MIN_HINGE_BEND_DEG).contains(&bend)
             && self.reach_down(child.joint) <= self.rig.ground + CREATURE_GROUND_BAND_H * self.h;
         if limb && let Some(away) = perpendicular_part(-dp, d) {
-            return self.hinge(d, dp, away, Vec3::Y, CREATURE_LIMB_FLEXION_DEG);
+            let [lo, hi] = CREATURE_LIMB_FLEXION_DEG;
+            let range = [lo, hi.min(bend + CREATURE_SKIN_FLEXION_DEG)];
+            return self.hinge(d, dp, away, Vec3::Y, range);
         }
         let scale =
             (CREATURE_CHAIN_TOTAL_BEND_DEG / self.run_links(child.joint) as f32 / CHAIN_SWING_DEG)
