@@ -152,9 +152,13 @@ fn a_vertex_on_one_arm_of_a_u_takes_no_weight_from_the_other_arm() {
 fn a_vertex_takes_most_of_its_weight_from_the_bone_it_lies_along() {
     // A straight tube along X with bones every 0.2 m: a vertex halfway along a bone's
     // length is that bone's, mostly, and its weights change smoothly along the tube.
-    let path: Vec<Vec3> = (0..=50).map(|i| Vec3::new(i as f32 * 0.02, 0.0, 0.0)).collect();
+    let path: Vec<Vec3> = (0..=50)
+        .map(|i| Vec3::new(i as f32 * 0.02, 0.0, 0.0))
+        .collect();
     let (positions, indices) = tube(&path, 0.05, 12, false);
-    let joints: Vec<Vec3> = (0..5).map(|i| Vec3::new(i as f32 * 0.2, 0.0, 0.0)).collect();
+    let joints: Vec<Vec3> = (0..5)
+        .map(|i| Vec3::new(i as f32 * 0.2, 0.0, 0.0))
+        .collect();
     let skeleton = chain(&joints, Vec3::new(1.0, 0.0, 0.0));
     let (j, w) = try_heat_weights(&skeleton, &positions, &indices).expect("heat solves");
     assert_valid_skin(&j, &w, positions.len(), skeleton.len());
@@ -172,7 +176,9 @@ fn a_vertex_takes_most_of_its_weight_from_the_bone_it_lies_along() {
 fn two_disconnected_parts_with_seam_copies_weld_and_keep_their_own_bones() {
     // Two straight tubes 1 m apart, each with its own two bones; every ring's first
     // vertex duplicated as a texture seam would.
-    let a: Vec<Vec3> = (0..=20).map(|i| Vec3::new(i as f32 * 0.03, 0.0, 0.0)).collect();
+    let a: Vec<Vec3> = (0..=20)
+        .map(|i| Vec3::new(i as f32 * 0.03, 0.0, 0.0))
+        .collect();
     let b: Vec<Vec3> = a.iter().map(|p| *p + Vec3::new(0.0, 1.0, 0.0)).collect();
     let (mut positions, mut indices) = tube(&a, 0.05, 10, true);
     let (pb, ib) = tube(&b, 0.05, 10, true);
@@ -225,22 +231,22 @@ fn two_disconnected_parts_with_seam_copies_weld_and_keep_their_own_bones() {
     for (v, p) in positions.iter().enumerate() {
         let other: &[usize] = if p.y > 0.5 { &[1] } else { &[2, 3] };
         let stray = weight_from(&j[v], &w[v], other);
-        assert!(stray < 0.01, "vertex {v} at {p}: {stray} from the other tube");
+        assert!(
+            stray < 0.01,
+            "vertex {v} at {p}: {stray} from the other tube"
+        );
     }
 }
 
 #[test]
 fn meshes_without_triangles_or_too_large_fall_back_to_distance() {
-    let path: Vec<Vec3> = (0..=10).map(|i| Vec3::new(i as f32 * 0.1, 0.0, 0.0)).collect();
+    let path: Vec<Vec3> = (0..=10)
+        .map(|i| Vec3::new(i as f32 * 0.1, 0.0, 0.0))
+        .collect();
     let skeleton = chain(&path[..5], Vec3::new(0.5, 0.0, 0.0));
     let (positions, _) = tube(&path, 0.05, 8, false);
     // No triangles: a point cloud, degenerate triangles, repeated corners, bad indices.
-    for indices in [
-        vec![],
-        vec![0, 0, 1],
-        vec![0, 1, u32::MAX],
-        vec![0, 1],
-    ] {
+    for indices in [vec![], vec![0, 0, 1], vec![0, 1, u32::MAX], vec![0, 1]] {
         assert_eq!(
             try_heat_weights(&skeleton, &positions, &indices),
             Err(NoHeat::NoTriangles),
@@ -271,7 +277,9 @@ fn meshes_without_triangles_or_too_large_fall_back_to_distance() {
 
 #[test]
 fn non_finite_positions_get_joint_zero_and_the_rest_heat() {
-    let path: Vec<Vec3> = (0..=20).map(|i| Vec3::new(i as f32 * 0.05, 0.0, 0.0)).collect();
+    let path: Vec<Vec3> = (0..=20)
+        .map(|i| Vec3::new(i as f32 * 0.05, 0.0, 0.0))
+        .collect();
     let (mut positions, indices) = tube(&path, 0.05, 8, false);
     positions[3] = Vec3::NAN;
     positions[40] = Vec3::INFINITY;
@@ -283,9 +291,10 @@ fn non_finite_positions_get_joint_zero_and_the_rest_heat() {
     assert_eq!((j[40], w[40]), ([0; 4], Vec4::X));
 }
 
-/// The largest difference (summed over joints) between the skins of the two ends of any
-/// triangle edge: where it is large, the edge is pulled by bones that move apart.
-fn largest_edge_jump(joints: &[[u16; 4]], weights: &[Vec4], indices: &[u32], n: usize) -> f32 {
+/// The 99th percentile over triangle edges of the difference (summed over joints) between
+/// the skins of the edge's two ends: where it is large, the edge is pulled by bones that
+/// move apart.
+fn edge_jump_p99(joints: &[[u16; 4]], weights: &[Vec4], indices: &[u32], n: usize) -> f32 {
     let row = |v: usize| {
         let mut full = vec![0.0f32; n];
         for c in 0..4 {
@@ -293,14 +302,16 @@ fn largest_edge_jump(joints: &[[u16; 4]], weights: &[Vec4], indices: &[u32], n: 
         }
         full
     };
-    let mut worst = 0.0f32;
+    let mut jumps = Vec::with_capacity(indices.len());
     for t in indices.chunks_exact(3) {
         for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
             let (ra, rb) = (row(a as usize), row(b as usize));
-            worst = worst.max(ra.iter().zip(&rb).map(|(x, y)| (x - y).abs()).sum());
+            let d: f32 = ra.iter().zip(&rb).map(|(x, y)| (x - y).abs()).sum();
+            jumps.push(d);
         }
     }
-    worst
+    jumps.sort_by(f32::total_cmp);
+    jumps[jumps.len() * 99 / 100]
 }
 
 #[test]
@@ -320,8 +331,15 @@ fn the_stanford_dragons_take_heat_weights_that_change_smoothly_across_edges() {
         let took = t.elapsed();
         assert_valid_skin(&j, &w, mesh.positions.len(), skeleton.len());
         let (dj, dw) = auto_weights(&skeleton, &mesh.positions);
-        let heat = largest_edge_jump(&j, &w, &mesh.indices, skeleton.len());
-        let dist = largest_edge_jump(&dj, &dw, &mesh.indices, skeleton.len());
-        println!("{name}: heat in {took:?}, largest jump across an edge: heat {heat:.3}, distance {dist:.3}");
+        let heat = edge_jump_p99(&j, &w, &mesh.indices, skeleton.len());
+        let dist = edge_jump_p99(&dj, &dw, &mesh.indices, skeleton.len());
+        println!(
+            "{name}: heat in {took:?}, 99th-percentile jump across an edge: heat {heat:.3}, distance {dist:.3}"
+        );
+        // Heat spreads along the surface: across most edges its weights change less than
+        // distance weights, which jump where a part passes near a bone it is far from
+        // through the body (on the 1,700-vertex dragon, whose edges are long next to its
+        // bones, both jump more: 0.56 against 0.74 when this was written).
+        assert!(heat < dist, "{name}: heat {heat}, distance {dist}");
     }
 }

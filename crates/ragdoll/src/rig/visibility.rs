@@ -11,9 +11,8 @@
 
 use glam::Vec3;
 
-/// Voxels along the longest side of the mesh's box: an eighth of a percent of a 1 m
-/// dragon, fine enough to part a curled tail from the flank it nearly touches; at most
-/// 130 × 130 × 130 bytes with the padding.
+/// Voxels along the longest side of the mesh's box: 8 mm on a 1 m dragon, fine enough to part a curled tail from the flank it nearly touches; at most
+/// 133³ voxels with the padding, two bytes each while it is built.
 const VOXELS: usize = 128;
 /// Empty voxels around the mesh's box, so the fill starts outside on every side.
 const PAD: usize = 2;
@@ -118,14 +117,73 @@ impl Voxels {
     pub fn sees(&self, a: Vec3, b: Vec3) -> bool {
         let steps = (a.distance(b) / self.size * SAMPLES_PER_VOXEL).ceil() as usize;
         (0..=steps).all(|k| {
-            let t = if steps == 0 { 0.0 } else { k as f32 / steps as f32 };
+            let t = if steps == 0 {
+                0.0
+            } else {
+                k as f32 / steps as f32
+            };
             self.cell(a.lerp(b, t)).is_some_and(|c| !self.outside[c])
         })
     }
+}
 
-    /// Share of voxels in the body (the rest is outside), for diagnostics and tests.
-    #[cfg(test)]
-    pub fn body_share(&self) -> f32 {
-        self.outside.iter().filter(|&&o| !o).count() as f32 / self.outside.len() as f32
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A closed box from `lo` to `hi`: 8 corners, 12 triangles.
+    fn cube(lo: Vec3, hi: Vec3, base: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+        let p = (0..8)
+            .map(|i| {
+                Vec3::new(
+                    if i & 1 == 0 { lo.x } else { hi.x },
+                    if i & 2 == 0 { lo.y } else { hi.y },
+                    if i & 4 == 0 { lo.z } else { hi.z },
+                )
+            })
+            .collect();
+        let quads = [
+            [0, 1, 3, 2],
+            [4, 6, 7, 5],
+            [0, 4, 5, 1],
+            [2, 3, 7, 6],
+            [0, 2, 6, 4],
+            [1, 5, 7, 3],
+        ];
+        let t = quads
+            .iter()
+            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+            .map(|t: [u32; 3]| t.map(|i| i + base))
+            .collect();
+        (p, t)
+    }
+
+    #[test]
+    fn a_segment_sees_through_a_closed_body_but_not_across_the_air_between_two() {
+        let (mut p, mut t) = cube(Vec3::ZERO, Vec3::ONE, 0);
+        let (p2, t2) = cube(Vec3::new(1.5, 0.0, 0.0), Vec3::new(2.5, 1.0, 1.0), 8);
+        p.extend(p2);
+        t.extend(t2);
+        let v = Voxels::new(&p, &t).unwrap();
+        // Surface to centre inside one box, and along a face.
+        assert!(v.sees(Vec3::new(0.0, 0.3, 0.7), Vec3::splat(0.5)));
+        assert!(v.sees(Vec3::new(1.0, 0.5, 0.5), Vec3::new(0.5, 0.5, 0.5)));
+        // From one box to the other, through 0.5 of air; and out of the grid.
+        assert!(!v.sees(Vec3::splat(0.5), Vec3::new(2.0, 0.5, 0.5)));
+        assert!(!v.sees(Vec3::splat(0.5), Vec3::splat(10.0)));
+        assert!(!v.sees(Vec3::NAN, Vec3::splat(0.5)));
+        // Each box's inside is body, the air between them is not: 2 of the 2.5 × 1 × 1
+        // box, less the padding (two voxels of 2.5/128 each side): about 0.7.
+        let body = v.outside.iter().filter(|&&o| !o).count() as f32 / v.outside.len() as f32;
+        assert!((0.6..0.75).contains(&body), "{body}");
+    }
+
+    #[test]
+    fn an_open_mesh_lets_the_outside_in() {
+        // A box without its top: the fill reaches the middle, nothing is seen through it.
+        let (p, mut t) = cube(Vec3::ZERO, Vec3::ONE, 0);
+        t.retain(|tri| !tri.iter().all(|&i| i & 2 != 0));
+        let v = Voxels::new(&p, &t).unwrap();
+        assert!(!v.sees(Vec3::new(0.0, 0.5, 0.5), Vec3::splat(0.5)));
     }
 }

@@ -93,12 +93,12 @@ pub(super) fn top_four(per_joint: &[f32]) -> Option<([u16; 4], Vec4)> {
     normalised(top)
 }
 
-/// Puts joint `j` with weight `w` into `top` (largest first) if it is among the four
+/// Puts joint `j` with weight `w` into `top` (largest first) if it is among the `N`
 /// largest; `w > top` also skips NaN.
-pub(super) fn keep_largest(top: &mut [(u16, f32); 4], j: u16, w: f32) {
-    if w > top[3].1 {
-        top[3] = (j, w);
-        let mut k = 3;
+pub(super) fn keep_largest<const N: usize>(top: &mut [(u16, f32); N], j: u16, w: f32) {
+    if w > top[N - 1].1 {
+        top[N - 1] = (j, w);
+        let mut k = N - 1;
         while k > 0 && top[k].1 > top[k - 1].1 {
             top.swap(k, k - 1);
             k -= 1;
