@@ -47,15 +47,16 @@ impl Csr {
 }
 
 /// Solves `A X = B` for `k` interleaved right-hand sides, each to a residual of at most
-/// `tol` times its own norm, in at most `max_iter` iterations. `Err` holds the iterations
-/// spent when some column did not converge (or the matrix proved not positive definite).
+/// `tol` times its own norm, in at most `max_iter` iterations; returns the solution and the
+/// iterations spent. `Err` holds the iterations spent when some column did not converge
+/// (or the matrix proved not positive definite).
 pub(super) fn solve(
     a: &Csr,
     b: &[f64],
     k: usize,
     tol: f64,
     max_iter: usize,
-) -> Result<Vec<f64>, usize> {
+) -> Result<(Vec<f64>, usize), usize> {
     let n = a.rows();
     let inv_diag: Vec<f64> = a
         .diagonal()
@@ -73,9 +74,9 @@ pub(super) fn solve(
     let goal: Vec<f64> = (0..k).map(|c| tol * dot(b, b, c).sqrt()).collect();
     let mut rz: Vec<f64> = (0..k).map(|c| dot(&r, &z, c)).collect();
     let mut done: Vec<bool> = (0..k).map(|c| dot(&r, &r, c).sqrt() <= goal[c]).collect();
-    for _ in 0..max_iter {
+    for it in 0..max_iter {
         if done.iter().all(|&d| d) {
-            return Ok(x);
+            return Ok((x, it));
         }
         a.mul(&p, &mut ap, k);
         for c in 0..k {
@@ -84,7 +85,7 @@ pub(super) fn solve(
             }
             let pap = dot(&p, &ap, c);
             if !(pap > 0.0 && pap.is_finite()) {
-                return Err(max_iter);
+                return Err(it);
             }
             let alpha = rz[c] / pap;
             for i in 0..n {
@@ -109,7 +110,7 @@ pub(super) fn solve(
         }
     }
     if done.iter().all(|&d| d) {
-        Ok(x)
+        Ok((x, max_iter))
     } else {
         Err(max_iter)
     }

@@ -24,13 +24,20 @@ use crate::skeleton::Skeleton;
 /// the sparse system, and the iterations grow with the square root of their number; the
 /// 13,600-vertex Stanford dragon takes well under a second. Larger meshes get
 /// [`auto_weights`] (decimate a scan first for volume-aware weights).
-pub const MAX_HEAT_VERTICES: usize = 300_000;
+pub const MAX_HEAT_VERTICES: usize = 150_000;
 /// Most welded vertices × joints: finding each vertex's nearest bones and solving for
 /// each bone cost about this (the solve times its iterations), so a 512-joint rig on a
 /// large mesh falls back to [`auto_weights`] rather than run for minutes.
 pub const MAX_HEAT_WORK: usize = 20_000_000;
+/// Most triangles heat weights are solved for: each adds three entries to the sparse
+/// system while it is assembled (about 50 bytes each); an ordinary mesh has two per vertex.
+pub const MAX_HEAT_TRIANGLES: usize = 1_000_000;
 /// Iterations of the conjugate-gradient solve before it counts as failed.
 const MAX_ITERATIONS: usize = 5_000;
+/// Most multiply-adds of all the solves together (matrix entries × bones × iterations),
+/// a few seconds: past it the solve counts as failed, whatever the iterations left, and
+/// the mesh gets distance weights. The 13,600-vertex dragon spends a small part of it.
+const MAX_SOLVE_WORK: usize = 3_000_000_000;
 /// Residual the solve stops at, relative to the right-hand side: weights to about 1e-6.
 const TOLERANCE: f64 = 1e-7;
 /// Bones solved together (they share each pass over the matrix).
@@ -55,8 +62,8 @@ const VISIBILITY_CANDIDATES: usize = 8;
 pub enum NoHeat {
     /// No triangle with three distinct, finite corners: there is no surface to spread on.
     NoTriangles,
-    /// More welded vertices, or vertices × bones, than [`MAX_HEAT_VERTICES`] or
-    /// [`MAX_HEAT_WORK`].
+    /// More welded vertices, vertices × bones or triangles than [`MAX_HEAT_VERTICES`],
+    /// [`MAX_HEAT_WORK`] or [`MAX_HEAT_TRIANGLES`].
     TooLarge {
         /// Distinct vertices after welding.
         vertices: usize,
@@ -77,7 +84,8 @@ impl std::fmt::Display for NoHeat {
             NoHeat::TooLarge { vertices, bones } => write!(
                 f,
                 "{vertices} vertices and {bones} bones are more than the heat solve takes \
-                 ({MAX_HEAT_VERTICES} vertices, {MAX_HEAT_WORK} vertices × bones)"
+                 ({MAX_HEAT_VERTICES} vertices, {MAX_HEAT_WORK} vertices × bones, \
+                 {MAX_HEAT_TRIANGLES} triangles)"
             ),
             NoHeat::NotConverged { iterations } => {
                 write!(
@@ -94,8 +102,9 @@ impl std::fmt::Display for NoHeat {
 ///
 /// Falls back to [`auto_weights`] (inverse squared distance) when heat cannot be solved
 /// ([`NoHeat`]): a mesh without triangles (a point cloud has no surface for heat to
-/// spread on), one past [`MAX_HEAT_VERTICES`] or [`MAX_HEAT_WORK`] (time and memory stay
-/// bounded), or a solve that does not converge. Non-finite positions get joint 0, as
+/// spread on), one past [`MAX_HEAT_VERTICES`], [`MAX_HEAT_WORK`] or
+/// [`MAX_HEAT_TRIANGLES`] (time and memory stay bounded), or a solve that does not
+/// converge within its iterations and work. Non-finite positions get joint 0, as
 /// there.
 ///
 /// # Example
@@ -124,6 +133,12 @@ pub fn try_heat_weights(
     positions: &[Vec3],
     indices: &[u32],
 ) -> Result<(Vec<[u16; 4]>, Vec<Vec4>), NoHeat> {
+    if indices.len() / 3 > MAX_HEAT_TRIANGLES {
+        return Err(NoHeat::TooLarge {
+            vertices: positions.len(),
+            bones: skeleton.len(),
+        });
+    }
     let (of_vertex, welded) = weld(positions);
     let triangles = triangles(indices, &of_vertex, &welded);
     if triangles.is_empty() {
@@ -159,6 +174,7 @@ pub fn try_heat_weights(
     // Per welded vertex, every heated bone's weight, solved a block of bones at a time.
     // The five largest: the fifth is subtracted from the four kept.
     let mut top = vec![[(0u16, 0.0f32); 5]; n];
+    let mut work_left = MAX_SOLVE_WORK;
     for block in heated.chunks(BLOCK) {
         let k = block.len();
         let mut rhs = vec![0.0f64; n * k];
@@ -170,8 +186,11 @@ pub fn try_heat_weights(
                 }
             }
         }
-        let x = solve(&matrix, &rhs, k, TOLERANCE, MAX_ITERATIONS)
+        let per_iteration = (matrix.val.len() * k).max(1);
+        let iterations = MAX_ITERATIONS.min(work_left / per_iteration);
+        let (x, spent) = solve(&matrix, &rhs, k, TOLERANCE, iterations)
             .map_err(|iterations| NoHeat::NotConverged { iterations })?;
+        work_left = work_left.saturating_sub(spent * per_iteration);
         for v in 0..n {
             for (c, &b) in block.iter().enumerate() {
                 keep_largest(&mut top[v], b, x[v * k + c] as f32);

@@ -40,7 +40,9 @@ mod weights;
 
 use glam::{Quat, Vec3};
 
-pub use heat::{MAX_HEAT_VERTICES, MAX_HEAT_WORK, NoHeat, heat_weights, try_heat_weights};
+pub use heat::{
+    MAX_HEAT_TRIANGLES, MAX_HEAT_VERTICES, MAX_HEAT_WORK, NoHeat, heat_weights, try_heat_weights,
+};
 pub use weights::auto_weights;
 use weights::distance_squared_to_segment;
 
