@@ -37,13 +37,17 @@ pub fn run(a: &SimulateArgs, matches: &ArgMatches) -> Result<()> {
             a.output.display()
         );
     }
-    // Per-character settings live in the scene; a flag would silently apply to nobody.
+    // Per-character settings live in the scene's tables, one per character; a flag would
+    // silently apply to nobody, or to every character of whatever file.
     for (id, flag, key) in [
         ("mass", "--mass", "mass_kg"),
         ("female", "--female", "female"),
         ("spec", "--spec", "spec"),
+        ("roles", "--roles", "roles"),
         ("units", "--units", "units"),
         ("up", "--up", "up"),
+        ("height", "--height", "height"),
+        ("clip", "--clip", "clip"),
         ("activate", "--activate", "activate"),
         ("powered", "--powered", "powered"),
         ("fade_out", "--fade-out", "powered"),
@@ -56,14 +60,6 @@ pub fn run(a: &SimulateArgs, matches: &ArgMatches) -> Result<()> {
             );
         }
     }
-    for (id, flag) in [("height", "--height"), ("clip", "--clip")] {
-        if given(matches, id) {
-            bail!(
-                "{flag} does not apply to a scene file, whose [[character]] tables cannot set it yet ({})",
-                a.file.display()
-            );
-        }
-    }
     if a.obj_sequence.is_some() {
         bail!("--obj-sequence applies to a character file, not a scene file");
     }
@@ -71,6 +67,7 @@ pub fn run(a: &SimulateArgs, matches: &ArgMatches) -> Result<()> {
     a.preview.check()?;
     let progress = Progress::new(0, "reading the scene");
     let mut scene = Scene::load(&a.file)?;
+    print_warnings(&scene);
     if given(matches, "seconds") {
         if !(a.sim.run.seconds.is_finite()
             && a.sim.run.seconds > 0.0
@@ -149,6 +146,20 @@ pub fn run(a: &SimulateArgs, matches: &ArgMatches) -> Result<()> {
         outln!("{}", p.display());
     }
     Ok(())
+}
+
+/// Each character file's warnings (repaired weights, missing images, a roles warning),
+/// once per file however many characters it gives the scene: a crowd of one file warns
+/// once.
+pub fn print_warnings(scene: &Scene) {
+    let mut seen = std::collections::HashSet::new();
+    for c in &scene.characters {
+        for w in &c.character.warnings {
+            if seen.insert((c.input.as_str(), w.as_str())) {
+                eprintln!("warning: {}: {w}", c.input);
+            }
+        }
+    }
 }
 
 fn print_summary(r: &SceneReport) {

@@ -47,25 +47,26 @@ pub struct ViewArgs {
 pub fn run(a: &ViewArgs) -> Result<()> {
     let scene = match &a.file {
         Some(file) if is_scene(file) => {
-            if a.ragdoll.mass.is_some() || a.ragdoll.female || a.ragdoll.spec.is_some() {
+            // One flag for a scene of several characters would apply to nobody, or to every
+            // character of whatever file: each table sets its own.
+            let given = [
+                (a.ragdoll.mass.is_some(), "--mass", "mass_kg"),
+                (a.ragdoll.female, "--female", "female"),
+                (a.ragdoll.spec.is_some(), "--spec", "spec"),
+                (a.ragdoll.roles.is_some(), "--roles", "roles"),
+                (a.import.units.is_some(), "--units", "units"),
+                (a.import.up.is_some(), "--up", "up"),
+                (a.import.height.is_some(), "--height", "height"),
+                (a.import.clip.is_some(), "--clip", "clip"),
+            ];
+            if let Some((_, flag, key)) = given.iter().find(|g| g.0) {
                 bail!(
-                    "--mass, --female and --spec do not apply to a scene file: set them in its [[character]] tables ({})",
-                    file.display()
-                );
-            }
-            if a.import.units.is_some() || a.import.up.is_some() {
-                bail!(
-                    "--units and --up do not apply to a scene file: set them in its [[character]] tables ({})",
-                    file.display()
-                );
-            }
-            if a.import.height.is_some() || a.import.clip.is_some() {
-                bail!(
-                    "--height and --clip do not apply to a scene file, whose [[character]] tables cannot set them yet ({})",
+                    "{flag} does not apply to a scene file: set {key} in its [[character]] tables ({})",
                     file.display()
                 );
             }
             let mut scene = Scene::load(file)?;
+            crate::scene_cmd::print_warnings(&scene);
             if a.rest_pose {
                 scene.settings.start = StartPose::Rest;
             }

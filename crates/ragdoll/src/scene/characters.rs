@@ -2,14 +2,14 @@
 //! its ragdoll built or read, its placement, activation and motors checked.
 
 use std::collections::HashSet;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use super::SceneCharacter;
+use super::load::{Files, regular_file};
 use super::parse::{Ctx, Src, span_of};
 use super::raw::{RawCharacter, RawPowered, S};
 use crate::error::{Error, Result};
-use crate::import::{self, ImportOptions};
-use crate::skeleton::{self, Character, Source};
+use crate::skeleton::{Character, Source};
 use crate::spec::{self, BuildOptions, RagdollSpec, check_above, check_within};
 use crate::world::{Activation, Motors};
 
@@ -121,77 +121,16 @@ fn explicit_names(src: &Src, raw: &[S<RawCharacter>]) -> Result<HashSet<String>>
     Ok(taken)
 }
 
-/// Characters already loaded, by path and options, with their size in bytes: a crowd of
-/// one file is read once.
-type Cache = Vec<((PathBuf, ImportOptions), Character, u64)>;
-
-/// The character a table names (its file, relative to the scene's folder, or the
-/// built-in humanoid), how to name its input in the report, and its size in bytes.
-fn load(
-    c: &Ctx,
-    r: &RawCharacter,
-    dir: &Path,
-    cache: &mut Cache,
-) -> Result<(Character, String, u64)> {
-    let is_bvh = r.file.as_ref().is_some_and(|f| {
-        Path::new(f.get_ref())
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("bvh"))
-    });
-    if !is_bvh {
-        c.refuse("units", span_of(&r.units), "applies to BVH files only")?;
-        c.refuse("up", span_of(&r.up), "applies to BVH files only")?;
-    }
-    let opts = ImportOptions {
-        units: r.units.as_ref().map(|u| *u.get_ref()),
-        up: r.up.as_ref().map(|u| *u.get_ref()),
-        ..Default::default()
-    };
-    let Some(f) = &r.file else {
-        let ch = skeleton::humanoid();
-        let bytes = character_bytes(&ch);
-        return Ok((ch, "built-in".to_string(), bytes));
-    };
-    let path = regular_file(c, f, dir, "file")?;
-    let key = (path, opts);
-    if let Some((_, ch, bytes)) = cache.iter().find(|(k, _, _)| *k == key) {
-        return Ok((ch.clone(), f.get_ref().clone(), *bytes));
-    }
-    let ch = import::load(&key.0, &key.1).map_err(|e| c.err(&f.span(), "file", e))?;
-    let bytes = character_bytes(&ch);
-    cache.push((key, ch.clone(), bytes));
-    Ok((ch, f.get_ref().clone(), bytes))
-}
-
-/// A file a table names, relative to the scene's folder (an absolute path as it is),
-/// which must be a regular file: a FIFO would block the reader forever and a device such
-/// as `/dev/zero` never ends.
-fn regular_file(c: &Ctx, name: &S<String>, dir: &Path, key: &str) -> Result<PathBuf> {
-    if name.get_ref().trim().is_empty() {
-        return Err(c.err(&name.span(), key, "must name a file"));
-    }
-    let path = dir.join(name.get_ref());
-    match std::fs::metadata(&path) {
-        Ok(m) if m.is_file() => Ok(path),
-        Ok(_) => Err(c.err(
-            &name.span(),
-            key,
-            format!(
-                "{} is not a regular file (a folder, device or FIFO), so it is not read",
-                path.display()
-            ),
-        )),
-        Err(e) => Err(c.err(&name.span(), key, Error::io(&path, e))),
-    }
-}
-
 /// The character's ragdoll: read from its `spec` file, or built from the character with
-/// the table's `mass_kg` and `female`.
+/// the table's `mass_kg`, `female` and `roles`. A built ragdoll's roles warning (names
+/// that promise a humanoid the skeleton denies) joins the character's warnings, which
+/// tools show the user as they do for a lone character.
 fn ragdoll(
     c: &Ctx,
     r: &RawCharacter,
     rc: &S<RawCharacter>,
-    character: &Character,
+    character: &mut Character,
+    files: &mut Files,
     dir: &Path,
 ) -> Result<RagdollSpec> {
     let mass = match &r.mass_kg {
@@ -201,23 +140,38 @@ fn ragdoll(
         None => None,
     };
     let female = r.female.as_ref().is_some_and(|f| *f.get_ref());
-    match &r.spec {
-        Some(s) => {
-            let why = "set it in the spec file instead (masses are per body there)";
-            c.refuse("mass_kg", span_of(&r.mass_kg), why)?;
-            c.refuse("female", span_of(&r.female), why)?;
-            let path = regular_file(c, s, dir, "spec")?;
-            RagdollSpec::load(&path).map_err(|e| c.err(&s.span(), "spec", e))
-        }
-        None => spec::build_spec(
-            character,
-            &BuildOptions {
-                total_mass_kg: mass,
-                female,
-            },
-        )
-        .map_err(|e| c.err(&rc.span(), "ragdoll", e)),
+    if let Some(s) = &r.spec {
+        let why = "set it in the spec file instead (masses are per body there)";
+        c.refuse("mass_kg", span_of(&r.mass_kg), why)?;
+        c.refuse("female", span_of(&r.female), why)?;
+        c.refuse(
+            "roles",
+            span_of(&r.roles),
+            "the spec file already says which joint each body rides on",
+        )?;
+        let path = regular_file(c, s, dir, "spec")?;
+        return RagdollSpec::load(&path).map_err(|e| c.err(&s.span(), "spec", e));
     }
+    let roles = files.roles(c, r, dir)?;
+    let roles = roles.as_ref();
+    let found = spec::roles_for(character, roles).map_err(|e| match &r.roles {
+        Some(k) => c.err(&k.span(), "roles", e),
+        None => c.err(&rc.span(), "ragdoll", e),
+    })?;
+    if r.file.is_some()
+        && let Some(w) = found.warning
+    {
+        character.warnings.push(w);
+    }
+    spec::build_spec_with_roles(
+        character,
+        &BuildOptions {
+            total_mass_kg: mass,
+            female,
+        },
+        roles,
+    )
+    .map_err(|e| c.err(&rc.span(), "ragdoll", e))
 }
 
 /// Joint motors from `powered = { strength, fade_out, root_on_clip }`.
@@ -272,13 +226,13 @@ fn characters_within(
 ) -> Result<Vec<SceneCharacter>> {
     let dir = src.path.parent().unwrap_or(Path::new(""));
     let mut taken = explicit_names(src, raw)?;
-    let mut cache = Cache::new();
+    let mut files = Files::default();
     let mut out = Vec::with_capacity(raw.len());
     let mut held = 0u64;
     for (i, rc) in raw.iter().enumerate() {
         let r = rc.get_ref();
         let mut c = Ctx::new(src, format!("[[character]] {}", i + 1));
-        let (mut character, input, bytes) = load(&c, r, dir, &mut cache)?;
+        let (mut character, input, bytes) = files.character(&c, r, dir)?;
         held += bytes;
         if held > budget {
             let key = if r.file.is_some() {
@@ -304,7 +258,7 @@ fn characters_within(
         };
         c.place = format!("[[character]] \"{name}\"");
         character.name = name.clone();
-        let mut spec = ragdoll(&c, r, rc, &character, dir)?;
+        let mut spec = ragdoll(&c, r, rc, &mut character, &mut files, dir)?;
         spec.name = name.clone();
         let position = match &r.position {
             Some(p) => c.point(p, "position")?,
@@ -367,7 +321,7 @@ mod tests {
             text,
         };
         let raw: super::super::raw::RawScene = toml::from_str(text).unwrap();
-        let one = character_bytes(&skeleton::humanoid());
+        let one = character_bytes(&crate::skeleton::humanoid());
         assert!(one > 1000, "{one}");
         assert!(characters_within(&src, &raw.character, 3 * one).is_ok());
         match characters_within(&src, &raw.character, 5 * one / 2) {

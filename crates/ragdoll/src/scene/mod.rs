@@ -21,6 +21,13 @@
 //! [[character]]                     # at least one; no file = the built-in humanoid
 //! name = "alice"
 //! file = "alice.glb"                # relative to the scene file
+//! units = "cm"                      # the file's length unit: "m", "cm", "mm" or "in"
+//! up = "z"                          # BVH and OBJ only: "y" or "z" (glTF is Y up)
+//! height = 1.8                      # scaled to this height, metres
+//! clip = "Walk"                     # the animation it plays: a name, or an index from 0
+//! roles = "alice_roles.toml"        # roles by hand, as --roles; relative to the scene file
+//! mass_kg = 70.0                    # or spec = "alice.ragdoll.toml" (relative to the scene file)
+//! female = false
 //! position = [1.0, 0.0, 0.0]
 //! facing_deg = 90.0
 //! activate = "start"                # or "blast", "contact", or seconds of its animation first
@@ -43,6 +50,7 @@
 //! runs: mistakes surface before minutes of simulation, not after.
 
 mod characters;
+mod load;
 mod parse;
 mod raw;
 mod report;

@@ -7,7 +7,7 @@ use serde::Deserialize;
 use serde::de::{self, Deserializer, Visitor};
 use toml::Spanned;
 
-use crate::import::{Units, UpAxis};
+use crate::import::{ClipChoice, Units, UpAxis};
 use crate::world::{Activation, MAX_SECONDS};
 
 pub(super) type S<T> = Spanned<T>;
@@ -65,6 +65,39 @@ pub(super) struct RawCharacter {
     pub(super) powered: Option<S<RawPowered>>,
     pub(super) units: Option<S<Units>>,
     pub(super) up: Option<S<UpAxis>>,
+    pub(super) height: Option<S<f32>>,
+    pub(super) clip: Option<S<ClipValue>>,
+    pub(super) roles: Option<S<String>>,
+}
+
+/// `clip`: a clip's name, or its position in the file's clip list from 0. TOML's types
+/// tell them apart, so a clip named `"2"` is still reachable by name.
+pub(super) struct ClipValue(pub(super) ClipChoice);
+
+impl<'de> Deserialize<'de> for ClipValue {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        struct V;
+        impl Visitor<'_> for V {
+            type Value = ClipValue;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a clip's name, or its index from 0")
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> std::result::Result<Self::Value, E> {
+                usize::try_from(v)
+                    .map(|i| ClipValue(ClipChoice::Index(i)))
+                    .map_err(|_| E::invalid_value(de::Unexpected::Signed(v), &self))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> std::result::Result<Self::Value, E> {
+                usize::try_from(v)
+                    .map(|i| ClipValue(ClipChoice::Index(i)))
+                    .map_err(|_| E::invalid_value(de::Unexpected::Unsigned(v), &self))
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> std::result::Result<Self::Value, E> {
+                Ok(ClipValue(ClipChoice::Name(v.to_string())))
+            }
+        }
+        d.deserialize_any(V)
+    }
 }
 
 /// `powered = { strength = 1.0, fade_out = [1.0, 2.0], root_on_clip = true }`.

@@ -1,0 +1,241 @@
+//! A scene's `[[character]]` keys that the command line has as flags for one file:
+//! `units`, `up`, `height`, `clip` and `roles`, with errors naming the scene file, the line
+//! and the key; and the roles warning joining a scene character's warnings.
+
+#[path = "rigid_parts_files/mod.rs"]
+mod rigid_parts_files;
+#[path = "scene_keys_files/mod.rs"]
+mod scene_keys_files;
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use ragdoll::error::Error;
+use ragdoll::import::character_height;
+use ragdoll::scene::Scene;
+use scene_keys_files::person;
+
+/// A scratch folder, removed when dropped.
+struct Scratch(PathBuf);
+
+impl Scratch {
+    fn path(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// A folder holding `standing.bvh`, `flat.bvh` and `bare.vrm` (a bare VRM 1.0 humanoid
+/// hierarchy, metres), with the scene `text` at `scenes/scene.toml`.
+fn folder(text: &str) -> (Scratch, PathBuf) {
+    static NEXT: AtomicUsize = AtomicUsize::new(0);
+    let n = NEXT.fetch_add(1, Ordering::Relaxed);
+    let dir = Scratch(
+        std::env::temp_dir().join(format!("ragdoll-scene-keys-{}-{n}", std::process::id())),
+    );
+    let _ = std::fs::remove_dir_all(dir.path());
+    std::fs::create_dir_all(dir.path()).unwrap();
+    std::fs::write(dir.path().join("standing.bvh"), person(false)).unwrap();
+    std::fs::write(dir.path().join("flat.bvh"), person(true)).unwrap();
+    let vrm = rigid_parts_files::bare("VRMC_vrm", false);
+    std::fs::write(dir.path().join("bare.vrm"), &vrm).unwrap();
+    std::fs::write(dir.path().join("bare_cm.vrm"), centimetres(&vrm)).unwrap();
+    std::fs::create_dir(dir.path().join("scenes")).unwrap();
+    let scene = dir.path().join("scenes/scene.toml");
+    std::fs::write(&scene, text).unwrap();
+    (dir, scene)
+}
+
+/// A bufferless GLB with every node's translation in centimetres, as an exporter that did
+/// not convert writes it.
+fn centimetres(glb: &[u8]) -> Vec<u8> {
+    let len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+    assert_eq!(glb.len(), 20 + len, "bufferless");
+    let mut json: serde_json::Value = serde_json::from_slice(&glb[20..20 + len]).unwrap();
+    for node in json["nodes"].as_array_mut().unwrap() {
+        if let Some(t) = node.get_mut("translation") {
+            for x in t.as_array_mut().unwrap() {
+                *x = serde_json::json!(x.as_f64().unwrap() * 100.0);
+            }
+        }
+    }
+    rigid_parts_files::glb(&json, &[])
+}
+
+fn load(text: &str) -> Scene {
+    let (_dir, path) = folder(text);
+    Scene::load(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The error of a scene that must fail, as (line, message), with `roles.toml` written
+/// beside it.
+fn failure(text: &str, roles: &str) -> (usize, String) {
+    let (dir, path) = folder(text);
+    std::fs::write(dir.path().join("scenes/roles.toml"), roles).unwrap();
+    match Scene::load(&path) {
+        Ok(_) => panic!("this scene should fail:\n{text}"),
+        Err(Error::Parse {
+            path: p,
+            line,
+            message,
+        }) => {
+            assert_eq!(p, path);
+            assert!(!message.contains('\n'), "one line: {message}");
+            (line, message)
+        }
+        Err(e) => panic!("expected a parse error, got {e:?}"),
+    }
+}
+
+fn height(s: &Scene, k: usize) -> f32 {
+    character_height(&s.characters[k].character)
+}
+
+#[test]
+fn units_and_height_apply_to_bvh_and_vrm_characters() {
+    let s = load(
+        "[[character]]\nfile = \"../bare.vrm\"\n\
+         [[character]]\nfile = \"../bare_cm.vrm\"\nunits = \"cm\"\nposition = [5, 0, 0]\n\
+         [[character]]\nfile = \"../bare.vrm\"\nheight = 1.2\nposition = [-5, 0, 0]\n\
+         [[character]]\nfile = \"../standing.bvh\"\nunits = \"m\"\nup = \"y\"\nheight = 2.5\nposition = [0, 0, 5]\n",
+    );
+    let metres = height(&s, 0);
+    assert!(metres > 1.5 && metres < 2.2, "{metres}");
+    let cm = height(&s, 1);
+    assert!((cm / metres - 1.0).abs() < 1e-4, "{cm} {metres}");
+    assert!((height(&s, 2) - 1.2).abs() < 1e-3, "{}", height(&s, 2));
+    assert!((height(&s, 3) - 2.5).abs() < 1e-3, "{}", height(&s, 3));
+}
+
+#[test]
+fn clip_picks_the_animation_by_index_or_name() {
+    let s = load("[[character]]\nfile = \"../standing.bvh\"\nclip = 0\n");
+    assert_eq!(s.characters[0].character.clips.len(), 1);
+    let (line, m) = failure(
+        "[[character]]\nname = \"a\"\nfile = \"../standing.bvh\"\n\nclip = 1\n",
+        "",
+    );
+    assert_eq!(line, 5, "{m}");
+    assert!(
+        m.contains("[[character]] 1: clip: ../standing.bvh: clip 1: no such clip; the file's 1 clips are 0 (unnamed)"),
+        "{m}"
+    );
+    let (line, m) = failure(
+        "[[character]]\nfile = \"../standing.bvh\"\nclip = \"Dance\"\n",
+        "",
+    );
+    assert_eq!(line, 3, "{m}");
+    assert!(
+        m.contains("clip: ../standing.bvh: clip \"Dance\": no such clip"),
+        "{m}"
+    );
+    let (line, m) = failure("[[character]]\nfile = \"../standing.bvh\"\nclip = -1\n", "");
+    assert_eq!(line, 3, "{m}");
+    assert!(m.contains("clip") && m.contains("index from 0"), "{m}");
+}
+
+#[test]
+fn import_keys_are_refused_where_they_cannot_apply() {
+    let cases = [
+        // (scene, line, what the message must hold)
+        (
+            "[[character]]\nfile = \"../standing.bvh\"\nheight = 0.0\n",
+            3,
+            "[[character]] 1: height: must be between",
+        ),
+        (
+            "[[character]]\nfile = \"../bare.vrm\"\nup = \"z\"\n",
+            3,
+            "up: glTF is Y up by definition",
+        ),
+        (
+            "[[character]]\nname = \"b\"\nheight = 1.8\n",
+            3,
+            "height: the built-in humanoid is not a file",
+        ),
+        (
+            "[[character]]\nclip = 0\n",
+            2,
+            "clip: the built-in humanoid is not a file",
+        ),
+        (
+            "[[character]]\nunits = \"cm\"\n",
+            2,
+            "units: the built-in humanoid is not a file",
+        ),
+        (
+            "[[character]]\nfile = \"../standing.bvh\"\nroles = \"missing.toml\"\n",
+            3,
+            "roles: ",
+        ),
+        (
+            "[[character]]\nfile = \"../standing.bvh\"\nspec = \"x.toml\"\nroles = \"roles.toml\"\n",
+            4,
+            "roles: the spec file already says",
+        ),
+        (
+            "[[character]]\nfile = \"../standing.bvh\"\nheight = \"tall\"\n",
+            3,
+            "height",
+        ),
+    ];
+    for (text, want_line, want) in cases {
+        let (line, m) = failure(text, "");
+        assert_eq!(line, want_line, "{text}: {m}");
+        assert!(m.contains(want), "{text}: {m}");
+    }
+}
+
+#[test]
+fn roles_files_are_read_from_the_scene_files_folder_and_applied() {
+    let without = load("[[character]]\nfile = \"../standing.bvh\"\n");
+    let (dir, path) = folder(
+        "[[character]]\nfile = \"../standing.bvh\"\nroles = \"roles.toml\"\n\
+         [[character]]\nfile = \"../standing.bvh\"\nroles = \"roles.toml\"\nposition = [3, 0, 0]\n",
+    );
+    std::fs::write(
+        dir.path().join("scenes/roles.toml"),
+        "ignore = [\"LeftHand\"]\n",
+    )
+    .unwrap();
+    let with = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let bodies = |s: &Scene, k: usize| s.characters[k].spec.bodies.len();
+    assert_eq!(bodies(&with, 0), bodies(&without, 0) - 1);
+    assert_eq!(bodies(&with, 1), bodies(&with, 0));
+    // A roles file the skeleton cannot satisfy: a flat person's knees are not below its
+    // hips. The error names the scene's line and key, then the roles file's.
+    let (line, m) = failure(
+        "[[character]]\nfile = \"../flat.bvh\"\nunits = \"m\"\nup = \"y\"\nroles = \"roles.toml\"\n",
+        "[roles]\nthigh_l = \"LeftUpLeg\"\nshin_l = \"LeftLeg\"\n",
+    );
+    assert_eq!(line, 5, "{m}");
+    assert!(
+        m.contains("[[character]] \"flat\": roles: ") && m.contains("roles.toml: line 3: shin_l:"),
+        "{m}"
+    );
+}
+
+#[test]
+fn names_that_promise_a_humanoid_the_skeleton_denies_warn_in_a_scene_too() {
+    let s = load(
+        "[[character]]\nfile = \"../flat.bvh\"\nunits = \"m\"\nup = \"y\"\n\
+         [[character]]\nfile = \"../flat.bvh\"\nunits = \"m\"\nup = \"y\"\nposition = [3, 0, 0]\n\
+         [[character]]\nfile = \"../standing.bvh\"\nposition = [-3, 0, 0]\n\
+         [[character]]\nposition = [0, 0, 3]\n",
+    );
+    let warned = |k: usize| {
+        s.characters[k]
+            .character
+            .warnings
+            .iter()
+            .filter(|w| w.contains("joint names"))
+            .count()
+    };
+    assert_eq!((warned(0), warned(1), warned(2), warned(3)), (1, 1, 0, 0));
+    assert!(s.characters[2].character.warnings.is_empty());
+}
