@@ -255,11 +255,7 @@ fn other_files_become_chains() {
         assert!(spec.bodies.iter().all(|b| b.role == Some(Role::Chain)));
         for j in &spec.joints {
             assert!(
-                // Creature legs bent at rest become hinges (spec/build/joints.rs).
-                matches!(
-                    j.kind,
-                    JointKind::SwingTwist { .. } | JointKind::Hinge { .. }
-                ),
+                matches!(j.kind, JointKind::SwingTwist { .. }),
                 "{rel}: {}",
                 j.name
             );

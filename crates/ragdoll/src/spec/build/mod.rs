@@ -197,7 +197,7 @@ impl<'a> Builder<'a> {
                 .unwrap_or_else(|| self.rig.parent(plans[b].joint).map_or(0, |p| self.owner[p])),
             })
             .collect();
-        let masses = self.masses(&plans, &parents, &character.meshes);
+        let masses = self.masses(&plans, &parents);
 
         let mut names: Vec<String> = Vec::new();
         let mut taken = HashSet::new();
