@@ -8,25 +8,42 @@ use super::{Builder, Plan};
 use crate::spec::anthropometry::*;
 use crate::spec::{Role, Shape};
 
-/// Percentile of the skin's distance to a bone axis taken as the capsule radius: robust to
-/// stray vertices (clothing, vertices of a neighbour weighted here) and a little inside the
-/// surface, so bodies of a rest pose do not start in contact.
-const RADIUS_PERCENTILE: f32 = 0.65;
+/// Share of the skin a body's shape holds across the bone (a capsule's radius, a box's
+/// width and depth, from each side): all of it, since a vertex outside the shape sinks into
+/// the floor when the body lies on that side. Measured on the data files' 3 s drops, 0.98
+/// still left a knight's tabard 7 % of its height outside its pelvis, and 0.65 sank a
+/// robot's head 18 % into the floor; strays (a neighbour's vertices weighted here) are
+/// bounded by [`RADIUS_RANGE`] instead. Bodies then overlap their neighbours at rest; those
+/// pairs never collide (`collision.rs`).
+const RADIUS_PERCENTILE: f32 = 1.0;
 /// Percentile of the skin's reach along a leaf bone (head, hand, foot) taken as its end.
 const REACH_PERCENTILE: f32 = 0.95;
-/// Percentiles bounding the trunk's width and depth from its skin.
-const TRUNK_PERCENTILES: [f32; 2] = [0.05, 0.95];
+/// Percentiles of a point cloud along its principal axis taken as the ends of the axis a
+/// body without a usable bone lies along (a foot heel to toe); the capsule fitted around
+/// it then reaches past them to the skin's ends.
+const AXIS_PERCENTILES: [f32; 2] = [0.05, 0.95];
+/// A skinned body is a box rather than a capsule when the box holding its skin has less
+/// than this share of the capsule's volume: when the skin is flat (a hand, a foot, a
+/// strip), about a third as thick as wide or flatter. A round limb's box is never smaller
+/// than its capsule, so limbs stay capsules.
+const BOX_PREFERENCE: f32 = 0.5;
 /// Fewest skin vertices a measurement is made from; below, proportions are used.
 const MIN_FIT_VERTICES: usize = 8;
-/// Radii removed from each end of a capsule: its round ends then stop at the joints, so
-/// neighbours meet instead of overlapping (jointed pairs do not collide anyway).
+/// Radii removed from each end of a capsule fitted without skin (or whose skin does not
+/// reach the joints): its round ends then stop at the joints, so neighbours meet instead of
+/// overlapping (jointed pairs do not collide anyway).
 const CAPSULE_END_INSET_RADII: f32 = 1.0;
 /// Measured radii are kept within these fractions of H (humanoids) or of the skeleton's
-/// extent (other creatures): a bad skin (a cape weighted to an arm) must not make a limb
-/// absurd.
-const RADIUS_RANGE: [f32; 2] = [0.004, 0.12];
-/// Measured trunk widths/depths are kept within these multiples of the proportional ones.
-const TRUNK_FIT_RANGE: [f32; 2] = [0.5, 2.0];
+/// extent (other creatures): at most half, so a body may be a ball as big as the character
+/// (VRM's sample avatar is a 1 m sphere on a 1 m skeleton), but a bad skin cannot make a
+/// limb bigger than the whole.
+const RADIUS_RANGE: [f32; 2] = [0.004, 0.5];
+/// A measured trunk width or depth is at least this multiple of the proportional one (a
+/// trunk whose skin is mostly carried by other bodies still gets a real body)...
+const MIN_TRUNK_FIT: f32 = 0.5;
+/// ...and at most this fraction of H: a trunk may be as wide as the character is tall (a
+/// round mascot), no wider.
+const MAX_TRUNK_SIZE_H: f32 = 1.0;
 /// A trunk segment is at least this tall (fraction of H), so a pelvis joint sitting right
 /// under the chest still gets a real body.
 const MIN_TRUNK_HEIGHT_H: f32 = 0.04;
@@ -49,36 +66,60 @@ impl Builder<'_> {
         } else {
             self.rig.skeleton.joint_label(j)
         };
-        let start = self.pos(j);
         let group = &self.groups[b];
-        let h = self.h;
-        let rj = |r: Role| self.role_joint(r).map(|k| self.pos(k));
-        let dir_between = |a: Option<Vec3>, b: Option<Vec3>, or: Vec3| match (a, b) {
-            (Some(a), Some(b)) => (b - a).normalize_or(or),
-            _ => or,
-        };
         use Role::*;
-        let (end, radius_h) = match role {
+        match role {
             Pelvis | Spine | Chest => {
                 let next = match role {
-                    Pelvis => rj(Spine).or(rj(Chest)),
-                    Spine => rj(Chest),
-                    _ => rj(Neck).or(rj(Head)),
+                    Pelvis => self.role_pos(Spine).or(self.role_pos(Chest)),
+                    Spine => self.role_pos(Chest),
+                    _ => self.role_pos(Neck).or(self.role_pos(Head)),
                 };
-                let end = next.unwrap_or(start + Vec3::Y * CHEST_LENGTH_H * h);
-                return self.trunk_plan(j, role, name, end, group);
+                let end = next.unwrap_or(self.pos(j) + Vec3::Y * CHEST_LENGTH_H * self.h);
+                self.trunk_plan(j, role, name, end, group)
             }
+            FootL | FootR if group.len() >= MIN_FIT_VERTICES => {
+                // A skinned foot lies along its skin's long axis, heel to toe: the ankle
+                // sits above the heel, so a capsule hung from the ankle joint would cut
+                // through the sole and miss the toes.
+                let (heel, toe) = principal_segment(group);
+                let (heel, toe) = if (toe - heel).dot(self.forward) >= 0.0 {
+                    (heel, toe)
+                } else {
+                    (toe, heel)
+                };
+                self.capsule_plan(j, role, name, heel, toe, FOOT_RADIUS_H * self.h, group)
+            }
+            Chain => self.chain_plan(j, name, group),
+            _ => {
+                let start = self.pos(j);
+                let (end, radius_h) = self.limb_end(j, role, group);
+                self.capsule_plan(j, role, name, start, end, radius_h * self.h, group)
+            }
+        }
+    }
+
+    fn role_pos(&self, role: Role) -> Option<Vec3> {
+        self.role_joint(role).map(|k| self.pos(k))
+    }
+
+    /// Where a limb's (or the head's) bone ends, and its radius as a fraction of H when
+    /// there is no skin to measure.
+    fn limb_end(&self, j: usize, role: Role, group: &[Vec3]) -> (Vec3, f32) {
+        let start = self.pos(j);
+        let h = self.h;
+        let rj = |r: Role| self.role_pos(r);
+        let from = |a: Option<Vec3>, or: Vec3| a.map_or(or, |a| (start - a).normalize_or(or));
+        use Role::*;
+        match role {
             Neck => (
                 rj(Head).unwrap_or(start + Vec3::Y * NECK_RADIUS_H * h),
                 NECK_RADIUS_H,
             ),
             Head => {
-                let below = rj(Neck).or(rj(Chest));
-                let dir = dir_between(below, Some(start), Vec3::Y);
-                (
-                    self.extremity(j, group, dir, HEAD_LENGTH_H * h, false),
-                    HEAD_RADIUS_H,
-                )
+                let dir = from(rj(Neck).or(rj(Chest)), Vec3::Y);
+                let end = self.extremity(j, group, dir, HEAD_LENGTH_H * h, false);
+                (end, HEAD_RADIUS_H)
             }
             UpperArmL | UpperArmR => {
                 let fore = if role == UpperArmL {
@@ -95,18 +136,16 @@ impl Builder<'_> {
                     (UpperArmR, HandR)
                 };
                 let end = rj(hand).unwrap_or_else(|| {
-                    let dir = dir_between(rj(upper), Some(start), -Vec3::Y);
+                    let dir = from(rj(upper), -Vec3::Y);
                     self.extremity(j, group, dir, HAND_LENGTH_H * h, true)
                 });
                 (end, FOREARM_RADIUS_H)
             }
             HandL | HandR => {
                 let fore = if role == HandL { ForearmL } else { ForearmR };
-                let dir = dir_between(rj(fore), Some(start), -Vec3::Y);
-                (
-                    self.extremity(j, group, dir, HAND_LENGTH_H * h, true),
-                    HAND_RADIUS_H,
-                )
+                let dir = from(rj(fore), -Vec3::Y);
+                let end = self.extremity(j, group, dir, HAND_LENGTH_H * h, true);
+                (end, HAND_RADIUS_H)
             }
             ThighL | ThighR => {
                 let shin = if role == ThighL { ShinL } else { ShinR };
@@ -119,29 +158,11 @@ impl Builder<'_> {
                 });
                 (end, SHIN_RADIUS_H)
             }
-            FootL | FootR if group.len() >= MIN_FIT_VERTICES => {
-                // A skinned foot lies along its skin's long axis, heel to toe: the ankle
-                // sits above the heel, so a capsule hung from the ankle joint would cut
-                // through the sole and miss the toes.
-                let (heel, toe) = principal_segment(group);
-                let (heel, toe) = if (toe - heel).dot(self.forward) >= 0.0 {
-                    (heel, toe)
-                } else {
-                    (toe, heel)
-                };
-                let radius = self
-                    .fit_radius(heel, toe, group)
-                    .unwrap_or(FOOT_RADIUS_H * h);
-                return capsule_plan(j, role, name, heel, toe, radius, self.left);
-            }
-            FootL | FootR => (
+            _ => (
                 self.extremity(j, group, self.foot_dir(), FOOT_LENGTH_H * h, true),
                 FOOT_RADIUS_H,
             ),
-            Chain => return self.chain_plan(j, name, group),
-        };
-        let radius = self.fit_radius(start, end, group).unwrap_or(radius_h * h);
-        capsule_plan(j, role, name, start, end, radius, self.left)
+        }
     }
 
     /// Unit direction of an estimated foot: forward, pitched down toward the toes.
@@ -193,33 +214,169 @@ impl Builder<'_> {
         p + dir * len
     }
 
-    /// Capsule radius from the skin around the bone `a → b`: a robust percentile of the
-    /// distance to the axis of the vertices alongside the bone.
-    fn fit_radius(&self, a: Vec3, b: Vec3, group: &[Vec3]) -> Option<f32> {
-        let axis = b - a;
-        let len2 = axis.length_squared();
-        if len2 < 1e-12 {
+    /// A body around the bone `start → end`. With skin it holds the skin: a capsule whose
+    /// radius is that of nearly all the skin around the bone and whose ends reach as far
+    /// as the skin goes past the joints (a head's crown, a foot's heel, the fingers on a
+    /// hand), so a body lying on the floor holds the mesh it carries above it; or a box,
+    /// when the skin is flat enough (a hand, a foot, a strip) that a box holding it is
+    /// much smaller than that capsule, which would float the mesh off the floor. Without
+    /// skin it is a capsule of `default_radius` whose round ends stop at the joints, so
+    /// neighbours meet instead of overlapping (jointed pairs do not collide anyway).
+    #[allow(clippy::too_many_arguments)]
+    fn capsule_plan(
+        &self,
+        j: usize,
+        role: Role,
+        name: String,
+        start: Vec3,
+        end: Vec3,
+        default_radius: f32,
+        group: &[Vec3],
+    ) -> Plan {
+        let u = (end - start).normalize_or(Vec3::Y);
+        let len = end.distance(start);
+        // (length, offset of its centre from the bone's middle, along the bone)
+        let (radius, length, offset) = match self.fit_capsule(start, end, default_radius, group) {
+            Some((r, s0, s1)) => (r, s1 - s0, 0.5 * (s0 + s1 - len)),
+            None => {
+                let inset = CAPSULE_END_INSET_RADII * default_radius;
+                (default_radius, (len - 2.0 * inset).max(0.0), 0.0)
+            }
+        };
+        let x = perpendicular_part(self.left, u)
+            .or_else(|| perpendicular_part(Vec3::Z, u))
+            .unwrap_or_else(|| u.any_orthonormal_vector());
+        let capsule = Shape::Capsule {
+            radius_m: radius,
+            length_m: length,
+        };
+        let (shape, centre, rotation) = match self.fit_box(start, u, x, group) {
+            Some((b, centre, rotation)) if b.volume() < BOX_PREFERENCE * capsule.volume() => {
+                (b, centre, rotation)
+            }
+            _ => (
+                capsule,
+                0.5 * (start + end) + u * offset,
+                quat_from_cols(x, u, x.cross(u)),
+            ),
+        };
+        Plan {
+            joint: j,
+            role,
+            name,
+            start,
+            end,
+            shape,
+            centre,
+            rotation,
+        }
+    }
+
+    /// A box along the bone's line (through `a`, direction `u`) that holds `group`: as
+    /// long as the skin reaches along the bone, as wide and deep as nearly all of it
+    /// ([`RADIUS_PERCENTILE`] from each side) along the principal axes of its cross-section
+    /// (`x` is where those are measured from). `None` with too little skin to measure.
+    fn fit_box(&self, a: Vec3, u: Vec3, x: Vec3, group: &[Vec3]) -> Option<(Shape, Vec3, Quat)> {
+        if group.len() < MIN_FIT_VERTICES {
             return None;
         }
-        let d: Vec<f32> = group
-            .iter()
-            .filter_map(|v| {
-                let t = (*v - a).dot(axis) / len2;
-                (0.0..=1.0)
-                    .contains(&t)
-                    .then(|| (*v - (a + axis * t)).length())
-            })
-            .collect();
-        // A humanoid's thickness scales with its height; a creature's (a long, low fox)
-        // with its overall size.
-        let size = if self.roles.humanoid {
+        let z = x.cross(u);
+        let c = centroid(group);
+        let (mut cxx, mut cxz, mut czz) = (0.0f32, 0.0f32, 0.0f32);
+        for p in group {
+            let (px, pz) = ((*p - c).dot(x), (*p - c).dot(z));
+            cxx += px * px;
+            cxz += px * pz;
+            czz += pz * pz;
+        }
+        let turn = 0.5 * (2.0 * cxz).atan2(cxx - czz);
+        let x = x * turn.cos() + z * turn.sin();
+        let z = x.cross(u);
+        let span = |axis: Vec3, q: f32| {
+            let v: Vec<f32> = group.iter().map(|p| (*p - a).dot(axis)).collect();
+            (percentile(v.clone(), 1.0 - q), percentile(v, q))
+        };
+        let size = self.size();
+        let side = |(lo, hi): (f32, f32)| {
+            (hi - lo).clamp(2.0 * RADIUS_RANGE[0] * size, 2.0 * RADIUS_RANGE[1] * size)
+        };
+        let (sx, sy, sz) = (
+            span(x, RADIUS_PERCENTILE),
+            span(u, 1.0),
+            span(z, RADIUS_PERCENTILE),
+        );
+        let mid = |(lo, hi): (f32, f32)| 0.5 * (lo + hi);
+        let centre = a + x * mid(sx) + u * mid(sy) + z * mid(sz);
+        let shape = Shape::Box {
+            size_m: [
+                side(sx),
+                (sy.1 - sy.0).max(2.0 * RADIUS_RANGE[0] * size),
+                side(sz),
+            ],
+        };
+        Some((shape, centre, quat_from_cols(x, u, z)))
+    }
+
+    /// What a body's thickness scales with: a humanoid's height; a creature's (a long, low
+    /// fox) overall size.
+    fn size(&self) -> f32 {
+        if self.roles.humanoid {
             self.h
         } else {
             self.rig.extent
+        }
+    }
+
+    /// Radius and span (distances along the bone from `a`, between the two sphere
+    /// centres) of a capsule around the bone `a → b` that holds `group`: `None` when the
+    /// bone has no length or there is no skin.
+    ///
+    /// The radius is the skin's distance to the bone's line ([`RADIUS_PERCENTILE`] of it,
+    /// or all of it, and at least `default_radius`, when there are too few vertices to
+    /// measure a thickness). A vertex at distance `t` along the bone and `d` from it lies
+    /// inside once the span reaches within `√(r² − d²)` of `t`; a vertex farther out than
+    /// the radius (a stray the percentile leaves out) still pulls the span out to its `t`.
+    fn fit_capsule(
+        &self,
+        a: Vec3,
+        b: Vec3,
+        default_radius: f32,
+        group: &[Vec3],
+    ) -> Option<(f32, f32, f32)> {
+        let len = a.distance(b);
+        if len < 1e-6 || group.is_empty() {
+            return None;
+        }
+        let u = (b - a) / len;
+        let td: Vec<(f32, f32)> = group
+            .iter()
+            .map(|v| {
+                let w = *v - a;
+                let t = w.dot(u);
+                (t, (w - u * t).length())
+            })
+            .collect();
+        let d: Vec<f32> = td.iter().map(|&(_, d)| d).collect();
+        let r = if d.len() >= MIN_FIT_VERTICES {
+            percentile(d, RADIUS_PERCENTILE)
+        } else {
+            d.into_iter().fold(default_radius, f32::max)
         };
-        (d.len() >= MIN_FIT_VERTICES).then(|| {
-            percentile(d, RADIUS_PERCENTILE).clamp(RADIUS_RANGE[0] * size, RADIUS_RANGE[1] * size)
-        })
+        let r = r.clamp(RADIUS_RANGE[0] * self.size(), RADIUS_RANGE[1] * self.size());
+        let (mut s0, mut s1) = (
+            r * CAPSULE_END_INSET_RADII,
+            len - r * CAPSULE_END_INSET_RADII,
+        );
+        for (t, d) in td {
+            let half = (r * r - d.min(r).powi(2)).max(0.0).sqrt();
+            s0 = s0.min(t + half);
+            s1 = s1.max(t - half);
+        }
+        if s1 < s0 {
+            let mid = 0.5 * (s0 + s1);
+            (s0, s1) = (mid, mid);
+        }
+        Some((r, s0, s1))
     }
 
     /// A trunk segment: a box as wide and deep as the trunk, spanning the segment along the
@@ -250,19 +407,31 @@ impl Builder<'_> {
             _ => (CHEST_WIDTH_H * h, CHEST_DEPTH_H * h),
         };
         let (mut width, mut depth, mut cx, mut cz) = (w0, d0, 0.0, 0.0);
-        if group.len() >= MIN_FIT_VERTICES {
+        if !group.is_empty() {
+            let measured = group.len() >= MIN_FIT_VERTICES;
             let span = |axis: Vec3| {
                 let v: Vec<f32> = group.iter().map(|p| (*p - a).dot(axis)).collect();
-                let lo = percentile(v.clone(), TRUNK_PERCENTILES[0]);
-                let hi = percentile(v, TRUNK_PERCENTILES[1]);
-                (hi - lo, 0.5 * (hi + lo))
+                let lo = percentile(v.clone(), 1.0 - RADIUS_PERCENTILE);
+                (lo, percentile(v, RADIUS_PERCENTILE))
             };
-            let (w, c) = span(x);
-            width = w.clamp(TRUNK_FIT_RANGE[0] * w0, TRUNK_FIT_RANGE[1] * w0);
-            cx = c;
-            let (d, c) = span(z);
-            depth = d.clamp(TRUNK_FIT_RANGE[0] * d0, TRUNK_FIT_RANGE[1] * d0);
-            cz = c;
+            // Too few vertices to measure the trunk (its skin carried by its neighbours):
+            // the proportional box, grown to hold them.
+            let fit = |(lo, hi): (f32, f32), proportional: f32| {
+                let (lo, hi) = if measured {
+                    (lo, hi)
+                } else {
+                    (lo.min(-0.5 * proportional), hi.max(0.5 * proportional))
+                };
+                let size = (hi - lo).clamp(MIN_TRUNK_FIT * proportional, MAX_TRUNK_SIZE_H * h);
+                (size, 0.5 * (hi + lo))
+            };
+            (width, cx) = fit(span(x), w0);
+            (depth, cz) = fit(span(z), d0);
+            // Along the spine the box reaches all its skin, as a capsule's ends do: the
+            // pelvis's skin reaches below the hips, the chest's up over the shoulders.
+            let along = group.iter().map(|p| (*p - a).dot(u));
+            y0 = along.clone().fold(y0, f32::min);
+            y1 = along.fold(y1, f32::max);
         }
         let tall = y1 - y0;
         let centre = a + u * (0.5 * (y0 + y1)) + x * cx + z * cz;
@@ -314,10 +483,8 @@ impl Builder<'_> {
             }
         };
         let len = end.distance(start);
-        let radius = self
-            .fit_radius(start, end, group)
-            .unwrap_or((CHAIN_RADIUS_OF_LENGTH * len).max(CHAIN_MIN_RADIUS_EXTENT * rig.extent));
-        capsule_plan(j, Role::Chain, name, start, end, radius, self.left)
+        let radius = (CHAIN_RADIUS_OF_LENGTH * len).max(CHAIN_MIN_RADIUS_EXTENT * rig.extent);
+        self.capsule_plan(j, Role::Chain, name, start, end, radius, group)
     }
 }
 
@@ -360,38 +527,7 @@ fn principal_segment(points: &[Vec3]) -> (Vec3, Vec3) {
         axis = (cov * axis).normalize_or(axis);
     }
     let t: Vec<f32> = points.iter().map(|p| (*p - c).dot(axis)).collect();
-    let lo = percentile(t.clone(), TRUNK_PERCENTILES[0]);
-    let hi = percentile(t, TRUNK_PERCENTILES[1]);
+    let lo = percentile(t.clone(), AXIS_PERCENTILES[0]);
+    let hi = percentile(t, AXIS_PERCENTILES[1]);
     (c + axis * lo, c + axis * hi)
-}
-
-/// A capsule along `start → end`, shortened so its round ends stop at the joints; its
-/// shape frame has Y along the bone and X toward the character's left where possible.
-fn capsule_plan(
-    joint: usize,
-    role: Role,
-    name: String,
-    start: Vec3,
-    end: Vec3,
-    radius: f32,
-    left: Vec3,
-) -> Plan {
-    let u = (end - start).normalize_or(Vec3::Y);
-    let len = end.distance(start);
-    let x = perpendicular_part(left, u)
-        .or_else(|| perpendicular_part(Vec3::Z, u))
-        .unwrap_or_else(|| u.any_orthonormal_vector());
-    Plan {
-        joint,
-        role,
-        name,
-        start,
-        end,
-        shape: Shape::Capsule {
-            radius_m: radius,
-            length_m: (len - 2.0 * CAPSULE_END_INSET_RADII * radius).max(0.0),
-        },
-        centre: 0.5 * (start + end),
-        rotation: quat_from_cols(x, u, x.cross(u)),
-    }
 }
