@@ -31,20 +31,22 @@ const PASSING: &[&str] = &[
     // Skinned glTF characters drawn with their own mesh and weights.
     "gltf/SimpleSkin.gltf",
     "rigs/godot_mannequiny.glb",
+    "rigs/kaykit_knight.glb",
+    "rigs/quaternius_um_orc_ikfeet.gltf",
 ];
 
 /// The data files that do not meet the targets yet, with what is wrong (issue 11's next
 /// steps). They are measured and printed, not asserted; a file in neither list fails the
 /// test so that a new data file cannot go unmeasured.
 const FAILING: &[&str] = &[
-    // Their own skin weights over bodies fitted to 65 % of their skin: the rest sinks.
-    "gltf/CesiumMan.glb",                 // p99 1.79
-    "gltf/Fox.glb",                       // p99 2.13 (centimetres in a metres format)
-    "rigs/godot_robi_ik.glb",             // sinks 17.9 %, p99 2.09
-    "rigs/kaykit_knight.glb",             // sinks 12.9 %
-    "rigs/quaternius_um_orc_ikfeet.gltf", // sinks 8.3 %, p99 1.81
-    "rigs/webxr_generic_hand_left.glb",   // sinks 11.5 % of its 0.21 m on the way down
-    "rigs/threevrm_sphere_vrm0.vrm",      // sinks 31.8 % (a 1 m sphere on a humanoid), p99 2.18
+    // Humanoids whose bodies hold their skin (none sinks): edges across a joint crease
+    // stretch as the joint bends to its limit.
+    "gltf/CesiumMan.glb",            // p99 1.75
+    "rigs/godot_robi_ik.glb",        // p99 1.95
+    "rigs/threevrm_sphere_vrm0.vrm", // p99 2.10 (a 1 m sphere skinned to a humanoid)
+    // Creatures keep capsules fitted to 65 % of their skin (see CHAIN_RADIUS_PERCENTILE).
+    "gltf/Fox.glb",                     // p99 2.13 (centimetres in a metres format)
+    "rigs/webxr_generic_hand_left.glb", // sinks 11.5 % of its 0.21 m on the way down
     // Rigged automatically (weights by distance, not volume): spikes and sinking.
     "mesh/stanford_dragon_13k.obj", // sinks 27 %, p99 3.81, max 27.7×
     "mesh/stanford_dragon_1k7.obj", // sinks 36 %, p99 3.03, max 6.7×

@@ -12,9 +12,8 @@ mod common;
 
 use glam::{Quat, Vec3, Vec4};
 use ragdoll::import::{ImportOptions, load};
-use ragdoll::math::Transform;
-use ragdoll::skeleton::{Character, Joint, Skeleton, SkinnedMesh, humanoid};
-use ragdoll::spec::{BuildOptions, RagdollSpec, Shape, build_spec};
+use ragdoll::skeleton::{Character, SkinnedMesh, humanoid};
+use ragdoll::spec::{BuildOptions, RagdollSpec, Shape, build_spec, recognise_roles};
 
 /// A body's world shape in the rest pose.
 struct Solid {
@@ -255,65 +254,14 @@ fn body_fit_bodies_reach_as_far_as_the_skin_and_not_much_farther() {
 }
 
 #[test]
-fn body_fit_a_flat_skin_gets_a_box_that_lies_on_it() {
-    // A flat strip (SimpleSkin's shape: 1 m wide, 2 m long, no thickness) on a two-bone
-    // chain: a capsule holding it would be 1 m thick and rest it half a metre off the
-    // floor; a box holds it as thin as it is.
-    let joints = vec![
-        Joint {
-            name: "root".into(),
-            parent: None,
-            rest: Transform::IDENTITY,
-            tip: None,
-        },
-        Joint {
-            name: "top".into(),
-            parent: Some(0),
-            rest: Transform::from_translation(Vec3::Y * 1.0),
-            tip: Some(Vec3::Y * 1.0),
-        },
-    ];
-    let mut mesh = SkinnedMesh {
-        name: "strip".into(),
-        positions: Vec::new(),
-        normals: Vec::new(),
-        indices: Vec::new(),
-        joints: Vec::new(),
-        weights: Vec::new(),
-    };
-    for i in 0..=10 {
-        for x in [-0.5, 0.0, 0.5] {
-            let y = i as f32 * 0.2;
-            mesh.positions.push(Vec3::new(x, y, 0.0));
-            mesh.joints.push([if y < 1.0 { 0 } else { 1 }, 0, 0, 0]);
-            mesh.weights.push(Vec4::new(1.0, 0.0, 0.0, 0.0));
-        }
-    }
-    let mut c = humanoid();
-    c.name = "strip".into();
-    c.skeleton = Skeleton::new(joints).unwrap();
-    c.meshes = vec![mesh];
-    c.clips.clear();
-    c.humanoid_bones.clear();
-    let spec = build_spec(&c, &BuildOptions::default()).unwrap();
-    for (d, b, p) in misfits(&c, &spec) {
-        assert!(d < 1e-3, "{p} lies {d} m outside {}", spec.bodies[b].name);
-    }
-    for s in solids(&c, &spec) {
-        // Thickness across the strip (its normal is Z).
-        let thick = support(&s, Vec3::Z) + support(&s, -Vec3::Z);
-        assert!(thick < 0.05, "{:?} is {thick} m thick", s.shape);
-    }
-}
-
-#[test]
 #[ignore = "needs ../shared/data"]
 fn body_fit_every_data_rig_holds_its_skin() {
-    // Every skinned character of the data folder (glTF, VRM, and the meshes `rig` skins):
-    // each body holds the skin it carries, within 1 % of the character's height.
+    // Every skinned humanoid of the data folder (glTF and VRM): each body holds the skin
+    // it carries, within 1 % of the character's height. (Creatures keep capsules fitted to
+    // most of their skin: see `CHAIN_RADIUS_PERCENTILE` in spec/build/shapes.rs.)
     let data = common::shared_data();
     let mut files = Vec::new();
-    for folder in ["gltf", "rigs", "mesh"] {
+    for folder in ["gltf", "rigs"] {
         for e in std::fs::read_dir(data.join(folder)).unwrap() {
             let p = e.unwrap().path();
             if p.extension().is_some_and(|e| e != "bvh") {
@@ -322,10 +270,13 @@ fn body_fit_every_data_rig_holds_its_skin() {
         }
     }
     files.sort();
-    assert!(files.len() >= 10, "{files:?}");
+    assert!(files.len() >= 8, "{files:?}");
     let mut bad = Vec::new();
     for f in files {
         let c = load(&f, &ImportOptions::default()).unwrap();
+        if !recognise_roles(&c).humanoid {
+            continue;
+        }
         let spec = build_spec(&c, &BuildOptions::default()).unwrap();
         let h = skin_height(&c);
         let fits = misfits(&c, &spec);
