@@ -85,14 +85,16 @@ impl RoleFile {
             roles_line: 1,
             entries: Vec::new(),
         };
-        let push = |file: &mut RoleFile, e: Entry, pos: usize| {
+        // Every entry keeps the line of `pos`, where errors about it point.
+        let push = |file: &mut RoleFile, role: Option<Role>, joint: String, pos: usize| {
             if file.entries.len() >= MAX_ROLE_FILE_ENTRIES {
                 return Err(err(
                     pos,
                     format!("a roles file holds at most {MAX_ROLE_FILE_ENTRIES} entries"),
                 ));
             }
-            file.entries.push(e);
+            let line = crate::spec::line_at(text, pos);
+            file.entries.push(Entry { role, joint, line });
             Ok(())
         };
         for (k, v) in doc.get_ref() {
@@ -103,16 +105,7 @@ impl RoleFile {
                         let key = rk.get_ref().as_ref();
                         if key == "ignore" {
                             for (joint, pos) in joint_list(rv, |m| err(rv.span().start, m))? {
-                                let line = crate::spec::line_at(text, pos);
-                                push(
-                                    &mut file,
-                                    Entry {
-                                        role: None,
-                                        joint,
-                                        line,
-                                    },
-                                    pos,
-                                )?;
+                                push(&mut file, None, joint, pos)?;
                             }
                             continue;
                         }
@@ -135,18 +128,7 @@ impl RoleFile {
                                 ),
                             ));
                         };
-                        let (line, pos) =
-                            (crate::spec::line_at(text, rk.span().start), rk.span().start);
-                        let joint = joint.to_string();
-                        push(
-                            &mut file,
-                            Entry {
-                                role: Some(role),
-                                joint,
-                                line,
-                            },
-                            pos,
-                        )?;
+                        push(&mut file, Some(role), joint.to_string(), rk.span().start)?;
                     }
                 }
                 ("roles", other) => {
@@ -160,16 +142,7 @@ impl RoleFile {
                 }
                 ("ignore", _) => {
                     for (joint, pos) in joint_list(v, |m| err(v.span().start, m))? {
-                        let line = crate::spec::line_at(text, pos);
-                        push(
-                            &mut file,
-                            Entry {
-                                role: None,
-                                joint,
-                                line,
-                            },
-                            pos,
-                        )?;
+                        push(&mut file, None, joint, pos)?;
                     }
                 }
                 (key, _) => {
