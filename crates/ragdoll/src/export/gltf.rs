@@ -9,6 +9,8 @@
 //!   validator counts as errors), joint indices with zero weight are set to 0, and joint
 //!   nodes given as a `matrix` are rewritten as TRS (animated nodes must not use `matrix`);
 //!   normals off unit length are rescaled (the validator counts each as an error).
+//!   A glTF with no mesh at all (a bare VRM humanoid hierarchy) also gets the ragdoll's
+//!   bodies, drawn as for a BVH below and skinned to its joint nodes, so it is seen moving.
 //! - **BVH or built-in input** (no mesh): a fresh glTF with one node per joint, a skin, and
 //!   the ragdoll's bodies drawn as their capsules and boxes, each bound rigidly to its own
 //!   bone (so they never bend or stretch), so the motion is visible in any viewer.
@@ -23,6 +25,7 @@
 //! The output is meant to pass the Khronos glTF validator with no errors; the tests and
 //! `.ci/gltf_validate.mjs` check that.
 
+mod bare;
 mod images;
 mod merge;
 mod normals;
@@ -118,7 +121,7 @@ pub fn scene_to_glb(characters: &[(&Character, &RagdollSpec, &Track)]) -> Result
 fn document(character: &Character, spec: &RagdollSpec, track: &Track) -> Result<(Value, Vec<u8>)> {
     check_track(&character.skeleton, track)?;
     match &character.source {
-        Source::Gltf(src) => from_source(character, src, track),
+        Source::Gltf(src) => from_source(character, spec, src, track),
         Source::BuiltIn | Source::Bvh(_) | Source::Mesh(_) => {
             fresh(character, Some(spec), Some(track))
         }
@@ -377,7 +380,12 @@ fn take_array(obj: &mut Map<String, Value>, key: &str) -> Vec<Value> {
 }
 
 /// The input glTF with the track as a new first animation.
-fn from_source(character: &Character, src: &GltfSource, track: &Track) -> Result<(Value, Vec<u8>)> {
+fn from_source(
+    character: &Character,
+    spec: &RagdollSpec,
+    src: &GltfSource,
+    track: &Track,
+) -> Result<(Value, Vec<u8>)> {
     let path = src.path.as_path();
     let skeleton = &character.skeleton;
     if src.joint_nodes.len() != skeleton.len() || src.parent_offsets.len() != skeleton.len() {
@@ -452,6 +460,9 @@ fn from_source(character: &Character, src: &GltfSource, track: &Track) -> Result
     let mut animations = take_array(obj, "animations");
     animations.insert(0, animation);
     obj.insert("animations".into(), Value::Array(animations));
+    if character.meshes.is_empty() {
+        bare::add_bodies(obj, &mut bin, character, spec, &src.joint_nodes)?;
+    }
     obj.insert(
         "bufferViews".into(),
         Value::Array(std::mem::take(&mut bin.views)),
@@ -851,57 +862,8 @@ fn fresh(
             None => roots.push(i),
         }
     }
-    let ibms: Vec<f32> = skeleton
-        .rest_world()
-        .iter()
-        .flat_map(|w| w.to_mat4().inverse().to_cols_array())
-        .collect();
-    let ibm = bin.floats(&ibms, "MAT4", None, false);
-    let positions: Vec<f32> = mesh.positions.iter().flat_map(|p| p.to_array()).collect();
-    let normals: Vec<f32> = mesh.normals.iter().flat_map(|p| p.to_array()).collect();
-    let weights: Vec<f32> = mesh.weights.iter().flat_map(|w| w.to_array()).collect();
-    let vertex_count = mesh.positions.len();
-    let pos_acc = bin.floats(&positions, "VEC3", Some(ARRAY_BUFFER), true);
-    let nrm_acc =
-        (!normals.is_empty()).then(|| bin.floats(&normals, "VEC3", Some(ARRAY_BUFFER), false));
-    let wgt_acc = bin.floats(&weights, "VEC4", Some(ARRAY_BUFFER), false);
-    let (jtype, jbytes): (u32, Vec<u8>) = if n <= 256 {
-        (
-            UNSIGNED_BYTE,
-            mesh.joints.iter().flatten().map(|&j| j as u8).collect(),
-        )
-    } else {
-        (
-            UNSIGNED_SHORT,
-            mesh.joints
-                .iter()
-                .flatten()
-                .flat_map(|j| j.to_le_bytes())
-                .collect(),
-        )
-    };
-    let jview = bin.push_view(&jbytes, Some(ARRAY_BUFFER));
-    let jnt_acc = bin.push_accessor(json!({
-        "bufferView": jview, "componentType": jtype, "count": vertex_count, "type": "VEC4",
-    }));
-    let (itype, ibytes): (u32, Vec<u8>) = if vertex_count <= u16::MAX as usize {
-        (
-            UNSIGNED_SHORT,
-            mesh.indices
-                .iter()
-                .flat_map(|&i| (i as u16).to_le_bytes())
-                .collect(),
-        )
-    } else {
-        (
-            UNSIGNED_INT,
-            mesh.indices.iter().flat_map(|&i| i.to_le_bytes()).collect(),
-        )
-    };
-    let iview = bin.push_view(&ibytes, Some(ELEMENT_ARRAY_BUFFER));
-    let idx_acc = bin.push_accessor(json!({
-        "bufferView": iview, "componentType": itype, "count": mesh.indices.len(), "type": "SCALAR",
-    }));
+    let ibm = shapes::inverse_bind_matrices(&mut bin, skeleton);
+    let primitive = shapes::primitive(&mut bin, &mesh, n, 0);
     let mesh_node = nodes.len();
     nodes.push(json!({"name": mesh_name, "mesh": 0, "skin": 0}));
     let joint_nodes: Vec<usize> = (0..n).collect();
@@ -917,14 +879,6 @@ fn fresh(
         )?),
         None => None,
     };
-    let mut attributes = json!({
-        "POSITION": pos_acc,
-        "JOINTS_0": jnt_acc,
-        "WEIGHTS_0": wgt_acc,
-    });
-    if let Some(nrm) = nrm_acc {
-        attributes["NORMAL"] = json!(nrm);
-    }
     let mut skin =
         json!({"name": character.name, "joints": joint_nodes, "inverseBindMatrices": ibm});
     if let [root] = roots[..] {
@@ -940,21 +894,9 @@ fn fresh(
         "skins": [skin],
         "meshes": [{
             "name": mesh_name,
-            "primitives": [{
-                "attributes": attributes,
-                "indices": idx_acc,
-                "material": 0,
-                "mode": 4,
-            }],
+            "primitives": [primitive],
         }],
-        "materials": [{
-            "name": "ragdoll body",
-            "pbrMetallicRoughness": {
-                "baseColorFactor": [0.8, 0.62, 0.48, 1.0],
-                "metallicFactor": 0.0,
-                "roughnessFactor": 0.7,
-            },
-        }],
+        "materials": [shapes::material()],
         "accessors": bin.accessors,
         "bufferViews": bin.views,
         "buffers": [{"byteLength": bin.data.len()}],

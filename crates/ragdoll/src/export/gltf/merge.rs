@@ -111,7 +111,7 @@ fn union(to: &mut Vec<Value>, names: Vec<Value>) {
 
 /// The nodes of a document's default scene (or, without scenes, every node that is no
 /// other node's child), before shifting.
-fn scene_roots(doc: &Map<String, Value>, nodes: &[Value]) -> Vec<Value> {
+pub(super) fn scene_roots(doc: &Map<String, Value>, nodes: &[Value]) -> Vec<Value> {
     let scenes = doc.get("scenes").and_then(Value::as_array);
     let default = doc.get("scene").and_then(Value::as_u64).unwrap_or(0) as usize;
     if let Some(scene) = scenes.and_then(|s| s.get(default)) {

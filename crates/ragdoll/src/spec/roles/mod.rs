@@ -40,14 +40,16 @@ mod confirm;
 mod manual;
 mod names;
 mod rig;
+mod role_file;
 mod side;
 mod structure;
 
 use glam::Vec3;
 
-pub use manual::{MAX_ROLE_FILE_ENTRIES, RoleFile, roles_for, roles_with_file};
+pub use manual::{roles_for, roles_with_file};
 pub(crate) use names::{NameHint, Part, name_hint};
 pub(crate) use rig::Rig;
+pub use role_file::{MAX_ROLE_FILE_ENTRIES, RoleFile};
 
 use super::Role;
 use crate::math::Transform;
