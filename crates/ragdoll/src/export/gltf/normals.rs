@@ -45,7 +45,7 @@ pub(super) fn renormalise_normals(
             };
             if let (Some(new), Some(attrs)) = (
                 new,
-                super::primitive_attributes(obj, mesh.index(), prim.index()),
+                super::weights::primitive_attributes(obj, mesh.index(), prim.index()),
             ) {
                 attrs.insert("NORMAL".into(), json!(new));
             }
