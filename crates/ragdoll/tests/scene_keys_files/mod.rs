@@ -1,5 +1,5 @@
 //! Character files for the scene-key tests, built in code: shared by `scene_keys.rs` and
-//! the CLI's `scene_keys_cli.rs` (which includes this file by path).
+//! the CLI's `scene_keys_cli.rs` and `roles_warning.rs` (which include this file by path).
 
 #![allow(dead_code)] // each test binary uses its own subset
 
