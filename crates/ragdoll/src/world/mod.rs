@@ -10,6 +10,7 @@
 use glam::Vec3;
 
 mod blast;
+mod damping;
 mod forces;
 mod motors;
 mod overlap;
@@ -117,7 +118,24 @@ pub struct WorldSettings {
     /// Projection passes per particle substep (default 1): substeps converge better than
     /// passes for the same cost (Macklin et al. 2019, "Small Steps in Physics Simulation").
     pub particle_iterations: usize,
+    /// Passive joint damping, per second (default [`DEFAULT_JOINT_DAMPING`], off): how
+    /// fast a limp limb swinging from a still body loses its speed relative to it, so its
+    /// swing's amplitude decays as `exp(-c t / 2)`. Rigid backend only for now.
+    pub joint_damping: f32,
 }
+
+/// Default of [`WorldSettings::joint_damping`]: off, so runs match earlier releases.
+///
+/// Without damping a limp part hanging free swings as an undamped pendulum for the whole
+/// run: the rigged dragons' raised heads swung at 0.1-0.4 m/s for 14 s on the rigid
+/// backend. At 1.5 per second they lie still within a few seconds, but the default stays
+/// off until it is measured on every data file and the particle backend has it (see
+/// [`WorldSettings::validate`]).
+pub const DEFAULT_JOINT_DAMPING: f32 = 0.0;
+
+/// Largest [`WorldSettings::joint_damping`], per second: a limb stopping within a
+/// hundredth of a second is a weld, not a joint.
+pub const MAX_JOINT_DAMPING: f32 = 100.0;
 
 impl Default for WorldSettings {
     fn default() -> Self {
@@ -134,6 +152,7 @@ impl Default for WorldSettings {
             backend: BackendKind::Rigid,
             particle_substeps: 3,
             particle_iterations: 1,
+            joint_damping: DEFAULT_JOINT_DAMPING,
         }
     }
 }
@@ -163,6 +182,10 @@ impl WorldSettings {
                     check_within(h, -MAX_COORDINATE_M, MAX_COORDINATE_M, " m")
                 }),
             ),
+            (
+                "joint_damping",
+                check_within(self.joint_damping, 0.0, MAX_JOINT_DAMPING, " per second"),
+            ),
         ];
         for (name, v) in [
             ("collision_substeps", self.collision_substeps),
@@ -177,6 +200,18 @@ impl WorldSettings {
                     Err(format!("must be between 1 and {MAX_SUBSTEPS}, not {v}")),
                 ));
             }
+        }
+        if self.joint_damping > 0.0 && self.backend == BackendKind::Particle {
+            // Applied as torque impulses on velocities the particle backend reads off its
+            // last substep's motion, a substep late: on the viewer's largest bodies that
+            // fed energy in (a 29 J fall came to 148 J of motion).
+            checks.push((
+                "joint_damping",
+                Err(
+                    "works on the rigid backend only for now; use 0 with the particle backend"
+                        .to_string(),
+                ),
+            ));
         }
         match checks.into_iter().find(|(_, r)| r.is_err()) {
             Some((setting, Err(message))) => Err(Error::Setting {
@@ -657,6 +692,12 @@ impl World {
                     self.backend.body_states(&mut self.states);
                 }
                 self.apply_motors(t0, h);
+            }
+            if self.settings.joint_damping > 0.0 {
+                if i > 0 {
+                    self.backend.body_states(&mut self.states);
+                }
+                self.apply_joint_damping(h);
             }
             self.backend.step(h);
             // Checked every substep: a non-finite body must not reach the next substep's

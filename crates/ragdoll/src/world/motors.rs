@@ -113,7 +113,7 @@ pub(crate) struct MotorState {
 /// Y), kg·m². A capsule counts as a cylinder of its whole length: close enough for sizing
 /// a motor, and it keeps the small moment about the long axis, which is what a twist
 /// turns (sizing a twist for the tumbling moment overshot it tenfold).
-fn principal_inertia(shape: &Shape, mass: f32) -> Vec3 {
+pub(super) fn principal_inertia(shape: &Shape, mass: f32) -> Vec3 {
     match *shape {
         Shape::Capsule { radius_m, length_m } => {
             let l = length_m + 2.0 * radius_m;
@@ -128,7 +128,13 @@ fn principal_inertia(shape: &Shape, mass: f32) -> Vec3 {
 }
 
 /// Moment of inertia of a body about the axis `n` (unit, world) through `anchor`, kg·m².
-fn inertia_about(pose: &Transform, principal: Vec3, mass: f32, anchor: Vec3, n: Vec3) -> f32 {
+pub(super) fn inertia_about(
+    pose: &Transform,
+    principal: Vec3,
+    mass: f32,
+    anchor: Vec3,
+    n: Vec3,
+) -> f32 {
     let local = pose.rotation.conjugate() * n;
     let own = (local * local).dot(principal);
     let r = pose.translation - anchor;
@@ -354,7 +360,7 @@ impl World {
 /// the chain blew up. Sized for the two bodies, each motor is stable on its own; the load
 /// of the bodies below (their weight, their swing) is then held with a lower stiffness
 /// than designed, which the high frequency keeps to a degree or two.
-fn effective_inertia(child: f32, parent: Option<f32>) -> f32 {
+pub(super) fn effective_inertia(child: f32, parent: Option<f32>) -> f32 {
     match parent {
         Some(p) if p > 0.0 => child * p / (child + p),
         _ => child,
