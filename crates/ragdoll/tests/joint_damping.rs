@@ -4,7 +4,9 @@
 //! it, and its undamped pendulum is measured for comparison.
 
 use glam::{Quat, Vec3};
-use ragdoll::events::Pin;
+mod common;
+
+use common::pin_at;
 use ragdoll::math::Transform;
 use ragdoll::skeleton::{Character, Joint, Skeleton, Source};
 use ragdoll::spec::{BodySpec, JointKind, JointSpec, RagdollSpec, SPEC_FORMAT_VERSION, Shape};
@@ -68,16 +70,6 @@ fn pendulum(dir: Vec3) -> (Character, RagdollSpec) {
     };
     spec.validate().unwrap();
     (character, spec)
-}
-
-fn pin_at(target: &str, point: Vec3) -> Pin {
-    Pin {
-        target: target.into(),
-        keys: vec![(0.0, point)],
-        stiffness_hz: None,
-        damping_ratio: 0.0,
-        release_s: None,
-    }
 }
 
 /// Releases the pendulum 10° off the vertical with `damping` per second on `backend`, and

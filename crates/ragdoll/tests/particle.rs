@@ -4,8 +4,9 @@
 
 mod common;
 
+use common::pin_at;
 use glam::{Quat, Vec3};
-use ragdoll::events::{Blast, Pin};
+use ragdoll::events::Blast;
 use ragdoll::math::Transform;
 use ragdoll::skeleton::{Character, Joint, Skeleton, Source};
 use ragdoll::spec::{
@@ -86,16 +87,6 @@ fn chain(links: usize, len: f32, dir: Vec3, swing_deg: f32) -> (Character, Ragdo
     };
     spec.validate().unwrap();
     (character, spec)
-}
-
-fn pin_at(target: &str, point: Vec3) -> Pin {
-    Pin {
-        target: target.into(),
-        keys: vec![(0.0, point)],
-        stiffness_hz: None,
-        damping_ratio: 0.0,
-        release_s: None,
-    }
 }
 
 #[test]

@@ -93,3 +93,14 @@ pub fn one_capsule(
     };
     (character, spec)
 }
+
+/// A hard pin holding `target` (a joint or body name) at `point` from the start on.
+pub fn pin_at(target: &str, point: glam::Vec3) -> ragdoll::events::Pin {
+    ragdoll::events::Pin {
+        target: target.into(),
+        keys: vec![(0.0, point)],
+        stiffness_hz: None,
+        damping_ratio: 0.0,
+        release_s: None,
+    }
+}
