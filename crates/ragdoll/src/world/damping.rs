@@ -18,7 +18,8 @@ use crate::backend::Backend;
 use crate::spec::JointKind;
 
 impl World {
-    /// Applies every limp ragdoll's joint damping over the substep `h`.
+    /// Applies every limp ragdoll's joint damping over the substep `h` (the step calls it
+    /// only when the damping is on).
     ///
     /// The couple is sized, like the motors, by the two bodies' inertia about the joint
     /// along the relative spin, so a limb swinging from a still body (a pendulum) loses
@@ -28,9 +29,6 @@ impl World {
     /// the rate. Powered ragdolls are left to their motors, which damp on their own.
     pub(super) fn apply_joint_damping(&mut self, h: f32) {
         let c = self.settings.joint_damping;
-        if c <= 0.0 {
-            return;
-        }
         let share = c * h / (1.0 + c * h);
         for inst in &self.instances {
             if !inst.active || inst.motors.is_some() {
