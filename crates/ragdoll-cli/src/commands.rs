@@ -582,7 +582,7 @@ fn report_path(output: &Path) -> PathBuf {
 fn print_summary(report: &Report) {
     let m = &report.metrics;
     errln!(
-        "{}: {} bodies, {:.1} kg, {} frames at {} fps in {:.2} s wall; limit violation {:.2}°, penetration {:.1} mm, joint separation {:.2} mm, energy drift {:.4}",
+        "{}: {} bodies, {:.1} kg, {} frames at {} fps in {:.2} s wall; limit violation {:.2}° ({:.2}° before the clamp), penetration {:.1} mm, joint separation {:.2} mm, energy drift {:.4}",
         report.character,
         report.bodies,
         report.total_mass_kg,
@@ -590,6 +590,7 @@ fn print_summary(report: &Report) {
         report.fps,
         report.wall_seconds,
         m.max_limit_violation_deg,
+        m.max_limit_violation_solver_deg,
         m.max_penetration_m * 1000.0,
         m.max_joint_separation_m * 1000.0,
         m.energy_drift,

@@ -165,7 +165,7 @@ pub fn print_warnings(scene: &Scene) {
 fn print_summary(r: &SceneReport) {
     let m = &r.metrics;
     errln!(
-        "{}: {} character{}, {} frames at {} fps in {:.2} s wall; limit violation {:.2}°, penetration {:.1} mm, joint separation {:.2} mm, energy drift {:.4}",
+        "{}: {} character{}, {} frames at {} fps in {:.2} s wall; limit violation {:.2}° ({:.2}° before the clamp), penetration {:.1} mm, joint separation {:.2} mm, energy drift {:.4}",
         r.scene,
         r.characters.len(),
         if r.characters.len() == 1 { "" } else { "s" },
@@ -173,6 +173,7 @@ fn print_summary(r: &SceneReport) {
         r.fps,
         r.wall_seconds,
         m.max_limit_violation_deg,
+        m.max_limit_violation_solver_deg,
         m.max_penetration_m * 1000.0,
         m.max_joint_separation_m * 1000.0,
         m.energy_drift,

@@ -45,6 +45,11 @@ fn assert_metrics_in_bounds(report: &Value, what: &str) {
         f("max_limit_violation_deg") <= MAX_LIMIT_VIOLATION_DEG,
         "{what}: {report}"
     );
+    // Read before the clamp that turns joints back, which only lowers a violation.
+    assert!(
+        f("max_limit_violation_solver_deg") >= f("max_limit_violation_deg"),
+        "{what}: {report}"
+    );
     assert!(
         f("max_penetration_m") <= MAX_PENETRATION_M * scale,
         "{what}: {report}"
@@ -608,4 +613,43 @@ fn powered_runs_a_file_with_its_options_and_refuses_a_strength_above_one() {
     );
     assert!(!o.status.success(), "a strength above 1 is refused");
     assert!(!tmp.path().join("q.glb").exists());
+}
+
+#[test]
+fn bench_reports_cpu_seconds_and_both_limit_readings() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = ragdoll(
+        tmp.path(),
+        &[
+            "bench",
+            "--ragdolls",
+            "4",
+            "--steps",
+            "30",
+            "--threads",
+            "1",
+            "--json",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out: Value = serde_json::from_slice(&o.stdout).unwrap();
+    let run = &out["runs"][0];
+    let (wall, cpu) = (
+        run["wall_seconds"].as_f64().unwrap(),
+        run["cpu_seconds"].as_f64().unwrap(),
+    );
+    // One stepping thread: it cannot have used more CPU than wall time, beyond the
+    // progress bar's thread and clock granularity.
+    assert!(cpu > 0.0 && cpu <= 1.5 * wall + 0.05, "{run}");
+    let per_cpu = run["ragdoll_steps_per_cpu_second"].as_f64().unwrap();
+    assert!(
+        (per_cpu * cpu - 120.0).abs() < 1e-6 * per_cpu.max(1.0),
+        "{run}"
+    );
+    let m = &run["metrics"];
+    assert!(
+        m["max_limit_violation_solver_deg"].as_f64().unwrap()
+            >= m["max_limit_violation_deg"].as_f64().unwrap(),
+        "{run}"
+    );
 }

@@ -105,6 +105,13 @@ pub(crate) trait Backend {
     fn body_states(&self, out: &mut Vec<BodyState>);
     /// Deepest contact penetration seen in the last step, metres (0 when none).
     fn max_penetration(&self) -> f32;
+    /// For a backend that clamps its own limits on positions after solving
+    /// ([`Backend::enforces_limits`]): the worst limit violation of a joint with a dynamic
+    /// body, radians, as its solver left it in the last step, before that clamp. `None`
+    /// when it has no such clamp (the world then reads its bodies before its own).
+    fn solver_limit_violation(&self) -> Option<f32> {
+        None
+    }
     /// Kinetic energy of everything, joules.
     fn kinetic_energy(&self) -> f64;
     /// The first body a ray from `origin` along `dir` (unit) meets within `max_dist`
@@ -279,6 +286,7 @@ impl Backend for AnyBackend {
         mut fn apply_torque_impulse(index: usize, impulse: Vec3);
         ref fn body_states(out: &mut Vec<BodyState>);
         ref fn max_penetration() -> f32;
+        ref fn solver_limit_violation() -> Option<f32>;
         ref fn kinetic_energy() -> f64;
         ref fn cast_ray(origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(usize, f32)>;
         mut fn set_kinematic(index: usize, kinematic: bool);

@@ -27,8 +27,16 @@ impl Track {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Metrics {
     /// Worst excursion of any joint beyond its limits, degrees (a hinge bending off its axis
-    /// counts too).
+    /// counts too), in what is recorded: after any positional clamp that turns joints back
+    /// (see [`Metrics::max_limit_violation_solver_deg`]).
     pub max_limit_violation_deg: f32,
+    /// The same, read before any positional clamp: what the solver itself left (the world's
+    /// projection for the rigid backend, the particle backend's own end-of-step pass). A
+    /// clamp only ever lowers a violation, so this is at least
+    /// [`Metrics::max_limit_violation_deg`]; the gap between them is how much the clamp,
+    /// not the solver, held the limits.
+    #[serde(default)]
+    pub max_limit_violation_solver_deg: f32,
     /// Deepest contact seen (ground or between bodies that may collide), metres.
     pub max_penetration_m: f32,
     /// Worst gap opening between the two sides of a joint anchor, metres.

@@ -715,6 +715,15 @@ impl World {
         // Read again: the last substep's shots changed velocities after the check.
         self.backend.body_states(&mut self.states);
         self.blast_after_step();
+        // What the solver left, before any clamp: the backend's own reading where it clamps
+        // itself, else the bodies as they are before the world's projection.
+        let solver = match self.backend.solver_limit_violation() {
+            Some(v) => v,
+            None => self.limit_violation_now(),
+        };
+        let m = &mut self.metrics;
+        m.max_limit_violation_solver_deg =
+            m.max_limit_violation_solver_deg.max(solver.to_degrees());
         if self.settings.project_limits && !self.backend.enforces_limits() {
             self.project_limits();
         }

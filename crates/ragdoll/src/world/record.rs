@@ -173,11 +173,25 @@ impl super::World {
             for j in &inst.joints {
                 let (p, c) = (&states[j.parent].pose, &states[j.child].pose);
                 m.max_joint_separation_m = m.max_joint_separation_m.max(j.separation(p, c));
-                m.max_limit_violation_deg = m
-                    .max_limit_violation_deg
-                    .max(j.violation(p, c).to_degrees());
             }
         }
+        let now = self.limit_violation_now().to_degrees();
+        let m = &mut self.metrics;
+        m.max_limit_violation_deg = m.max_limit_violation_deg.max(now);
+    }
+
+    /// The worst limit violation of the physical ragdolls' joints in the current states,
+    /// radians.
+    pub(super) fn limit_violation_now(&self) -> f32 {
+        let mut worst = 0.0f32;
+        for inst in self.instances.iter().filter(|i| i.active) {
+            let states = &self.states[inst.first_body..inst.first_body + inst.masses.len()];
+            for j in &inst.joints {
+                let (p, c) = (&states[j.parent].pose, &states[j.child].pose);
+                worst = worst.max(j.violation(p, c));
+            }
+        }
+        worst
     }
 
     /// Whether every blast has gone off and passed every body part (DESIGN §5 measures

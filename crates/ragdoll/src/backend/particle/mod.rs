@@ -220,6 +220,9 @@ pub(crate) struct ParticleBackend {
     /// Bodies on the floor, or on a body on the floor, in this step (see `solve_pairs`).
     supported: Vec<bool>,
     penetration: f32,
+    /// Worst limit violation the substeps left in the last step, before the end-of-step
+    /// projection (radians).
+    solver_violation: f32,
     /// Length of the last step, seconds.
     last_dt: f32,
     /// Weight buffers for pins and contacts.
@@ -276,6 +279,7 @@ impl ParticleBackend {
             touched: Vec::new(),
             supported: Vec::new(),
             penetration: 0.0,
+            solver_violation: 0.0,
             last_dt: 0.0,
             scratch: Vec::new(),
             pinned: Vec::new(),
@@ -604,6 +608,10 @@ impl Backend for ParticleBackend {
 
     fn max_penetration(&self) -> f32 {
         self.penetration
+    }
+
+    fn solver_limit_violation(&self) -> Option<f32> {
+        Some(self.solver_violation)
     }
 
     fn kinetic_energy(&self) -> f64 {

@@ -4,6 +4,7 @@
 use glam::{Mat3, Quat, Vec3};
 
 use super::{ParticleBackend, triad_frame};
+use crate::math::Transform;
 use crate::spec::JointKind;
 
 /// A hinge counts as on its axis within this angle: below it the limit projection does not
@@ -194,6 +195,7 @@ impl ParticleBackend {
         // projection, whose overlaps the next step's contacts take up.
         self.update_frames();
         self.penetration = self.measure_penetration();
+        self.solver_violation = self.measure_limit_violation();
         self.project_limits();
         for i in 0..self.x.len() {
             self.kin_from[i] = self.kin_to[i];
@@ -378,6 +380,19 @@ impl ParticleBackend {
     /// (`pinned`, filled by `project_limits`).
     fn held(&self, b: usize) -> bool {
         !self.body_free(b) || self.pinned.get(b).is_some_and(|&p| p)
+    }
+
+    /// The worst limit violation of a joint with a dynamic body now, radians, by the
+    /// world's measure ([`crate::spec::ResolvedJoint::violation`]).
+    fn measure_limit_violation(&self) -> f32 {
+        self.joints
+            .iter()
+            .filter(|j| !(self.bodies[j.parent].kinematic && self.bodies[j.child].kinematic))
+            .map(|j| {
+                let pose = |b: usize| Transform::new(self.bodies[b].pos, self.bodies[b].rot);
+                j.violation(&pose(j.parent), &pose(j.child))
+            })
+            .fold(0.0, f32::max)
     }
 
     /// After the substeps, turns each joint still more than `PROJECT_TOLERANCE` past its
