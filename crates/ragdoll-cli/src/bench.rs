@@ -15,7 +15,7 @@ use ragdoll::math::Transform;
 use ragdoll::skeleton;
 use ragdoll::spec::{self, BuildOptions};
 use ragdoll::track::Metrics;
-use ragdoll::world::{World, WorldSettings};
+use ragdoll::world::{BackendKind, World, WorldSettings};
 use rayon::prelude::*;
 use serde_json::json;
 
@@ -58,6 +58,11 @@ pub struct BenchArgs {
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
+    /// Run each size on the rigid backend (rapier, the reference) too, in the same run,
+    /// and print how many times as many ragdoll-steps per CPU-second the chosen backend
+    /// does: a ratio taken minutes apart on a shared machine measures the neighbours.
+    #[arg(long)]
+    compare: bool,
     #[command(flatten)]
     backend: crate::BackendArgs,
 }
@@ -92,37 +97,50 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     let character = skeleton::humanoid();
     let spec = spec::build_spec(&character, &BuildOptions::default())?;
     let backend = a.backend.backend.kind();
-    let mut rows = Vec::new();
+    if a.compare && backend == BackendKind::Rigid {
+        bail!(
+            "--compare runs the rigid backend beside another one: choose that one with --backend"
+        );
+    }
+    let mut runs = Vec::new();
     let progress = Progress::new(0, "bench");
     for &n in &a.ragdolls {
         for &t in &threads {
             let row = run_pile(&character, &spec, backend, n, t, a.steps, &progress)?;
+            let base = if a.compare {
+                let rigid = BackendKind::Rigid;
+                Some(run_pile(
+                    &character, &spec, rigid, n, t, a.steps, &progress,
+                )?)
+            } else {
+                None
+            };
+            let ratio = base.as_ref().and_then(|b| cpu_ratio(&row, b));
             if !a.json {
-                progress.suspend(|| print_row(&row, backend.as_str(), a.steps));
+                progress.suspend(|| {
+                    print_row(&row, backend.as_str(), a.steps);
+                    if let Some(b) = &base {
+                        print_row(b, BackendKind::Rigid.as_str(), a.steps);
+                        match ratio {
+                            Some(r) => outln!(
+                                "      {} / rigid: {r:.2}× the ragdoll-steps per CPU-second",
+                                backend.as_str()
+                            ),
+                            None => outln!("      {} / rigid: CPU time unknown", backend.as_str()),
+                        }
+                    }
+                });
             }
-            rows.push(row);
+            let mut run = run_json(&row, backend, a.steps);
+            if let Some(b) = &base {
+                run["rigid"] = run_json(b, BackendKind::Rigid, a.steps);
+                run["cpu_ratio_to_rigid"] = json!(ratio);
+            }
+            runs.push(run);
         }
     }
     progress.finish();
     if a.json {
-        let runs: Vec<_> = rows
-            .iter()
-            .map(|r| {
-                json!({
-                    "workload": "pile",
-                    "backend": backend.as_str(),
-                    "ragdolls": r.ragdolls,
-                    "threads": r.threads,
-                    "steps": a.steps,
-                    "wall_seconds": r.seconds,
-                    "cpu_seconds": r.cpu_seconds,
-                    "ragdoll_steps_per_second": r.per_second(a.steps, r.seconds),
-                    "ragdoll_steps_per_cpu_second": r.cpu_seconds.map(|c| r.per_second(a.steps, c)),
-                    "stable": stable(&r.metrics),
-                    "metrics": r.metrics,
-                })
-            })
-            .collect();
         outln!(
             "{}",
             serde_json::to_string_pretty(&json!({ "runs": runs }))?
@@ -150,6 +168,31 @@ fn check_size(ragdolls: &[usize], steps: usize) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// One run as the JSON output lists it.
+fn run_json(r: &Row, backend: BackendKind, steps: usize) -> serde_json::Value {
+    json!({
+        "workload": "pile",
+        "backend": backend.as_str(),
+        "ragdolls": r.ragdolls,
+        "threads": r.threads,
+        "steps": steps,
+        "wall_seconds": r.seconds,
+        "cpu_seconds": r.cpu_seconds,
+        "ragdoll_steps_per_second": r.per_second(steps, r.seconds),
+        "ragdoll_steps_per_cpu_second": r.cpu_seconds.map(|c| r.per_second(steps, c)),
+        "stable": stable(&r.metrics),
+        "metrics": r.metrics,
+    })
+}
+
+/// How many times as many ragdoll-steps per CPU-second `r` did as `base` (same work).
+fn cpu_ratio(r: &Row, base: &Row) -> Option<f64> {
+    match (r.cpu_seconds, base.cpu_seconds) {
+        (Some(c), Some(b)) if c > 0.0 => Some(b / c),
+        _ => None,
+    }
 }
 
 fn stable(m: &Metrics) -> bool {
@@ -197,7 +240,7 @@ fn placement(k: usize, n: usize) -> Transform {
 fn run_pile(
     character: &skeleton::Character,
     spec: &spec::RagdollSpec,
-    backend: ragdoll::world::BackendKind,
+    backend: BackendKind,
     n: usize,
     threads: usize,
     steps: usize,

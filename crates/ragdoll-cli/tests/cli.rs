@@ -616,6 +616,48 @@ fn powered_runs_a_file_with_its_options_and_refuses_a_strength_above_one() {
 }
 
 #[test]
+fn bench_compare_needs_a_backend_other_than_the_reference() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = ragdoll(
+        tmp.path(),
+        &["bench", "--compare", "--ragdolls", "1", "--steps", "1"],
+    );
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("choose that one with --backend"),
+        "{}",
+        stderr(&o)
+    );
+    // With one, the rigid run comes in the same output, and the ratio is of the two.
+    let o = ragdoll(
+        tmp.path(),
+        &[
+            "bench",
+            "--compare",
+            "--backend",
+            "particle",
+            "--ragdolls",
+            "2",
+            "--steps",
+            "20",
+            "--threads",
+            "1",
+            "--json",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let run = &serde_json::from_slice::<Value>(&o.stdout).unwrap()["runs"][0];
+    assert_eq!(run["backend"], "particle");
+    assert_eq!(run["rigid"]["backend"], "rigid");
+    let per_cpu = |r: &Value| r["ragdoll_steps_per_cpu_second"].as_f64().unwrap();
+    let ratio = run["cpu_ratio_to_rigid"].as_f64().unwrap();
+    assert!(
+        (ratio - per_cpu(run) / per_cpu(&run["rigid"])).abs() < 1e-9 * ratio,
+        "{run}"
+    );
+}
+
+#[test]
 fn bench_reports_cpu_seconds_and_both_limit_readings() {
     let tmp = tempfile::tempdir().unwrap();
     let o = ragdoll(

@@ -201,6 +201,15 @@ fn bench_json(_: &Path, o: &Output) {
 fn bench_particle(_: &Path, o: &Output) {
     assert!(out(o).contains("particle"), "{}", out(o));
 }
+fn bench_compare(_: &Path, o: &Output) {
+    let text = out(o);
+    assert!(
+        text.contains("pile  particle")
+            && text.contains("pile  rigid")
+            && text.contains("particle / rigid: "),
+        "{text}"
+    );
+}
 fn gif_written(dir: &Path, _: &Output) {
     assert_eq!(&std::fs::read(dir.join("p.gif")).unwrap()[..6], b"GIF89a");
 }
@@ -401,6 +410,7 @@ fn bench() -> Vec<Case> {
         case("bench", "--threads", &["bench", "--ragdolls", "8", "--steps", "2"], &["--threads", "1,2"], Some(two_thread_counts), &["--threads", "0"], "--threads"),
         case("bench", "--json", base, &["--json"], Some(bench_json), &["--json=yes"], "--json"),
         case("bench", "--backend", base, &["--backend", "particle"], Some(bench_particle), &["--backend", "soft"], "--backend"),
+        case("bench", "--compare", &[&base[..], &["--backend", "particle"]].concat(), &["--compare"], Some(bench_compare), &["--compare=yes"], "--compare"),
     ]
 }
 
