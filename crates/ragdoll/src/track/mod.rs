@@ -37,7 +37,10 @@ pub struct Metrics {
     /// not the solver, held the limits.
     #[serde(default)]
     pub max_limit_violation_solver_deg: f32,
-    /// Deepest contact seen (ground or between bodies that may collide), metres.
+    /// Deepest contact seen (ground or between bodies that may collide), metres, as the
+    /// solver left it: both backends read their contacts before any positional clamp
+    /// (rapier's after its step, the particle backend's before its end-of-step pass), so
+    /// unlike [`Metrics::max_limit_violation_deg`] it needs no second reading.
     pub max_penetration_m: f32,
     /// Worst gap opening between the two sides of a joint anchor, metres.
     pub max_joint_separation_m: f32,
