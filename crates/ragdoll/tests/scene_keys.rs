@@ -154,9 +154,9 @@ fn import_keys_are_refused_where_they_cannot_apply() {
             "up: glTF is Y up by definition",
         ),
         (
-            "[[character]]\nname = \"b\"\nheight = 1.8\n",
+            "[[character]]\nname = \"b\"\nheight = 0.0\n",
             3,
-            "height: the built-in humanoid is not a file",
+            "[[character]] 1: height: must be between",
         ),
         (
             "[[character]]\nclip = 0\n",
@@ -189,6 +189,37 @@ fn import_keys_are_refused_where_they_cannot_apply() {
         assert_eq!(line, want_line, "{text}: {m}");
         assert!(m.contains(want), "{text}: {m}");
     }
+}
+
+/// `height` scales the built-in humanoid as it does a file's character (a crowd's people
+/// vary in height).
+#[test]
+fn height_scales_the_built_in_humanoid() {
+    let scene = load("[[character]]\nheight = 1.5\n[[character]]\n");
+    let h: Vec<f32> = scene
+        .characters
+        .iter()
+        .map(|c| character_height(&c.character))
+        .collect();
+    assert!((h[0] - 1.5).abs() < 1e-3, "{h:?}");
+    let ratio = h[0] / h[1];
+    let mass = |k: usize| scene.characters[k].spec.total_mass_kg();
+    assert!(
+        (mass(0) - mass(1)).abs() < 1e-3,
+        "the mass stays 75 kg unless given"
+    );
+    let bodies = |k: usize| {
+        scene.characters[k]
+            .spec
+            .bodies
+            .iter()
+            .map(|b| b.shape.volume())
+            .sum::<f32>()
+    };
+    assert!(
+        (bodies(0) / bodies(1) - ratio.powi(3)).abs() < 1e-3,
+        "its bodies scale with it"
+    );
 }
 
 #[test]

@@ -23,7 +23,9 @@ pub mod obj;
 mod size;
 
 pub use clip::{ClipChoice, choose_clip};
-pub use size::{MAX_HEIGHT_M, MIN_HEIGHT_M, PLAUSIBLE_HEIGHT_M, character_height};
+pub use size::{
+    MAX_HEIGHT_M, MIN_HEIGHT_M, PLAUSIBLE_HEIGHT_M, character_height, humanoid_of_height,
+};
 
 use std::path::Path;
 

@@ -121,6 +121,15 @@ fn scale_meshes(meshes: &mut [SkinnedMesh], s: f32) {
     }
 }
 
+/// The built-in humanoid scaled to `height_m` (as a file's character is with
+/// `ImportOptions::height_m`): a crowd's people vary in height.
+pub fn humanoid_of_height(height_m: f32) -> Result<Character> {
+    check_height(Some(height_m))?;
+    let mut c = crate::skeleton::humanoid();
+    scale_to_height(&mut c, height_m, Path::new("built-in humanoid"))?;
+    Ok(c)
+}
+
 /// Scales a character so that [`character_height`] is `height_m`.
 pub(super) fn scale_to_height(c: &mut Character, height_m: f32, path: &Path) -> Result<()> {
     let s = factor_for(character_height(c), height_m, path)?;

@@ -21,8 +21,9 @@ pub(super) struct Files {
     roles: Vec<(PathBuf, RoleFile)>,
 }
 
-/// The import keys of a table, refused where they cannot apply: none to the built-in
-/// humanoid, which is no file; `up` not to glTF or VRM, which are Y up by definition.
+/// The import keys of a table, refused where they cannot apply: only `height` to the
+/// built-in humanoid, which is no file; `up` not to glTF or VRM, which are Y up by
+/// definition.
 fn import_options(c: &Ctx, r: &RawCharacter) -> Result<ImportOptions> {
     let keys = [
         ("units", span_of(&r.units)),
@@ -32,7 +33,7 @@ fn import_options(c: &Ctx, r: &RawCharacter) -> Result<ImportOptions> {
     ];
     match &r.file {
         None => {
-            for (key, span) in keys {
+            for (key, span) in keys.into_iter().filter(|(key, _)| *key != "height") {
                 c.refuse(
                     key,
                     span,
@@ -66,7 +67,15 @@ impl Files {
     ) -> Result<(Character, String, u64)> {
         let opts = import_options(c, r)?;
         let Some(f) = &r.file else {
-            let ch = skeleton::humanoid();
+            let ch = match (&r.height, opts.height_m) {
+                (Some(given), Some(h)) => {
+                    let mut scaled = None;
+                    let made = import::humanoid_of_height(h).map(|ch| scaled = Some(ch));
+                    c.valid(&given.span(), made)?;
+                    scaled.unwrap_or_else(skeleton::humanoid)
+                }
+                _ => skeleton::humanoid(),
+            };
             let bytes = character_bytes(&ch);
             return Ok((ch, "built-in".to_string(), bytes));
         };
