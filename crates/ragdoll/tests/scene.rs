@@ -845,7 +845,8 @@ fn the_same_scene_gives_identical_files_twice() {
 }
 
 /// The README's annotated scene stays in step with the parser (less the lines that name
-/// files, which do not exist here, and the keys that apply to a character file only).
+/// files, which do not exist here, and the keys that apply to a character file only;
+/// `height` applies to the built-in humanoid too).
 #[test]
 fn the_readme_example_scene_parses() {
     let readme = std::fs::read_to_string(examples_dir().join("../README.md")).unwrap();
@@ -857,16 +858,16 @@ fn the_readme_example_scene_parses() {
     let text: String = block
         .lines()
         .filter(|l| {
-            ![
-                "file =", "spec =", "units =", "up =", "height =", "clip =", "roles =",
-            ]
-            .iter()
-            .any(|k| l.starts_with(k))
+            !["file =", "spec =", "units =", "up =", "clip =", "roles ="]
+                .iter()
+                .any(|k| l.starts_with(k))
         })
         .map(|l| format!("{l}\n"))
         .collect();
     let scene = parse(&text).unwrap_or_else(|e| panic!("{e}\n{text}"));
     assert_eq!(scene.characters[0].name, "alice");
+    assert_eq!(scene.characters.len(), 1 + 50, "alice and the crowd");
+    assert_eq!(scene.characters[50].name, "people-50");
     assert_eq!(scene.projectiles.len(), 5);
     assert_eq!(
         (scene.pushes.len(), scene.fields.len(), scene.pins.len()),

@@ -88,15 +88,41 @@ pub(super) fn valid_name(name: &str) -> bool {
             .all(|c| c.is_alphanumeric() || matches!(c, '_' | '-' | '.'))
 }
 
+/// The table a character comes from, to name it in errors: its own `[[character]]`, or
+/// the `[[crowd]]` it is one of (indices from 0).
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Table {
+    Character(usize),
+    Crowd(usize),
+}
+
+impl Table {
+    /// The table, before the character has a name.
+    fn place(self) -> String {
+        match self {
+            Table::Character(i) => format!("[[character]] {}", i + 1),
+            Table::Crowd(i) => format!("[[crowd]] {}", i + 1),
+        }
+    }
+
+    /// The character by name, and the crowd it belongs to.
+    fn named(self, name: &str) -> String {
+        match self {
+            Table::Character(_) => format!("[[character]] \"{name}\""),
+            Table::Crowd(i) => format!("[[crowd]] {} \"{name}\"", i + 1),
+        }
+    }
+}
+
 /// Names given in the file, checked (safe, unique up to case), lowercased, so default
 /// names can step around them.
-fn explicit_names(src: &Src, raw: &[S<RawCharacter>]) -> Result<HashSet<String>> {
+fn explicit_names(src: &Src, raw: &[S<RawCharacter>], tables: &[Table]) -> Result<HashSet<String>> {
     let mut taken = HashSet::new();
-    for (i, rc) in raw.iter().enumerate() {
+    for (rc, table) in raw.iter().zip(tables) {
         let Some(n) = &rc.get_ref().name else {
             continue;
         };
-        let c = Ctx::new(src, format!("[[character]] {}", i + 1));
+        let c = Ctx::new(src, table.place());
         if !valid_name(n.get_ref()) {
             return Err(c.err(
                 &n.span(),
@@ -213,25 +239,31 @@ fn default_name(character: &Character, taken: &mut HashSet<String>) -> String {
     name
 }
 
-/// Every `[[character]]` table, loaded and checked, in file order.
-pub(super) fn characters(src: &Src, raw: &[S<RawCharacter>]) -> Result<Vec<SceneCharacter>> {
-    characters_within(src, raw, MAX_SCENE_CHARACTER_BYTES)
+/// Every character table (`[[character]]` tables and the crowds' members, each from
+/// `tables`), loaded and checked, in order.
+pub(super) fn characters(
+    src: &Src,
+    raw: &[S<RawCharacter>],
+    tables: &[Table],
+) -> Result<Vec<SceneCharacter>> {
+    characters_within(src, raw, tables, MAX_SCENE_CHARACTER_BYTES)
 }
 
 /// [`characters`], holding at most `budget` bytes of character data.
 fn characters_within(
     src: &Src,
     raw: &[S<RawCharacter>],
+    tables: &[Table],
     budget: u64,
 ) -> Result<Vec<SceneCharacter>> {
     let dir = src.path.parent().unwrap_or(Path::new(""));
-    let mut taken = explicit_names(src, raw)?;
+    let mut taken = explicit_names(src, raw, tables)?;
     let mut files = Files::default();
     let mut out = Vec::with_capacity(raw.len());
     let mut held = 0u64;
-    for (i, rc) in raw.iter().enumerate() {
+    for (rc, &table) in raw.iter().zip(tables) {
         let r = rc.get_ref();
-        let mut c = Ctx::new(src, format!("[[character]] {}", i + 1));
+        let mut c = Ctx::new(src, table.place());
         let (mut character, input, bytes) = files.character(&c, r, dir)?;
         held += bytes;
         if held > budget {
@@ -256,7 +288,7 @@ fn characters_within(
             Some(n) => n.get_ref().clone(),
             None => default_name(&character, &mut taken),
         };
-        c.place = format!("[[character]] \"{name}\"");
+        c.place = table.named(&name);
         character.name = name.clone();
         let mut spec = ragdoll(&c, r, rc, &mut character, &mut files, dir)?;
         spec.name = name.clone();
@@ -323,8 +355,9 @@ mod tests {
         let raw: super::super::raw::RawScene = toml::from_str(text).unwrap();
         let one = character_bytes(&crate::skeleton::humanoid());
         assert!(one > 1000, "{one}");
-        assert!(characters_within(&src, &raw.character, 3 * one).is_ok());
-        match characters_within(&src, &raw.character, 5 * one / 2) {
+        let tables: Vec<Table> = (0..3).map(Table::Character).collect();
+        assert!(characters_within(&src, &raw.character, &tables, 3 * one).is_ok());
+        match characters_within(&src, &raw.character, &tables, 5 * one / 2) {
             Err(Error::Parse { line, message, .. }) => {
                 assert_eq!(line, 3, "{message}");
                 assert!(message.contains("[[character]] 3") && message.contains("MiB"));

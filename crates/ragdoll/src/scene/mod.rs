@@ -50,6 +50,7 @@
 //! runs: mistakes surface before minutes of simulation, not after.
 
 mod characters;
+mod crowd;
 mod load;
 mod parse;
 mod raw;
@@ -60,6 +61,7 @@ pub use characters::{
     MAX_CHARACTER_KG, MAX_CHARACTER_NAME_BYTES, MAX_FACING_DEG, MAX_SCENE_CHARACTER_BYTES,
     character_bytes,
 };
+pub use crowd::{MAX_CROWD_SPACING_M, MAX_CROWD_SPREAD, MIN_CROWD_SPACING_M};
 pub use parse::{MAX_CHARACTERS, MAX_EVENTS, MAX_OUTPUT_NAME_BYTES, MAX_SCENE_BODIES};
 pub use report::{CharacterReport, SceneReport};
 pub use timeline::MAX_BURST;

@@ -10,7 +10,7 @@ use std::path::Path;
 
 use glam::Vec3;
 
-use super::characters::characters;
+use super::characters::{Table, characters};
 use super::raw::{GroundValue, OutputName, RawOutput, RawScene, S, StartPoseName};
 use super::timeline::{blasts, fields, pins, projectiles, pushes};
 use super::{Outputs, Scene};
@@ -301,13 +301,15 @@ fn check_counts(src: &Src, raw: &RawScene) -> Result<()> {
     if raw.character.is_empty() {
         return Err(src.err(
             &(0..0),
-            "a scene needs at least one [[character]] table (an empty one is the built-in humanoid)".into(),
+            "a scene needs at least one [[character]] or [[crowd]] table (an empty [[character]] is the built-in humanoid)".into(),
         ));
     }
     if let Some(c) = raw.character.get(MAX_CHARACTERS) {
         return Err(src.err(
             &c.span(),
-            format!("[[character]]: a scene holds at most {MAX_CHARACTERS} characters"),
+            format!(
+                "[[character]]: a scene holds at most {MAX_CHARACTERS} characters, crowds' included"
+            ),
         ));
     }
     let tables = [
@@ -396,8 +398,14 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Scene> {
         check_above_zero_within_run,
     )?;
     let settings = settings(&src, &raw)?;
+    let mut raw = raw;
+    let mut tables: Vec<Table> = (0..raw.character.len()).map(Table::Character).collect();
+    for (crowd, member) in super::crowd::expand(&src, &raw.crowd)? {
+        tables.push(Table::Crowd(crowd));
+        raw.character.push(member);
+    }
     check_counts(&src, &raw)?;
-    let characters = characters(&src, &raw.character)?;
+    let characters = characters(&src, &raw.character, &tables)?;
     let blasts = blasts(&src, &raw.blast)?;
     if let Some(c) = characters
         .iter()

@@ -25,6 +25,8 @@ pub(super) struct RawScene {
     #[serde(default)]
     pub(super) character: Vec<S<RawCharacter>>,
     #[serde(default)]
+    pub(super) crowd: Vec<S<RawCrowd>>,
+    #[serde(default)]
     pub(super) blast: Vec<S<RawBlast>>,
     #[serde(default)]
     pub(super) projectile: Vec<S<RawProjectile>>,
@@ -70,8 +72,41 @@ pub(super) struct RawCharacter {
     pub(super) roles: Option<S<String>>,
 }
 
+/// `[[crowd]]`: many characters from one description (see `crowd.rs`).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawCrowd {
+    pub(super) count: S<u32>,
+    pub(super) name: Option<S<String>>,
+    pub(super) file: Option<S<String>>,
+    pub(super) center: Option<S<[f32; 3]>>,
+    pub(super) spacing_m: Option<S<f32>>,
+    pub(super) formation: Option<S<Formation>>,
+    pub(super) facing_deg: Option<S<f32>>,
+    pub(super) facing_spread_deg: Option<S<f32>>,
+    pub(super) height: Option<S<f32>>,
+    pub(super) height_spread: Option<S<f32>>,
+    pub(super) mass_kg: Option<S<f32>>,
+    pub(super) mass_spread: Option<S<f32>>,
+    pub(super) female_share: Option<S<f32>>,
+    pub(super) seed: Option<S<u64>>,
+    pub(super) activate: Option<S<ActivateValue>>,
+    pub(super) clip: Option<S<ClipValue>>,
+    pub(super) units: Option<S<Units>>,
+    pub(super) up: Option<S<UpAxis>>,
+}
+
+/// How a crowd stands.
+#[derive(Deserialize, Clone, Copy)]
+#[serde(rename_all = "snake_case")]
+pub(super) enum Formation {
+    Grid,
+    Scatter,
+}
+
 /// `clip`: a clip's name, or its position in the file's clip list from 0. TOML's types
 /// tell them apart, so a clip named `"2"` is still reachable by name.
+#[derive(Clone)]
 pub(super) struct ClipValue(pub(super) ClipChoice);
 
 impl<'de> Deserialize<'de> for ClipValue {
