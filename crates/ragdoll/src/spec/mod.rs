@@ -106,6 +106,27 @@ pub enum Shape {
 }
 
 impl Shape {
+    /// Lowest world height of the shape at `pose` (its centre and orientation): where it
+    /// meets a floor.
+    pub fn lowest_y(&self, pose: &crate::math::Transform) -> f32 {
+        match *self {
+            Shape::Capsule { radius_m, length_m } => {
+                let axis = pose.rotation * glam::Vec3::Y * (0.5 * length_m);
+                (pose.translation.y - axis.y.abs()) - radius_m
+            }
+            Shape::Box { size_m } => {
+                let h = glam::Vec3::from_array(size_m) * 0.5;
+                let mut low = f32::INFINITY;
+                for k in 0..8 {
+                    let sign = |bit: usize| if k & bit == 0 { -1.0 } else { 1.0 };
+                    let corner = h * glam::Vec3::new(sign(1), sign(2), sign(4));
+                    low = low.min(pose.transform_point(corner).y);
+                }
+                low
+            }
+        }
+    }
+
     /// Volume in m³.
     pub fn volume(&self) -> f32 {
         match *self {

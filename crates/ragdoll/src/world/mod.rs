@@ -22,7 +22,6 @@ pub use crate::backend::BackendKind;
 pub use forces::DragId;
 pub use motors::Motors;
 pub use playback::Activation;
-use record::lowest_point;
 pub use start::MAX_COORDINATE_M;
 use start::{beyond_world, within_world};
 
@@ -407,7 +406,7 @@ impl World {
             let lowest = body_start
                 .iter()
                 .zip(&spec.bodies)
-                .map(|(p, b)| lowest_point(p, &b.shape))
+                .map(|(p, b)| b.shape.lowest_y(p))
                 .fold(f32::INFINITY, f32::min);
             if lowest < ground {
                 lift = Vec3::new(0.0, ground - lowest, 0.0);

@@ -157,7 +157,7 @@ impl super::World {
             for f in 0..=frames {
                 let t = f as f64 * play.clip.frame_time as f64;
                 for (pose, shape) in play.body_poses(t).iter().zip(&inst.shapes) {
-                    lowest = lowest.min(super::lowest_point(pose, shape));
+                    lowest = lowest.min(shape.lowest_y(pose));
                 }
             }
             if lowest < ground {

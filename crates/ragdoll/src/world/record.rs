@@ -5,7 +5,6 @@ use glam::Vec3;
 
 use crate::backend::Backend;
 use crate::math::Transform;
-use crate::spec::Shape;
 
 /// Violations smaller than this are left to rapier's own (velocity-level) limits, degrees.
 /// Projecting every tiny excess made limbs resting against a limit creep (about 1 cm/s):
@@ -136,8 +135,8 @@ impl super::World {
                 if let Some(g) = ground {
                     for &b in &turned {
                         let shape = &inst.shapes[b];
-                        let before = lowest_point(&self.states[base + b].pose, shape);
-                        let after = lowest_point(&moved(&self.states[base + b].pose, delta), shape);
+                        let before = shape.lowest_y(&self.states[base + b].pose);
+                        let after = shape.lowest_y(&moved(&self.states[base + b].pose, delta));
                         let floor = (g - PROJECTION_GROUND_SLACK_M).min(before);
                         lift = lift.max(floor - after);
                     }
@@ -283,27 +282,4 @@ fn bone_stretch(parents: &[Option<usize>], lengths: &mut Vec<f32>, frame: &[Tran
         }
     }
     worst
-}
-
-/// Lowest world height of a shape at `pose`.
-pub(super) fn lowest_point(pose: &Transform, shape: &Shape) -> f32 {
-    match *shape {
-        Shape::Capsule { radius_m, length_m } => {
-            let axis = pose.rotation * Vec3::Y * (0.5 * length_m);
-            (pose.translation.y - axis.y.abs()) - radius_m
-        }
-        Shape::Box { size_m } => {
-            let h = Vec3::from_array(size_m) * 0.5;
-            let mut low = f32::INFINITY;
-            for sx in [-1.0, 1.0] {
-                for sy in [-1.0, 1.0] {
-                    for sz in [-1.0, 1.0] {
-                        let c = pose.transform_point(h * Vec3::new(sx, sy, sz));
-                        low = low.min(c.y);
-                    }
-                }
-            }
-            low
-        }
-    }
 }
