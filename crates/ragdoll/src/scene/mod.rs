@@ -63,7 +63,8 @@ pub use characters::{
 };
 pub use crowd::{MAX_CROWD_SPACING_M, MAX_CROWD_SPREAD, MIN_CROWD_SPACING_M};
 pub use parse::{MAX_CHARACTERS, MAX_EVENTS, MAX_OUTPUT_NAME_BYTES, MAX_SCENE_BODIES};
-pub use report::{CharacterReport, SceneReport};
+use report::Watch;
+pub use report::{AIRBORNE_CLEARANCE_M, CharacterReport, SceneReport};
 pub use timeline::MAX_BURST;
 
 use std::path::{Path, PathBuf};
@@ -234,23 +235,15 @@ impl Scene {
         let started = Instant::now();
         let (mut world, ids) = self.build_world()?;
         let steps = (self.duration_s as f64 / self.settings.dt as f64).round() as u64;
-        let mut worst = vec![(0.0f32, 0.0f32); ids.len()];
+        let mut watches = vec![Watch::default(); ids.len()];
+        let (ground, dt) = (self.settings.ground, self.settings.dt);
         world.run(0.0);
         for i in 0..steps {
             world.step();
-            // The world keeps only scene-wide metrics; these two are what it can say per
-            // character, measured as it measures them (active ragdolls, after each step).
-            for (k, &id) in ids.iter().enumerate() {
-                if world.activated_at(id).is_none() {
-                    continue;
-                }
-                for (sep, viol) in world.joint_errors(id) {
-                    worst[k].0 = worst[k].0.max(viol);
-                    worst[k].1 = worst[k].1.max(sep);
-                    if !(sep.is_finite() && viol.is_finite()) {
-                        worst[k] = (f32::INFINITY, f32::INFINITY);
-                    }
-                }
+            // The world keeps only scene-wide metrics; what it can say per character is
+            // measured as it measures them (active ragdolls, after each step).
+            for ((watch, &id), c) in watches.iter_mut().zip(&ids).zip(&self.characters) {
+                watch.observe(&world, id, c, ground, dt);
             }
             progress(i + 1, steps);
         }
@@ -260,14 +253,14 @@ impl Scene {
             .iter()
             .zip(&ids)
             .zip(&tracks)
-            .zip(&worst)
-            .map(|(((c, &id), track), &(viol, sep))| {
+            .zip(&watches)
+            .map(|(((c, &id), track), watch)| {
                 CharacterReport::new(
                     c,
                     track,
                     world.activated_at(id),
-                    viol,
-                    sep,
+                    watch,
+                    ground,
                     self.outputs.bvh_file(&c.name),
                 )
             })

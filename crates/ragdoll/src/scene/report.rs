@@ -6,6 +6,12 @@ use serde::{Deserialize, Serialize};
 use super::SceneCharacter;
 use crate::events::{BlastReport, ProjectileReport};
 use crate::track::{Metrics, Track};
+use crate::world::{RagdollId, World};
+
+/// How far above the ground a character's lowest point must be for it to count as
+/// thrown, metres: past the millimetres a body resting on the floor sinks into it or
+/// hovers over it, below a body's own thickness.
+pub const AIRBORNE_CLEARANCE_M: f32 = 0.02;
 
 /// One JSON object; numbers in SI units unless the key says otherwise.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -73,10 +79,68 @@ pub struct CharacterReport {
     pub max_limit_violation_deg: f32,
     /// Worst gap at its joint anchors while physical, metres.
     pub max_joint_separation_m: f32,
+    /// Highest speed of its centre of mass while physical, m/s: how hard it was thrown.
+    pub max_speed_mps: f32,
+    /// How long it was physical with no part within [`AIRBORNE_CLEARANCE_M`] of the ground,
+    /// seconds: how long it flew (`null` in a scene without ground).
+    pub airborne_s: Option<f32>,
     /// Whether a non-finite value appeared in its track or its joints.
     pub nan: bool,
     /// Its BVH file in the output folder (`null` when BVH output is off).
     pub bvh: Option<String>,
+}
+
+/// What a scene watches of one character, step by step, while it is physical: what the
+/// world measures only for the whole scene.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Watch {
+    violation_deg: f32,
+    separation_m: f32,
+    max_speed_mps: f32,
+    airborne_s: f32,
+}
+
+impl Watch {
+    /// Takes in character `c` (ragdoll `id`) after a step of `dt` seconds over `ground`.
+    pub(super) fn observe(
+        &mut self,
+        world: &World,
+        id: RagdollId,
+        c: &SceneCharacter,
+        ground: Option<f32>,
+        dt: f32,
+    ) {
+        if world.activated_at(id).is_none() {
+            return;
+        }
+        for (sep, viol) in world.joint_errors(id) {
+            self.violation_deg = self.violation_deg.max(viol);
+            self.separation_m = self.separation_m.max(sep);
+            if !(sep.is_finite() && viol.is_finite()) {
+                (self.violation_deg, self.separation_m) = (f32::INFINITY, f32::INFINITY);
+            }
+        }
+        let (mut momentum, mut mass) = (glam::Vec3::ZERO, 0.0f32);
+        for (b, (v, _)) in c.spec.bodies.iter().zip(world.body_velocities(id)) {
+            momentum += v * b.mass_kg;
+            mass += b.mass_kg;
+        }
+        if mass > 0.0 {
+            self.max_speed_mps = self.max_speed_mps.max((momentum / mass).length());
+        }
+        if let Some(g) = ground {
+            let lowest = c
+                .spec
+                .bodies
+                .iter()
+                .zip(world.body_poses(id))
+                .map(|(b, pose)| b.shape.lowest_y(&pose))
+                .fold(f32::INFINITY, f32::min);
+            if lowest > g + AIRBORNE_CLEARANCE_M {
+                self.airborne_s += dt;
+            }
+        }
+    }
 }
 
 impl CharacterReport {
@@ -85,10 +149,12 @@ impl CharacterReport {
         c: &SceneCharacter,
         track: &Track,
         activated_at_s: Option<f64>,
-        max_limit_violation_deg: f32,
-        max_joint_separation_m: f32,
+        watch: &Watch,
+        ground: Option<f32>,
         bvh: Option<String>,
     ) -> Self {
+        let (max_limit_violation_deg, max_joint_separation_m) =
+            (watch.violation_deg, watch.separation_m);
         let finite = max_limit_violation_deg.is_finite()
             && max_joint_separation_m.is_finite()
             && track.frames.iter().flatten().all(|t| t.is_finite());
@@ -107,6 +173,8 @@ impl CharacterReport {
             // why.
             max_limit_violation_deg,
             max_joint_separation_m,
+            max_speed_mps: watch.max_speed_mps,
+            airborne_s: ground.map(|_| watch.airborne_s),
             nan: !finite,
             bvh,
         }
