@@ -36,6 +36,11 @@ fn a_drop_flies_as_long_as_free_fall_takes_and_lands_at_its_speed() {
         "{} m/s, landing at {landing}",
         c.max_speed_mps
     );
+    // The head stops from about the landing speed on the floor within the 0.87 s left,
+    // held up against gravity: on average it feels at least (6.2 / 0.87 + 9.8) m/s², 1.7 g,
+    // and its peak is no less than its average.
+    let felt = c.peak_head_accel_g.unwrap();
+    assert!(felt > 1.5, "{felt} g");
 }
 
 #[test]
@@ -52,4 +57,7 @@ fn a_collapse_never_leaves_the_ground_and_no_ground_means_no_flight_time() {
     assert_eq!(report.characters[0].airborne_s, None);
     let v = report.characters[0].max_speed_mps;
     assert!((v - G * 0.5).abs() < 0.1, "free fall for 0.5 s: {v} m/s");
+    // A falling head feels nothing, as an accelerometer in free fall reads nothing.
+    let felt = report.characters[0].peak_head_accel_g.unwrap();
+    assert!(felt < 0.05, "{felt} g in free fall");
 }

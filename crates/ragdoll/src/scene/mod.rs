@@ -236,14 +236,18 @@ impl Scene {
         let (mut world, ids) = self.build_world()?;
         let steps = (self.duration_s as f64 / self.settings.dt as f64).round() as u64;
         let mut watches = vec![Watch::default(); ids.len()];
-        let (ground, dt) = (self.settings.ground, self.settings.dt);
+        let (ground, gravity, dt) = (
+            self.settings.ground,
+            self.settings.gravity,
+            self.settings.dt,
+        );
         world.run(0.0);
         for i in 0..steps {
             world.step();
             // The world keeps only scene-wide metrics; what it can say per character is
             // measured as it measures them (active ragdolls, after each step).
             for ((watch, &id), c) in watches.iter_mut().zip(&ids).zip(&self.characters) {
-                watch.observe(&world, id, c, ground, dt);
+                watch.observe(&world, id, c, ground, gravity, dt);
             }
             progress(i + 1, steps);
         }

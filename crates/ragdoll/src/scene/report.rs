@@ -5,8 +5,12 @@ use serde::{Deserialize, Serialize};
 
 use super::SceneCharacter;
 use crate::events::{BlastReport, ProjectileReport};
+use crate::spec::Role;
 use crate::track::{Metrics, Track};
 use crate::world::{RagdollId, World};
+
+/// One g, m/s² (ISO 80000-3).
+const STANDARD_GRAVITY_MPS2: f32 = 9.80665;
 
 /// How far above the ground a character's lowest point must be for it to count as
 /// thrown, metres: past the millimetres a body resting on the floor sinks into it or
@@ -84,6 +88,13 @@ pub struct CharacterReport {
     /// How long it was physical with no part within [`AIRBORNE_CLEARANCE_M`] of the ground,
     /// seconds: how long it flew (`null` in a scene without ground).
     pub airborne_s: Option<f32>,
+    /// The most acceleration its head felt while physical, in g (9.80665 m/s²): the
+    /// change of the head body's velocity over each 1/60 s step, less gravity's, as an
+    /// accelerometer in the head would read it averaged over the step (`null` without a
+    /// head; gravity is the scene's `gravity`, which a gravity field's keys replace
+    /// unnoticed here). Crash tests sample heads at 10 kHz and integrate the Head Injury
+    /// Criterion over milliseconds; a step's average is far below such peaks, a lower bound.
+    pub peak_head_accel_g: Option<f32>,
     /// Whether a non-finite value appeared in its track or its joints.
     pub nan: bool,
     /// Its BVH file in the output folder (`null` when BVH output is off).
@@ -98,6 +109,10 @@ pub(super) struct Watch {
     separation_m: f32,
     max_speed_mps: f32,
     airborne_s: f32,
+    /// The head body's velocity after the last step watched, and the most acceleration
+    /// beyond gravity seen so far, m/s².
+    head_velocity: Option<glam::Vec3>,
+    head_accel: f32,
 }
 
 impl Watch {
@@ -108,10 +123,26 @@ impl Watch {
         id: RagdollId,
         c: &SceneCharacter,
         ground: Option<f32>,
+        gravity: glam::Vec3,
         dt: f32,
     ) {
         if world.activated_at(id).is_none() {
             return;
+        }
+        let velocities = world.body_velocities(id);
+        let head = c
+            .spec
+            .bodies
+            .iter()
+            .position(|b| b.role == Some(Role::Head));
+        if let Some((v, _)) = head.and_then(|h| velocities.get(h)) {
+            // What an accelerometer in the head reads: its change of velocity less what
+            // gravity alone would have made (a free fall reads nothing).
+            if let Some(before) = self.head_velocity {
+                let felt = ((*v - before) / dt - gravity).length();
+                self.head_accel = self.head_accel.max(felt);
+            }
+            self.head_velocity = Some(*v);
         }
         for (sep, viol) in world.joint_errors(id) {
             self.violation_deg = self.violation_deg.max(viol);
@@ -121,7 +152,7 @@ impl Watch {
             }
         }
         let (mut momentum, mut mass) = (glam::Vec3::ZERO, 0.0f32);
-        for (b, (v, _)) in c.spec.bodies.iter().zip(world.body_velocities(id)) {
+        for (b, (v, _)) in c.spec.bodies.iter().zip(velocities) {
             momentum += v * b.mass_kg;
             mass += b.mass_kg;
         }
@@ -175,6 +206,9 @@ impl CharacterReport {
             max_joint_separation_m,
             max_speed_mps: watch.max_speed_mps,
             airborne_s: ground.map(|_| watch.airborne_s),
+            peak_head_accel_g: watch
+                .head_velocity
+                .map(|_| watch.head_accel / STANDARD_GRAVITY_MPS2),
             nan: !finite,
             bvh,
         }
