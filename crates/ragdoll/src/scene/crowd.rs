@@ -44,6 +44,82 @@ pub(super) fn expand(src: &Src, crowds: &[S<RawCrowd>]) -> Result<Vec<(usize, S<
 fn members(c: &Ctx, table: &S<RawCrowd>, index: usize) -> Result<Vec<S<RawCharacter>>> {
     let r = table.get_ref();
     let span = table.span();
+    let s = spread(c, table)?;
+    let seed = r.seed.as_ref().map_or(0, |v| *v.get_ref());
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let formation = r
+        .formation
+        .as_ref()
+        .map_or(Formation::Grid, |f| *f.get_ref());
+    let spots = match formation {
+        Formation::Grid => grid(s.count, s.spacing),
+        Formation::Scatter => scatter(s.count, s.spacing, &mut rng),
+    };
+    let name = r
+        .name
+        .as_ref()
+        .map_or(format!("crowd{}", index + 1), |n| n.get_ref().clone());
+    let mut out = Vec::with_capacity(s.count);
+    for (k, (x, z)) in spots.into_iter().enumerate() {
+        let mut u = || unit(&mut rng);
+        // Kept within a turn either way, as a character's facing must be.
+        let turned = s.facing + s.facing_spread * (2.0 * u() - 1.0);
+        let facing_deg = (turned + 180.0).rem_euclid(360.0) - 180.0;
+        // A member's value carries the span of the crowd's key it comes from.
+        let height = r.height.as_ref().map(|h| {
+            at(
+                &h.span(),
+                *h.get_ref() * (1.0 + s.height_spread * (2.0 * u() - 1.0)),
+            )
+        });
+        let mass_kg = r.mass_kg.as_ref().map(|m| {
+            at(
+                &m.span(),
+                *m.get_ref() * (1.0 + s.mass_spread * (2.0 * u() - 1.0)),
+            )
+        });
+        let female = u() < s.female_share;
+        out.push(at(
+            &span,
+            RawCharacter {
+                name: Some(at(&span, format!("{name}-{}", k + 1))),
+                file: r.file.clone(),
+                position: Some(at(
+                    &span,
+                    (s.center + glam::Vec3::new(x, 0.0, z)).to_array(),
+                )),
+                facing_deg: Some(at(&span, facing_deg)),
+                mass_kg,
+                female: Some(at(&span, female)),
+                spec: None,
+                activate: r.activate.clone(),
+                powered: None,
+                units: r.units.clone(),
+                up: r.up.clone(),
+                height,
+                clip: r.clip.clone(),
+                roles: None,
+            },
+        ));
+    }
+    Ok(out)
+}
+
+/// A crowd's checked numbers: how many, where, and how much they vary.
+struct Spread {
+    count: usize,
+    spacing: f32,
+    center: glam::Vec3,
+    facing: f32,
+    facing_spread: f32,
+    height_spread: f32,
+    mass_spread: f32,
+    female_share: f32,
+}
+
+/// Checks a crowd table's numbers, each error naming its key and line.
+fn spread(c: &Ctx, table: &S<RawCrowd>) -> Result<Spread> {
+    let r = table.get_ref();
     let count = *r.count.get_ref() as usize;
     if count == 0 || count > super::MAX_CHARACTERS {
         let max = super::MAX_CHARACTERS;
@@ -63,78 +139,33 @@ fn members(c: &Ctx, table: &S<RawCrowd>, index: usize) -> Result<Vec<S<RawCharac
     let facing_spread = c.opt_checked(&r.facing_spread_deg, "facing_spread_deg", 0.0, |a| {
         check_within(a, 0.0, 180.0, " degrees")
     })?;
-    let spread = |v: &Option<S<f32>>, key: &str| {
+    let share = |v: &Option<S<f32>>, key: &str| {
         c.opt_checked(v, key, 0.0, |x| check_within(x, 0.0, MAX_CROWD_SPREAD, ""))
     };
-    let height_spread = spread(&r.height_spread, "height_spread")?;
-    let mass_spread = spread(&r.mass_spread, "mass_spread")?;
-    for (spread, value, key, base) in [
+    let height_spread = share(&r.height_spread, "height_spread")?;
+    let mass_spread = share(&r.mass_spread, "mass_spread")?;
+    for (amount, value, key, base) in [
         (height_spread, r.height.is_some(), "height_spread", "height"),
         (mass_spread, r.mass_kg.is_some(), "mass_spread", "mass_kg"),
     ] {
-        if spread > 0.0 && !value {
+        if amount > 0.0 && !value {
             let message = format!("needs {base}, the value it varies about");
-            return Err(c.err(&span, key, message));
+            return Err(c.err(&table.span(), key, message));
         }
     }
     let female_share = c.opt_checked(&r.female_share, "female_share", 0.0, |x| {
         check_within(x, 0.0, 1.0, "")
     })?;
-    let seed = r.seed.as_ref().map_or(0, |s| *s.get_ref());
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let formation = r
-        .formation
-        .as_ref()
-        .map_or(Formation::Grid, |f| *f.get_ref());
-    let spots = match formation {
-        Formation::Grid => grid(count, spacing),
-        Formation::Scatter => scatter(count, spacing, &mut rng),
-    };
-    let name = r
-        .name
-        .as_ref()
-        .map_or(format!("crowd{}", index + 1), |n| n.get_ref().clone());
-    let mut out = Vec::with_capacity(count);
-    for (k, (x, z)) in spots.into_iter().enumerate() {
-        let mut u = || unit(&mut rng);
-        // Kept within a turn either way, as a character's facing must be.
-        let turned = facing + facing_spread * (2.0 * u() - 1.0);
-        let facing_deg = (turned + 180.0).rem_euclid(360.0) - 180.0;
-        // A member's value carries the span of the crowd's key it comes from.
-        let height = r.height.as_ref().map(|h| {
-            at(
-                &h.span(),
-                *h.get_ref() * (1.0 + height_spread * (2.0 * u() - 1.0)),
-            )
-        });
-        let mass_kg = r.mass_kg.as_ref().map(|m| {
-            at(
-                &m.span(),
-                *m.get_ref() * (1.0 + mass_spread * (2.0 * u() - 1.0)),
-            )
-        });
-        let female = u() < female_share;
-        out.push(at(
-            &span,
-            RawCharacter {
-                name: Some(at(&span, format!("{name}-{}", k + 1))),
-                file: r.file.clone(),
-                position: Some(at(&span, (center + glam::Vec3::new(x, 0.0, z)).to_array())),
-                facing_deg: Some(at(&span, facing_deg)),
-                mass_kg,
-                female: Some(at(&span, female)),
-                spec: None,
-                activate: r.activate.clone(),
-                powered: None,
-                units: r.units.clone(),
-                up: r.up.clone(),
-                height,
-                clip: r.clip.clone(),
-                roles: None,
-            },
-        ));
-    }
-    Ok(out)
+    Ok(Spread {
+        count,
+        spacing,
+        center,
+        facing,
+        facing_spread,
+        height_spread,
+        mass_spread,
+        female_share,
+    })
 }
 
 /// `v` marked as written at `span` (its crowd table).
