@@ -8,7 +8,7 @@ mod common;
 
 use common::pin_at;
 use ragdoll::math::Transform;
-use ragdoll::skeleton::{Character, Joint, Skeleton, Source};
+use ragdoll::skeleton::{Character, Joint};
 use ragdoll::spec::{BodySpec, JointKind, JointSpec, RagdollSpec, SPEC_FORMAT_VERSION, Shape};
 use ragdoll::world::{BackendKind, World, WorldSettings};
 
@@ -29,15 +29,7 @@ fn pendulum(dir: Vec3) -> (Character, RagdollSpec) {
             tip: None,
         })
         .collect();
-    let character = Character {
-        humanoid_bones: Vec::new(),
-        warnings: Vec::new(),
-        name: "pendulum".into(),
-        skeleton: Skeleton::new(joints).unwrap(),
-        meshes: vec![],
-        clips: vec![],
-        source: Source::BuiltIn,
-    };
+    let character = common::skeleton_character("pendulum", joints);
     let bodies = [100.0, 1.0]
         .iter()
         .enumerate()

@@ -8,7 +8,7 @@ use common::pin_at;
 use glam::{Quat, Vec3};
 use ragdoll::events::Blast;
 use ragdoll::math::Transform;
-use ragdoll::skeleton::{Character, Joint, Skeleton, Source};
+use ragdoll::skeleton::{Character, Joint};
 use ragdoll::spec::{
     BodySpec, BuildOptions, JointKind, JointSpec, RagdollSpec, SPEC_FORMAT_VERSION, Shape,
     build_spec,
@@ -38,15 +38,7 @@ fn chain(links: usize, len: f32, dir: Vec3, swing_deg: f32) -> (Character, Ragdo
             tip: None,
         });
     }
-    let character = Character {
-        humanoid_bones: Vec::new(),
-        warnings: Vec::new(),
-        name: "chain".into(),
-        skeleton: Skeleton::new(joints).unwrap(),
-        meshes: vec![],
-        clips: vec![],
-        source: Source::BuiltIn,
-    };
+    let character = common::skeleton_character("chain", joints);
     // Each capsule lies along its bone: its local Y turned onto `dir`.
     let rotation = Quat::from_rotation_arc(Vec3::Y, dir).to_array();
     let bodies = (0..links)

@@ -51,6 +51,23 @@ pub fn examples() -> (Vec<PathBuf>, Vec<PathBuf>) {
     (bare, data)
 }
 
+/// A character that is only a skeleton (no mesh, no clip), named `name`.
+pub fn skeleton_character(
+    name: &str,
+    joints: Vec<ragdoll::skeleton::Joint>,
+) -> ragdoll::skeleton::Character {
+    use ragdoll::skeleton::{Character, Skeleton, Source};
+    Character {
+        humanoid_bones: Vec::new(),
+        warnings: Vec::new(),
+        name: name.into(),
+        skeleton: Skeleton::new(joints).unwrap(),
+        meshes: vec![],
+        clips: vec![],
+        source: Source::BuiltIn,
+    }
+}
+
 /// A one-joint character "bar" 1 m up with a single capsule body "bar" (long axis vertical):
 /// the simplest rigid body to check a load or a field against a closed form.
 pub fn one_capsule(
@@ -59,23 +76,17 @@ pub fn one_capsule(
     mass_kg: f32,
 ) -> (ragdoll::skeleton::Character, ragdoll::spec::RagdollSpec) {
     use ragdoll::math::Transform;
-    use ragdoll::skeleton::{Character, Joint, Skeleton, Source};
+    use ragdoll::skeleton::Joint;
     use ragdoll::spec::{BodySpec, RagdollSpec, SPEC_FORMAT_VERSION, Shape};
-    let character = Character {
-        humanoid_bones: Vec::new(),
-        warnings: Vec::new(),
-        name: "bar".into(),
-        skeleton: Skeleton::new(vec![Joint {
+    let character = skeleton_character(
+        "bar",
+        vec![Joint {
             name: "bar".into(),
             parent: None,
             rest: Transform::from_translation(glam::Vec3::new(0.0, 1.0, 0.0)),
             tip: None,
-        }])
-        .unwrap(),
-        meshes: vec![],
-        clips: vec![],
-        source: Source::BuiltIn,
-    };
+        }],
+    );
     let spec = RagdollSpec {
         format_version: SPEC_FORMAT_VERSION,
         name: "bar".into(),
