@@ -193,8 +193,9 @@ impl super::World {
         worst
     }
 
-    /// Whether every blast has gone off and passed every body part (DESIGN §5 measures
-    /// the energy drift only after the last event).
+    /// Whether every blast has gone off and passed every body part, every projectile has
+    /// been fired, and pins, pushes, fields and motors are over (DESIGN §5 measures the
+    /// energy drift only after the last event).
     fn events_done(&self) -> bool {
         use crate::events::Field;
         let t = self.time;
@@ -216,7 +217,10 @@ impl super::World {
                     .is_some_and(|&(time, strength)| strength == 0.0 && (time as f64) <= t)
             })
         });
+        // A projectile puts its momentum in when it is fired (its report is then written).
+        let shots_done = self.projectiles.iter().all(|(_, report)| report.is_some());
         forces_done
+            && shots_done
             && motors_done
             && self.instances.iter().all(|i| i.active)
             && self.blasts.iter().all(|b| {
