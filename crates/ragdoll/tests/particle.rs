@@ -8,11 +8,7 @@ use common::pin_at;
 use glam::{Quat, Vec3};
 use ragdoll::events::Blast;
 use ragdoll::math::Transform;
-use ragdoll::skeleton::{Character, Joint};
-use ragdoll::spec::{
-    BodySpec, BuildOptions, JointKind, JointSpec, RagdollSpec, SPEC_FORMAT_VERSION, Shape,
-    build_spec,
-};
+use ragdoll::spec::{BuildOptions, RagdollSpec, Shape, build_spec};
 use ragdoll::world::{BackendKind, STANDARD_GRAVITY, World, WorldSettings};
 
 fn particle() -> WorldSettings {
@@ -20,65 +16,6 @@ fn particle() -> WorldSettings {
         backend: BackendKind::Particle,
         ..Default::default()
     }
-}
-
-/// A chain of `links` capsules hanging from "j0" along `dir` (unit), each `len` metres,
-/// joined by swing-twist joints with a `swing_deg` cone.
-fn chain(links: usize, len: f32, dir: Vec3, swing_deg: f32) -> (Character, RagdollSpec) {
-    let mut joints = Vec::new();
-    for i in 0..=links {
-        joints.push(Joint {
-            name: format!("j{i}"),
-            parent: (i > 0).then(|| i - 1),
-            rest: Transform::from_translation(if i == 0 {
-                Vec3::new(0.0, 2.0, 0.0)
-            } else {
-                dir * len
-            }),
-            tip: None,
-        });
-    }
-    let character = common::skeleton_character("chain", joints);
-    // Each capsule lies along its bone: its local Y turned onto `dir`.
-    let rotation = Quat::from_rotation_arc(Vec3::Y, dir).to_array();
-    let bodies = (0..links)
-        .map(|i| BodySpec {
-            name: format!("link{i}"),
-            bone: format!("j{i}"),
-            role: None,
-            shape: Shape::Capsule {
-                radius_m: 0.02,
-                length_m: len,
-            },
-            center_m: (dir * (0.5 * len)).to_array(),
-            rotation,
-            mass_kg: 1.0,
-        })
-        .collect();
-    let frame = Quat::from_rotation_arc(Vec3::X, dir).to_array();
-    let joints = (1..links)
-        .map(|i| JointSpec {
-            name: format!("link{i}"),
-            parent: format!("link{}", i - 1),
-            child: format!("link{i}"),
-            anchor_m: [0.0; 3],
-            frame,
-            kind: JointKind::SwingTwist {
-                swing_deg,
-                twist_deg: [-30.0, 30.0],
-                cone_tilt_deg: [0.0, 0.0],
-            },
-        })
-        .collect();
-    let spec = RagdollSpec {
-        format_version: SPEC_FORMAT_VERSION,
-        name: "chain".into(),
-        bodies,
-        joints,
-        collision: Default::default(),
-    };
-    spec.validate().unwrap();
-    (character, spec)
 }
 
 #[test]
@@ -107,7 +44,7 @@ fn pinned_link_swings_with_the_pendulum_period_of_theory() {
     let (len, radius, mass) = (0.5f32, 0.02f32, 1.0f32);
     let tilt = 5f32.to_radians();
     let dir = Vec3::new(tilt.sin(), -tilt.cos(), 0.0);
-    let (mut character, mut spec) = chain(1, len, dir, 45.0);
+    let (mut character, mut spec) = common::chain(1, len, dir, 45.0);
     spec.bodies[0].shape = Shape::Capsule {
         radius_m: radius,
         length_m: len,
@@ -159,7 +96,7 @@ fn pinned_link_swings_with_the_pendulum_period_of_theory() {
 #[test]
 fn hanging_chain_keeps_bone_lengths_within_one_percent() {
     // Five links released horizontal, pinned at the top: they whip down and swing.
-    let (character, spec) = chain(5, 0.3, Vec3::X, 60.0);
+    let (character, spec) = common::chain(5, 0.3, Vec3::X, 60.0);
     let settings = WorldSettings {
         ground: None,
         ..particle()
@@ -183,7 +120,7 @@ fn hanging_chain_keeps_bone_lengths_within_one_percent() {
 fn cone_limit_holds_while_a_double_pendulum_whips() {
     // A two-link chain pinned at the top, released horizontal: the lower link whips past
     // the upper one and must be stopped by its 30° cone (reach it, not pass it by > 5°).
-    let (character, spec) = chain(2, 0.4, Vec3::X, 30.0);
+    let (character, spec) = common::chain(2, 0.4, Vec3::X, 30.0);
     let settings = WorldSettings {
         ground: None,
         ..particle()

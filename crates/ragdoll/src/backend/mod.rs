@@ -5,6 +5,7 @@
 //! - `particle`: our own position-based particle ragdoll (XPBD-style), for crowds and creatures.
 
 pub(crate) mod broad;
+pub(crate) mod geom;
 pub(crate) mod particle;
 pub(crate) mod rigid;
 pub(crate) mod tree;

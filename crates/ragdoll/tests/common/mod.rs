@@ -115,3 +115,71 @@ pub fn pin_at(target: &str, point: glam::Vec3) -> ragdoll::events::Pin {
         release_s: None,
     }
 }
+
+/// A chain of `links` capsules hanging from "j0" along `dir` (unit), each `len` metres,
+/// joined by swing-twist joints with a `swing_deg` cone.
+pub fn chain(
+    links: usize,
+    len: f32,
+    dir: glam::Vec3,
+    swing_deg: f32,
+) -> (ragdoll::skeleton::Character, ragdoll::spec::RagdollSpec) {
+    use glam::{Quat, Vec3};
+    use ragdoll::math::Transform;
+    use ragdoll::skeleton::Joint;
+    use ragdoll::spec::{BodySpec, JointKind, JointSpec, RagdollSpec, SPEC_FORMAT_VERSION, Shape};
+    let mut joints = Vec::new();
+    for i in 0..=links {
+        joints.push(Joint {
+            name: format!("j{i}"),
+            parent: (i > 0).then(|| i - 1),
+            rest: Transform::from_translation(if i == 0 {
+                Vec3::new(0.0, 2.0, 0.0)
+            } else {
+                dir * len
+            }),
+            tip: None,
+        });
+    }
+    let character = skeleton_character("chain", joints);
+    // Each capsule lies along its bone: its local Y turned onto `dir`.
+    let rotation = Quat::from_rotation_arc(Vec3::Y, dir).to_array();
+    let bodies = (0..links)
+        .map(|i| BodySpec {
+            name: format!("link{i}"),
+            bone: format!("j{i}"),
+            role: None,
+            shape: Shape::Capsule {
+                radius_m: 0.02,
+                length_m: len,
+            },
+            center_m: (dir * (0.5 * len)).to_array(),
+            rotation,
+            mass_kg: 1.0,
+        })
+        .collect();
+    let frame = Quat::from_rotation_arc(Vec3::X, dir).to_array();
+    let joints = (1..links)
+        .map(|i| JointSpec {
+            name: format!("link{i}"),
+            parent: format!("link{}", i - 1),
+            child: format!("link{i}"),
+            anchor_m: [0.0; 3],
+            frame,
+            kind: JointKind::SwingTwist {
+                swing_deg,
+                twist_deg: [-30.0, 30.0],
+                cone_tilt_deg: [0.0, 0.0],
+            },
+        })
+        .collect();
+    let spec = RagdollSpec {
+        format_version: SPEC_FORMAT_VERSION,
+        name: "chain".into(),
+        bodies,
+        joints,
+        collision: Default::default(),
+    };
+    spec.validate().unwrap();
+    (character, spec)
+}

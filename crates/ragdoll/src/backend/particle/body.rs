@@ -6,7 +6,6 @@ use glam::{Mat3, Mat4, Vec3, Vec4};
 
 use super::{Affine, Body, Distance, ParticleBackend, triad_frame};
 use crate::backend::{BodyDesc, capsule_of};
-use crate::spec::Shape;
 
 /// Shortest stick, metres: a leaf whose capsule barely reaches past its anchor gets a tip
 /// this far away, so its direction stays well defined.
@@ -40,33 +39,6 @@ const EQUIMOMENTAL_ANCHOR_SHARE: f32 = 0.1;
 /// mean spread: a flat body's set stays a solid tetrahedron, whose distances hold it rigid
 /// in 3-D (four points in a plane can fold).
 const MIN_SPREAD_SHARE: f32 = 1.0e-3;
-
-/// Inertia tensor of a shape about its centre, body frame, kg·m².
-pub(super) fn inertia_of(shape: &Shape, mass: f32) -> Mat3 {
-    match *shape {
-        Shape::Capsule {
-            radius_m: r,
-            length_m: l,
-        } => {
-            let v_cyl = std::f32::consts::PI * r * r * l;
-            let v_sph = 4.0 / 3.0 * std::f32::consts::PI * r * r * r;
-            let total = (v_cyl + v_sph).max(1e-12);
-            let (mc, ms) = (mass * v_cyl / total, mass * v_sph / total);
-            let across = mc * (l * l / 12.0 + r * r / 4.0)
-                + ms * (0.4 * r * r + l * l / 4.0 + 0.375 * l * r);
-            let along = mc * 0.5 * r * r + ms * 0.4 * r * r;
-            Mat3::from_diagonal(Vec3::new(across, along, across))
-        }
-        Shape::Box { size_m: s } => {
-            let k = mass / 12.0;
-            Mat3::from_diagonal(Vec3::new(
-                k * (s[1] * s[1] + s[2] * s[2]),
-                k * (s[0] * s[0] + s[2] * s[2]),
-                k * (s[0] * s[0] + s[1] * s[1]),
-            ))
-        }
-    }
-}
 
 /// Least-norm affine weights of `q` over `points` (they sum to one and reproduce `q`
 /// exactly when the points span it), through the rows `(AAᵀ)⁻¹ cᵢ` of the centred points.
@@ -266,7 +238,7 @@ impl ParticleBackend {
         let mut rest: Vec<Vec3> = list.iter().map(|&i| rest_of(self, i)).collect();
         rest.extend(tip.map(|t| inv.transform_point(t)));
         let stick = Stick::of(&rest);
-        let inertia = inertia_of(&desc.shape, mass);
+        let inertia = crate::backend::geom::inertia_of(&desc.shape, mass);
         let rule = stick
             .line
             .then(|| ThreePoint::of(rest[0], &stick, inertia, mass));

@@ -6,6 +6,7 @@ use glam::Vec3;
 
 use super::{FRICTION, ParticleBackend};
 use crate::backend::broad::BroadPhase;
+use crate::backend::geom::{ray_box, ray_capsule};
 use crate::spec::Shape;
 
 /// Closer than this counts as touching another ragdoll, metres (as the rigid backend).
@@ -22,44 +23,6 @@ pub(super) struct Grid {
     /// Each body's box, grown by how far it can move before the next search.
     boxes: Vec<(Vec3, Vec3)>,
     broad: BroadPhase,
-}
-
-/// Distance along the unit ray `origin + t·dir`, `t ≥ 0`, to the capsule `a b` of radius `r`.
-fn ray_capsule(origin: Vec3, dir: Vec3, a: Vec3, b: Vec3, r: f32) -> Option<f32> {
-    let mut best: Option<f32> = None;
-    let mut consider = |t: f32| {
-        if t >= 0.0 && best.is_none_or(|b| t < b) {
-            best = Some(t);
-        }
-    };
-    for c in [a, b] {
-        let oc = origin - c;
-        let bq = oc.dot(dir);
-        let cq = oc.length_squared() - r * r;
-        let disc = bq * bq - cq;
-        if disc >= 0.0 {
-            consider(-bq - disc.sqrt());
-        }
-    }
-    let ba = b - a;
-    let oa = origin - a;
-    let baba = ba.dot(ba);
-    let bard = ba.dot(dir);
-    let baoa = ba.dot(oa);
-    let k2 = baba - bard * bard;
-    if baba > 1e-12 && k2 > 1e-12 {
-        let k1 = baba * oa.dot(dir) - baoa * bard;
-        let k0 = baba * oa.length_squared() - baoa * baoa - r * r * baba;
-        let disc = k1 * k1 - k2 * k0;
-        if disc >= 0.0 {
-            let t = (-k1 - disc.sqrt()) / k2;
-            let y = baoa + t * bard;
-            if y > 0.0 && y < baba {
-                consider(t);
-            }
-        }
-    }
-    best
 }
 
 impl ParticleBackend {
@@ -340,28 +303,6 @@ impl ParticleBackend {
     }
 }
 
-/// Distance along the unit ray `origin + t·dir`, `t ≥ 0`, to the box of half extents
-/// `half` centred on the origin (slab test); 0 from inside.
-fn ray_box(origin: Vec3, dir: Vec3, half: Vec3) -> Option<f32> {
-    let (mut near, mut far) = (0.0f32, f32::INFINITY);
-    for k in 0..3 {
-        let (o, d, h) = (origin[k], dir[k], half[k]);
-        if d.abs() < 1e-12 {
-            if o.abs() > h {
-                return None;
-            }
-            continue;
-        }
-        let (t0, t1) = ((-h - o) / d, (h - o) / d);
-        near = near.max(t0.min(t1));
-        far = far.min(t0.max(t1));
-        if near > far {
-            return None;
-        }
-    }
-    Some(near)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -375,26 +316,5 @@ mod tests {
             Vec3::new(0.5, 1.0, 1.0),
         );
         assert!((s - 0.75).abs() < 1e-6 && (t - 0.5).abs() < 1e-6, "{s} {t}");
-    }
-
-    #[test]
-    fn ray_meets_capsule_side_and_cap() {
-        let (a, b) = (Vec3::new(0.0, -1.0, 0.0), Vec3::new(0.0, 1.0, 0.0));
-        let side = ray_capsule(Vec3::new(-5.0, 0.0, 0.0), Vec3::X, a, b, 0.5).unwrap();
-        assert!((side - 4.5).abs() < 1e-5, "{side}");
-        let cap = ray_capsule(Vec3::new(0.0, 5.0, 0.0), -Vec3::Y, a, b, 0.5).unwrap();
-        assert!((cap - 3.5).abs() < 1e-5, "{cap}");
-        assert!(ray_capsule(Vec3::new(-5.0, 0.0, 2.0), Vec3::X, a, b, 0.5).is_none());
-    }
-
-    #[test]
-    fn ray_meets_box_faces_and_misses_beside_it() {
-        let half = Vec3::new(0.15, 0.1, 0.1);
-        let front = ray_box(Vec3::new(0.0, 0.09, 5.0), -Vec3::Z, half).unwrap();
-        assert!((front - 4.9).abs() < 1e-5, "{front}");
-        let slanted = Vec3::new(0.0, -0.1, -1.0).normalize();
-        assert!(ray_box(Vec3::new(0.0, 0.5, 5.0), slanted, half).is_some());
-        assert!(ray_box(Vec3::new(0.0, 0.11, 5.0), -Vec3::Z, half).is_none());
-        assert_eq!(ray_box(Vec3::ZERO, Vec3::X, half), Some(0.0));
     }
 }

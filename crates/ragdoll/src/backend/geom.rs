@@ -1,0 +1,119 @@
+//! Shape geometry every backend of ours shares: inertia tensors and ray casts against the
+//! bodies' own shapes.
+
+use glam::{Mat3, Vec3};
+
+use crate::spec::Shape;
+
+/// Inertia tensor of a shape about its centre, body frame, kg·m².
+pub(crate) fn inertia_of(shape: &Shape, mass: f32) -> Mat3 {
+    match *shape {
+        Shape::Capsule {
+            radius_m: r,
+            length_m: l,
+        } => {
+            let v_cyl = std::f32::consts::PI * r * r * l;
+            let v_sph = 4.0 / 3.0 * std::f32::consts::PI * r * r * r;
+            let total = (v_cyl + v_sph).max(1e-12);
+            let (mc, ms) = (mass * v_cyl / total, mass * v_sph / total);
+            let across = mc * (l * l / 12.0 + r * r / 4.0)
+                + ms * (0.4 * r * r + l * l / 4.0 + 0.375 * l * r);
+            let along = mc * 0.5 * r * r + ms * 0.4 * r * r;
+            Mat3::from_diagonal(Vec3::new(across, along, across))
+        }
+        Shape::Box { size_m: s } => {
+            let k = mass / 12.0;
+            Mat3::from_diagonal(Vec3::new(
+                k * (s[1] * s[1] + s[2] * s[2]),
+                k * (s[0] * s[0] + s[2] * s[2]),
+                k * (s[0] * s[0] + s[1] * s[1]),
+            ))
+        }
+    }
+}
+
+/// Distance along the unit ray `origin + t·dir`, `t ≥ 0`, to the capsule `a b` of radius `r`.
+pub(crate) fn ray_capsule(origin: Vec3, dir: Vec3, a: Vec3, b: Vec3, r: f32) -> Option<f32> {
+    let mut best: Option<f32> = None;
+    let mut consider = |t: f32| {
+        if t >= 0.0 && best.is_none_or(|b| t < b) {
+            best = Some(t);
+        }
+    };
+    for c in [a, b] {
+        let oc = origin - c;
+        let bq = oc.dot(dir);
+        let cq = oc.length_squared() - r * r;
+        let disc = bq * bq - cq;
+        if disc >= 0.0 {
+            consider(-bq - disc.sqrt());
+        }
+    }
+    let ba = b - a;
+    let oa = origin - a;
+    let baba = ba.dot(ba);
+    let bard = ba.dot(dir);
+    let baoa = ba.dot(oa);
+    let k2 = baba - bard * bard;
+    if baba > 1e-12 && k2 > 1e-12 {
+        let k1 = baba * oa.dot(dir) - baoa * bard;
+        let k0 = baba * oa.length_squared() - baoa * baoa - r * r * baba;
+        let disc = k1 * k1 - k2 * k0;
+        if disc >= 0.0 {
+            let t = (-k1 - disc.sqrt()) / k2;
+            let y = baoa + t * bard;
+            if y > 0.0 && y < baba {
+                consider(t);
+            }
+        }
+    }
+    best
+}
+
+/// Distance along the unit ray `origin + t·dir`, `t ≥ 0`, to the box of half extents
+/// `half` centred on the origin (slab test); 0 from inside.
+pub(crate) fn ray_box(origin: Vec3, dir: Vec3, half: Vec3) -> Option<f32> {
+    let (mut near, mut far) = (0.0f32, f32::INFINITY);
+    for k in 0..3 {
+        let (o, d, h) = (origin[k], dir[k], half[k]);
+        if d.abs() < 1e-12 {
+            if o.abs() > h {
+                return None;
+            }
+            continue;
+        }
+        let (t0, t1) = ((-h - o) / d, (h - o) / d);
+        near = near.max(t0.min(t1));
+        far = far.min(t0.max(t1));
+        if near > far {
+            return None;
+        }
+    }
+    Some(near)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ray_meets_capsule_side_and_cap() {
+        let (a, b) = (Vec3::new(0.0, -1.0, 0.0), Vec3::new(0.0, 1.0, 0.0));
+        let side = ray_capsule(Vec3::new(-5.0, 0.0, 0.0), Vec3::X, a, b, 0.5).unwrap();
+        assert!((side - 4.5).abs() < 1e-5, "{side}");
+        let cap = ray_capsule(Vec3::new(0.0, 5.0, 0.0), -Vec3::Y, a, b, 0.5).unwrap();
+        assert!((cap - 3.5).abs() < 1e-5, "{cap}");
+        assert!(ray_capsule(Vec3::new(-5.0, 0.0, 2.0), Vec3::X, a, b, 0.5).is_none());
+    }
+
+    #[test]
+    fn ray_meets_box_faces_and_misses_beside_it() {
+        let half = Vec3::new(0.15, 0.1, 0.1);
+        let front = ray_box(Vec3::new(0.0, 0.09, 5.0), -Vec3::Z, half).unwrap();
+        assert!((front - 4.9).abs() < 1e-5, "{front}");
+        let slanted = Vec3::new(0.0, -0.1, -1.0).normalize();
+        assert!(ray_box(Vec3::new(0.0, 0.5, 5.0), slanted, half).is_some());
+        assert!(ray_box(Vec3::new(0.0, 0.11, 5.0), -Vec3::Z, half).is_none());
+        assert_eq!(ray_box(Vec3::ZERO, Vec3::X, half), Some(0.0));
+    }
+}
