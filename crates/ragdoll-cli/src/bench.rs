@@ -96,7 +96,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     }
     let character = skeleton::humanoid();
     let spec = spec::build_spec(&character, &BuildOptions::default())?;
-    let backend = a.backend.backend.kind();
+    let backend = a.backend.backend;
     if a.compare && backend == BackendKind::Rigid {
         bail!(
             "--compare runs the rigid backend beside another one: choose that one with --backend"

@@ -151,7 +151,7 @@ fn world_settings(a: &RunArgs, rest_pose: bool) -> Result<WorldSettings> {
         bail!("--seconds: must be between 0 and {max}, not {}", a.seconds);
     }
     let settings = WorldSettings {
-        backend: a.backend.backend.kind(),
+        backend: a.backend.backend,
         fps: a.fps,
         start: if rest_pose {
             StartPose::Rest

@@ -170,32 +170,24 @@ struct RagdollArgs {
     roles: Option<PathBuf>,
 }
 
-/// Which physics backend runs the simulation.
-#[derive(Clone, Copy, Debug, Default, ValueEnum)]
-pub enum BackendArg {
-    /// rapier3d rigid bodies and joints (accurate).
-    #[default]
-    Rigid,
-    /// Our position-based particle ragdoll (XPBD-style), for crowds and creatures.
-    Particle,
-}
-
-impl BackendArg {
-    pub fn kind(self) -> ragdoll::world::BackendKind {
-        match self {
-            BackendArg::Rigid => ragdoll::world::BackendKind::Rigid,
-            BackendArg::Particle => ragdoll::world::BackendKind::Particle,
-        }
-    }
+/// `--backend`'s values: the library's own names, so the flag, scene files and the viewer
+/// can never disagree on what a backend is called.
+fn backend_parser() -> impl clap::builder::TypedValueParser<Value = ragdoll::world::BackendKind> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+    use ragdoll::world::BackendKind;
+    PossibleValuesParser::new(
+        BackendKind::ALL.map(|k| PossibleValue::new(k.as_str()).help(k.summary())),
+    )
+    .map(|name| BackendKind::from_name(&name).unwrap_or_default())
 }
 
 /// The backend flag, shared by every command that simulates.
 #[derive(Args, Debug, Clone)]
 pub struct BackendArgs {
-    /// Physics backend: `rigid` (rapier3d, accurate) or `particle` (our XPBD particle
-    /// ragdoll, cheaper).
-    #[arg(long, value_enum, default_value_t = BackendArg::Rigid)]
-    pub backend: BackendArg,
+    /// Physics backend: `rigid` (rapier3d, the reference), `particle` (our particle
+    /// ragdoll) or `fast` (our rigid-body solver for ragdolls, for crowds).
+    #[arg(long, value_parser = backend_parser(), default_value = "rigid")]
+    pub backend: ragdoll::world::BackendKind,
 }
 
 /// How long and how finely to simulate.

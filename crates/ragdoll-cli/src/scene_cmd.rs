@@ -94,7 +94,7 @@ pub fn run(a: &SimulateArgs, matches: &ArgMatches) -> Result<()> {
     }
     // The flag overrides the scene's `backend` only when given.
     if given(matches, "backend") {
-        scene.settings.backend = a.sim.run.backend.backend.kind();
+        scene.settings.backend = a.sim.run.backend.backend;
     }
     progress.stage(0, "building the scene");
     let mut started = false;

@@ -1,5 +1,6 @@
-//! `--backend particle` on the commands that simulate, and `backend = "particle"` in scene
-//! files: the run uses the particle backend and its report says so, with the bone stretch.
+//! `--backend particle` and `--backend fast` on the commands that simulate, and `backend =
+//! "…"` in scene files: the run uses that backend and its report says so, with the bone
+//! stretch.
 
 mod common;
 
@@ -77,6 +78,34 @@ fn a_scene_can_ask_for_the_particle_backend_and_nothing_else() {
     let o = ragdoll(tmp.path(), &["simulate", "bad.toml", "-o", "out2"]);
     assert!(!o.status.success());
     let err = stderr(&o);
-    assert!(err.contains("backend") && err.contains("particle"), "{err}");
+    assert!(
+        err.contains("backend") && err.contains("particle") && err.contains("fast"),
+        "{err}"
+    );
     assert!(!tmp.path().join("out2").exists());
+}
+
+#[test]
+fn demo_and_a_scene_run_on_the_fast_backend() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = ragdoll(tmp.path(), &["demo", "--backend", "fast", "--seconds", "1"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report = read_json(&tmp.path().join("out/report.json"));
+    assert_eq!(report["backend"], "fast", "{report}");
+    // A rigid-body solver: bones keep their length.
+    assert!(
+        report["max_bone_stretch"].as_f64().unwrap() < 0.01,
+        "{report}"
+    );
+    std::fs::write(
+        tmp.path().join("s.toml"),
+        "duration_s = 0.5\nbackend = \"fast\"\n[[character]]\nname = \"solo\"\n",
+    )
+    .unwrap();
+    let o = ragdoll(tmp.path(), &["simulate", "s.toml", "-o", "scene"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        read_json(&tmp.path().join("scene/report.json"))["backend"],
+        "fast"
+    );
 }

@@ -16,7 +16,7 @@
 //! or `progress`, and a `message` sentence) and, to the page that asked alone,
 //! `confirm_overwrite` (the save files already there, before any is replaced).
 
-use serde::{Deserialize, Serialize};
+use serde::Deserialize;
 
 /// Largest message accepted from a page, bytes. The largest valid message (an edit) is a
 /// few hundred bytes; 16 KiB leaves room for whitespace and future fields while keeping a
@@ -36,15 +36,9 @@ pub const MAX_MASS_KG: f32 = 1.0e7;
 /// Longest delay before a charge placed in the viewer goes off, seconds.
 pub const MAX_DELAY_S: f32 = 60.0;
 
-/// Which simulation backend the page asks for.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum BackendChoice {
-    /// rapier3d rigid bodies and joints.
-    Rigid,
-    /// The position-based particle ragdoll.
-    Particle,
-}
+/// Which simulation backend the page asks for: the library's own choice, by the names
+/// files and the command line use (`rigid`, `particle`, `fast`).
+pub use ragdoll::world::BackendKind as BackendChoice;
 
 /// A message from the page.
 #[derive(Clone, Debug, PartialEq, Deserialize)]

@@ -99,7 +99,7 @@ fn ten_thousand_tonnes_of_tnt_keep_the_particle_broad_phase_small() {
 fn characters_placed_inside_each_other_are_refused_naming_both() {
     // Issue 10: 100 humanoids on one spot took 23 s and 768 MB, 200 over 3.7 GB (every
     // body in contact with every other). The second one on the spot is refused.
-    for backend in [BackendKind::Rigid, BackendKind::Particle] {
+    for backend in BackendKind::ALL {
         let character = humanoid();
         let spec = humanoid_spec();
         let settings = WorldSettings {
@@ -149,7 +149,7 @@ fn two_bodies_on_one_spot() -> (ragdoll::skeleton::Character, RagdollSpec) {
 fn a_ragdolls_own_parts_starting_inside_each_other_stop_colliding() {
     // Within one ragdoll the pose put the parts there (as at a hand-over): a contact would
     // throw them apart at metres a second. They stay still instead.
-    for backend in [BackendKind::Rigid, BackendKind::Particle] {
+    for backend in BackendKind::ALL {
         let (character, spec) = two_bodies_on_one_spot();
         let (mut world, id) = World::with_ragdoll(&character, &spec, &free_space(backend)).unwrap();
         world.run(0.2);
@@ -211,7 +211,7 @@ fn early_shots_hit_the_box_and_deliver_their_momentum_on_both_backends() {
     };
     for t in [0.0, 1.0 / 60.0, 0.05] {
         let mut hits = Vec::new();
-        for backend in [BackendKind::Rigid, BackendKind::Particle] {
+        for backend in BackendKind::ALL {
             let (mut world, id) =
                 World::with_ragdoll(&character, &spec, &free_space(backend)).unwrap();
             world.add_projectile(shot(t)).unwrap();
@@ -254,7 +254,7 @@ fn capsule_thrown(backend: BackendKind, charge: Vec3) -> Vec3 {
 #[test]
 fn a_charge_inside_a_part_pushes_it_away_from_the_charge_and_nothing_at_its_centre() {
     let centre = Vec3::new(0.0, 1.0, 0.0);
-    for backend in [BackendKind::Rigid, BackendKind::Particle] {
+    for backend in BackendKind::ALL {
         // At its centre the part is loaded equally all round: no net push (it took a full
         // contact load along world up before).
         let p = capsule_thrown(backend, centre);
@@ -450,7 +450,7 @@ fn the_lightest_humanoid_allowed_collapses_without_going_non_finite() {
         ..Default::default()
     };
     let spec = build_spec(&character, &options).unwrap();
-    for backend in [BackendKind::Rigid, BackendKind::Particle] {
+    for backend in BackendKind::ALL {
         let settings = WorldSettings {
             backend,
             ..Default::default()

@@ -91,8 +91,7 @@ fn energy_drift_is_measured_from_after_the_shot() {
     // as after a blast. Read across the shot, the chest's 200 N·s read as a 98 % gain.
     let character = humanoid();
     let spec = build_spec(&character, &BuildOptions::default()).unwrap();
-    let (mut world, _) =
-        World::with_ragdoll(&character, &spec, &WorldSettings::default()).unwrap();
+    let (mut world, _) = World::with_ragdoll(&character, &spec, &WorldSettings::default()).unwrap();
     world
         .add_projectile(Projectile {
             origin: Vec3::new(0.0, 1.3, 5.0),

@@ -31,7 +31,7 @@ fn pile(settings: &WorldSettings) -> Metrics {
 
 #[test]
 fn the_solver_reading_is_taken_before_the_clamp_on_both_backends() {
-    for backend in [BackendKind::Rigid, BackendKind::Particle] {
+    for backend in BackendKind::ALL {
         let m = pile(&WorldSettings {
             backend,
             ..Default::default()

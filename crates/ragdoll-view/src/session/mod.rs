@@ -33,7 +33,7 @@ use glam::Vec3;
 use ragdoll::events::Blast;
 use ragdoll::scene::Scene;
 use ragdoll::spec::RagdollSpec;
-use ragdoll::world::{BackendKind, DragId, RagdollId, World, WorldSettings};
+use ragdoll::world::{DragId, RagdollId, World, WorldSettings};
 use tokio::sync::{broadcast, mpsc, oneshot, watch};
 
 use crate::log::LogLimit;
@@ -116,10 +116,7 @@ pub(crate) fn viewer_settings(settings: &WorldSettings) -> WorldSettings {
 }
 
 fn backend_of(settings: &WorldSettings) -> BackendChoice {
-    match settings.backend {
-        BackendKind::Rigid => BackendChoice::Rigid,
-        BackendKind::Particle => BackendChoice::Particle,
-    }
+    settings.backend
 }
 
 impl Session {
@@ -294,10 +291,7 @@ impl Session {
             return;
         }
         let mut settings = self.scene.settings.clone();
-        settings.backend = match kind {
-            BackendChoice::Rigid => BackendKind::Rigid,
-            BackendChoice::Particle => BackendKind::Particle,
-        };
+        settings.backend = kind;
         let old = std::mem::replace(&mut self.scene.settings, settings);
         let old_backend = std::mem::replace(&mut self.backend, kind);
         let at = self.cursor;

@@ -2,9 +2,11 @@
 //! never see which engine moved the bodies.
 //!
 //! - `rigid`: rapier3d rigid bodies and impulse joints (the accurate default);
-//! - `particle`: our own position-based particle ragdoll (XPBD-style), for crowds and creatures.
+//! - `particle`: our own position-based particle ragdoll (XPBD-style), for creatures;
+//! - `fast`: our own rigid-body solver built for ragdolls (small-step XPBD), for crowds.
 
 pub(crate) mod broad;
+pub(crate) mod fast;
 pub(crate) mod geom;
 pub(crate) mod particle;
 pub(crate) mod rigid;
@@ -54,14 +56,33 @@ pub enum BackendKind {
     /// crowds and creatures built from meshes; joints may open and bones stretch by a few
     /// millimetres.
     Particle,
+    /// Our rigid-body solver built for ragdolls: small-step position-based dynamics of
+    /// rigid bodies (Müller et al. 2020), with limits held inside the solver and ragdolls
+    /// that sleep at rest; for crowds.
+    Fast,
 }
 
 impl BackendKind {
-    /// The name used in files, reports and on the command line (`rigid`, `particle`).
+    /// Every backend, the default first.
+    pub const ALL: [BackendKind; 3] =
+        [BackendKind::Rigid, BackendKind::Particle, BackendKind::Fast];
+
+    /// One line on what the backend is for (the command line's help).
+    pub fn summary(self) -> &'static str {
+        match self {
+            BackendKind::Rigid => "rapier3d rigid bodies and joints: the reference",
+            BackendKind::Particle => "our position-based particle ragdoll, for creatures",
+            BackendKind::Fast => "our rigid-body solver built for ragdolls, for crowds",
+        }
+    }
+
+    /// The name used in files, reports and on the command line (`rigid`, `particle`,
+    /// `fast`).
     pub fn as_str(self) -> &'static str {
         match self {
             BackendKind::Rigid => "rigid",
             BackendKind::Particle => "particle",
+            BackendKind::Fast => "fast",
         }
     }
 
@@ -70,6 +91,7 @@ impl BackendKind {
         match name {
             "rigid" => Some(BackendKind::Rigid),
             "particle" => Some(BackendKind::Particle),
+            "fast" => Some(BackendKind::Fast),
             _ => None,
         }
     }
@@ -251,6 +273,8 @@ pub(crate) enum AnyBackend {
     Rigid(Box<rigid::RigidBackend>),
     /// Our particles.
     Particle(Box<particle::ParticleBackend>),
+    /// Our rigid-body solver.
+    Fast(Box<fast::FastBackend>),
 }
 
 /// Forwards each listed trait method to the backend inside (`ref` methods take `&self`,
@@ -264,6 +288,7 @@ macro_rules! forward {
             match self {
                 AnyBackend::Rigid(b) => b.$name($($arg),*),
                 AnyBackend::Particle(b) => b.$name($($arg),*),
+                AnyBackend::Fast(b) => b.$name($($arg),*),
             }
         }
     };
@@ -272,6 +297,7 @@ macro_rules! forward {
             match self {
                 AnyBackend::Rigid(b) => b.$name($($arg),*),
                 AnyBackend::Particle(b) => b.$name($($arg),*),
+                AnyBackend::Fast(b) => b.$name($($arg),*),
             }
         }
     };

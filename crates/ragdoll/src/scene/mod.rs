@@ -10,7 +10,7 @@
 //! fps = 30                          # output frame rate
 //! gravity = [0.0, -9.80665, 0.0]    # m/s²
 //! ground = 0.0                      # ground height in metres, or "none"
-//! backend = "rigid"                 # or "particle" (our XPBD particle ragdoll)
+//! backend = "rigid"                 # or "particle" (our particle ragdoll), "fast" (our solver)
 //! start_pose = "first_frame"        # or "rest"
 //!
 //! [output]                          # file names inside the output folder; false skips one

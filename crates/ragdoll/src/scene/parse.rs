@@ -276,14 +276,17 @@ fn settings(src: &Src, raw: &RawScene) -> Result<WorldSettings> {
     }
     if let Some(b) = &raw.backend {
         settings.backend = crate::world::BackendKind::from_name(b.get_ref()).ok_or_else(|| {
-            top.err(
-                &b.span(),
-                "backend",
+            top.err(&b.span(), "backend", {
+                let names: Vec<String> = crate::world::BackendKind::ALL
+                    .iter()
+                    .map(|k| format!("\"{}\"", k.as_str()))
+                    .collect();
                 format!(
-                    "\"{}\" is not a backend; use \"rigid\" or \"particle\"",
-                    b.get_ref()
-                ),
-            )
+                    "\"{}\" is not a backend; use {}",
+                    b.get_ref(),
+                    names.join(", ")
+                )
+            })
         })?;
     }
     if let Some(s) = &raw.start_pose {

@@ -411,7 +411,7 @@ mod tests {
     // a run go non-finite on purpose, now that every input is bounded.
     #[test]
     fn a_run_that_goes_non_finite_is_flagged_and_holds_its_last_finite_pose() {
-        for backend in [BackendKind::Rigid, BackendKind::Particle] {
+        for backend in BackendKind::ALL {
             let character = crate::skeleton::humanoid();
             let spec = crate::spec::build_spec(&character, &Default::default()).unwrap();
             let settings = WorldSettings {

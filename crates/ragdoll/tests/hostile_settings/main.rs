@@ -108,7 +108,7 @@ pub(crate) fn world_with(
     World::with_ragdoll(character, spec, &settings).unwrap_or_else(|e| panic!("{backend:?}: {e}"))
 }
 
-pub(crate) const BACKENDS: [BackendKind; 2] = [BackendKind::Rigid, BackendKind::Particle];
+pub(crate) const BACKENDS: [BackendKind; 3] = BackendKind::ALL;
 
 /// The setting an error names and its message.
 pub(crate) fn setting_of(r: ragdoll::Result<()>) -> (String, String) {

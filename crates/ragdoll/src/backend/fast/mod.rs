@@ -1,0 +1,617 @@
+//! The fast backend: our own rigid-body solver, built for ragdolls.
+//!
+//! Small-step extended position-based dynamics for rigid bodies (Müller et al. 2020,
+//! "Detailed Rigid Body Simulation with Extended Position Based Dynamics"; Macklin et al.
+//! 2019, "Small Steps in Physics Simulation"): every step is cut into many substeps of one
+//! constraint pass each. A substep predicts each body's pose from its velocity, moves the
+//! bodies so joints, limits and contacts hold (each constraint in closed form on the two
+//! bodies it links, weighted by their generalised inverse masses; Coulomb friction on the
+//! contacts' and limits' sideways motion), adds what the constraints moved to the
+//! velocities, and takes the contacts' normal velocity away (restitution 0).
+//!
+//! Where it departs from the paper, each for a measured reason given where it is done: a
+//! joint's anchor and a hinge's axis are solved as one 3×3 or 2×2 constraint rather than
+//! along their error (`solve.rs`), a resting body answers a push down into what holds it
+//! as a heavier one (shock propagation, `contact.rs`), limits have friction, and the world
+//! sees each body's motion over the whole step rather than its last substep's velocity.
+//!
+//! Unlike the rigid backend, limits are constraints on positions inside the solver, so a
+//! torso landing on an arm cannot push an elbow far past its limit for a frame; unlike the
+//! particle backend, a body is one rigid frame with a true inertia tensor, so bones neither
+//! stretch nor shear.
+//!
+//! Bodies are kept as arrays of positions, rotations and velocities (structure of arrays);
+//! contacts are found once per step with the shared broad phase and their points again
+//! every substep. Ragdolls that may touch form islands; an island whose bodies all stay
+//! slower than [`SLEEP_SPEED_MPS`] for [`SLEEP_AFTER_S`] sleeps (costs nothing) until
+//! something touches or pushes it (`sleep.rs`).
+
+mod contact;
+mod sleep;
+mod solve;
+
+use std::collections::HashSet;
+
+use glam::{Mat3, Quat, Vec3};
+
+use super::{Backend, BodyDesc, BodyState, JointDesc};
+use crate::math::Transform;
+use crate::spec::{JointKind, Shape};
+
+/// Static and dynamic friction of every contact: skin and clothing on a hard floor are
+/// around 0.5-0.8 (the rigid backend's value).
+const FRICTION: f32 = 0.7;
+/// A ragdoll whose every body point moves slower than this may sleep, m/s (rapier's
+/// default linear threshold is 0.1 m/s at 1 m scale; a ragdoll's parts are smaller).
+const SLEEP_SPEED_MPS: f32 = 0.05;
+/// How long a ragdoll must stay that slow before it sleeps, seconds.
+const SLEEP_AFTER_S: f32 = 0.5;
+
+/// Settings the fast backend takes from the world.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct FastSettings {
+    /// Gravity, m/s².
+    pub gravity: Vec3,
+    /// Height of the ground plane, or `None` for no ground.
+    pub ground: Option<f32>,
+    /// Substeps per step.
+    pub substeps: usize,
+}
+
+/// A joint's limits, in radians.
+#[derive(Clone, Copy, Debug)]
+enum Limits {
+    Ball,
+    Fixed,
+    Hinge { min: f32, max: f32 },
+    SwingTwist { swing: f32, twist: [f32; 2] },
+}
+
+impl Limits {
+    fn of(kind: &JointKind) -> Self {
+        match *kind {
+            JointKind::Ball => Limits::Ball,
+            JointKind::Fixed => Limits::Fixed,
+            JointKind::Hinge { min_deg, max_deg } => Limits::Hinge {
+                min: min_deg.to_radians(),
+                max: max_deg.to_radians(),
+            },
+            JointKind::SwingTwist {
+                swing_deg,
+                twist_deg,
+                ..
+            } => Limits::SwingTwist {
+                swing: swing_deg.to_radians(),
+                twist: [twist_deg[0].to_radians(), twist_deg[1].to_radians()],
+            },
+        }
+    }
+}
+
+/// A drive toward a relative rotation (see [`Backend::drive_joint`]).
+#[derive(Clone, Copy, Debug)]
+struct Drive {
+    target: Quat,
+    angvel: Vec3,
+    stiffness: f32,
+    damping: f32,
+}
+
+/// A joint between bodies `a` (parent) and `b` (child), global indices.
+#[derive(Clone, Debug)]
+struct Joint {
+    a: usize,
+    b: usize,
+    frame_a: Transform,
+    frame_b: Transform,
+    limits: Limits,
+    drive: Option<Drive>,
+}
+
+/// A point of a body tied to a moving world point.
+#[derive(Clone, Copy, Debug)]
+struct Pin {
+    body: usize,
+    local: Vec3,
+    /// The anchor at the start and at the end of the coming step.
+    from: Vec3,
+    to: Vec3,
+    soft: Option<(f32, f32)>,
+    active: bool,
+}
+
+/// Where a kinematic body is at the start and at the end of the coming step.
+#[derive(Clone, Copy, Debug)]
+struct Kinematic {
+    from: Transform,
+    to: Transform,
+}
+
+/// One ragdoll's range of bodies and its sleep state.
+#[derive(Clone, Debug)]
+struct Ragdoll {
+    bodies: std::ops::Range<usize>,
+    asleep: bool,
+    /// How long its bodies have been slow, seconds.
+    still_s: f32,
+    /// Whether something outside holds or drives it (a pin, a drive, a kinematic body):
+    /// such a ragdoll never sleeps.
+    held: bool,
+}
+
+/// Our rigid-body solver.
+pub(crate) struct FastBackend {
+    settings: FastSettings,
+    // Bodies, one entry each, global order.
+    pos: Vec<Vec3>,
+    rot: Vec<Quat>,
+    prev_pos: Vec<Vec3>,
+    prev_rot: Vec<Quat>,
+    /// Where each body's velocity alone put it in this substep, before the constraints.
+    pred_pos: Vec<Vec3>,
+    pred_rot: Vec<Quat>,
+    vel: Vec<Vec3>,
+    angvel: Vec<Vec3>,
+    /// Poses at the start of the step, and the velocities the world sees: the motion
+    /// over the step (see [`FastBackend::observe_velocities`]).
+    step_pos: Vec<Vec3>,
+    step_rot: Vec<Quat>,
+    seen_vel: Vec<Vec3>,
+    seen_angvel: Vec<Vec3>,
+    mass: Vec<f32>,
+    /// Inverse mass, 0 for a kinematic body.
+    inv_mass: Vec<f32>,
+    /// Principal moments of inertia in the body frame (the shapes' axes are principal).
+    inertia: Vec<Vec3>,
+    /// Their inverses, zero for a kinematic body.
+    inv_inertia: Vec<Vec3>,
+    /// The inverse inertia tensors in the world, as of the start of the substep.
+    inv_inertia_world: Vec<Mat3>,
+    shape: Vec<Shape>,
+    /// What holds each body up in this substep's contacts (see
+    /// [`FastBackend::support_along`]).
+    holder: Vec<u32>,
+    kinematic: Vec<Option<Kinematic>>,
+    ragdoll_of: Vec<usize>,
+    ragdolls: Vec<Ragdoll>,
+    joints: Vec<Joint>,
+    pins: Vec<Pin>,
+    /// Unordered pairs (low, high) of bodies that never collide.
+    disabled: HashSet<(u32, u32)>,
+    collide: contact::Collide,
+    /// Scratch of the sleep pass: each ragdoll's island parent, and whether each island
+    /// may sleep.
+    islands: Vec<usize>,
+    island_ready: Vec<bool>,
+}
+
+impl FastBackend {
+    pub(crate) fn new(settings: FastSettings) -> Self {
+        FastBackend {
+            settings,
+            pos: Vec::new(),
+            rot: Vec::new(),
+            prev_pos: Vec::new(),
+            prev_rot: Vec::new(),
+            pred_pos: Vec::new(),
+            pred_rot: Vec::new(),
+            vel: Vec::new(),
+            angvel: Vec::new(),
+            step_pos: Vec::new(),
+            step_rot: Vec::new(),
+            seen_vel: Vec::new(),
+            seen_angvel: Vec::new(),
+            mass: Vec::new(),
+            inv_mass: Vec::new(),
+            inertia: Vec::new(),
+            inv_inertia: Vec::new(),
+            inv_inertia_world: Vec::new(),
+            shape: Vec::new(),
+            holder: Vec::new(),
+            kinematic: Vec::new(),
+            ragdoll_of: Vec::new(),
+            ragdolls: Vec::new(),
+            joints: Vec::new(),
+            pins: Vec::new(),
+            disabled: HashSet::new(),
+            collide: contact::Collide::default(),
+            islands: Vec::new(),
+            island_ready: Vec::new(),
+        }
+    }
+
+    /// Body `i`'s inverse inertia tensor in the world times `v`, with the tensor as of
+    /// the start of the substep (XPBD keeps it fixed through the position pass).
+    #[inline]
+    fn inv_inertia_world(&self, i: usize, v: Vec3) -> Vec3 {
+        self.inv_inertia_world[i] * v
+    }
+
+    /// Recomputes body `i`'s world inverse inertia tensor from its rotation.
+    #[inline]
+    fn refresh_inertia(&mut self, i: usize) {
+        let m = Mat3::from_quat(self.rot[i]);
+        let d = self.inv_inertia[i];
+        let scaled = Mat3::from_cols(m.x_axis * d.x, m.y_axis * d.y, m.z_axis * d.z);
+        self.inv_inertia_world[i] = scaled * m.transpose();
+    }
+
+    /// Generalised inverse mass of body `i` for a push along `n` (unit) at the offset `r`
+    /// from its centre.
+    #[inline]
+    fn w_at(&self, i: usize, r: Vec3, n: Vec3) -> f32 {
+        let rn = r.cross(n);
+        self.inv_mass[i] + rn.dot(self.inv_inertia_world(i, rn))
+    }
+
+    /// Generalised inverse mass of body `i` for a turn about `n` (unit).
+    #[inline]
+    fn w_turn(&self, i: usize, n: Vec3) -> f32 {
+        n.dot(self.inv_inertia_world(i, n))
+    }
+
+    /// Moves body `i` by the positional impulse `p` at offset `r`.
+    #[inline]
+    fn shift(&mut self, i: usize, r: Vec3, p: Vec3) {
+        self.pos[i] += p * self.inv_mass[i];
+        let w = self.inv_inertia_world(i, r.cross(p));
+        self.turn_by(i, w);
+    }
+
+    /// Turns body `i` by the small rotation vector `w` (radians, world). The result is
+    /// not normalised: the position pass makes many such small turns, and the quaternions
+    /// are normalised once at its end, when the velocities are read back.
+    ///
+    /// A turn is capped at [`MAX_TURN_RAD`]: the small-angle update means nothing past
+    /// that, and its unnormalised result grows with the square of the angle, so a few
+    /// hundred huge turns in one pass (a 100 m pole spinning into the floor) overflowed.
+    #[inline]
+    fn turn_by(&mut self, i: usize, w: Vec3) {
+        let len2 = w.length_squared();
+        let w = if len2 > MAX_TURN_RAD * MAX_TURN_RAD {
+            w * (MAX_TURN_RAD / len2.sqrt())
+        } else {
+            w
+        };
+        let q = self.rot[i];
+        let dq = Quat::from_xyzw(w.x, w.y, w.z, 0.0) * q;
+        let turned = Quat::from_xyzw(
+            q.x + 0.5 * dq.x,
+            q.y + 0.5 * dq.y,
+            q.z + 0.5 * dq.z,
+            q.w + 0.5 * dq.w,
+        );
+        // Each capped turn lengthens the quaternion by at most √(1 + 1/16); renormalise
+        // long before that compounds.
+        self.rot[i] = if turned.length_squared() > 4.0 {
+            turned.normalize()
+        } else {
+            turned
+        };
+    }
+
+    /// Adds the impulse `p` at offset `r` to body `i`'s velocities.
+    #[inline]
+    fn push(&mut self, i: usize, r: Vec3, p: Vec3) {
+        self.vel[i] += p * self.inv_mass[i];
+        let w = self.inv_inertia_world(i, r.cross(p));
+        self.angvel[i] += w;
+    }
+
+    /// Adds a velocity change from outside the solver (an event's impulse) to body `i`,
+    /// to the velocities the world sees too, so it reads the blow at once.
+    fn kick(&mut self, i: usize, dv: Vec3, dw: Vec3) {
+        self.wake_body(i);
+        self.vel[i] += dv;
+        self.angvel[i] += dw;
+        self.seen_vel[i] += dv;
+        self.seen_angvel[i] += dw;
+    }
+
+    /// Wakes ragdoll of body `i`.
+    fn wake_body(&mut self, i: usize) {
+        if let Some(&r) = self.ragdoll_of.get(i) {
+            self.wake(r);
+        }
+    }
+
+    fn wake(&mut self, r: usize) {
+        let rd = &mut self.ragdolls[r];
+        rd.asleep = false;
+        rd.still_s = 0.0;
+    }
+
+    /// Whether body `i` moves under the solver (dynamic and awake).
+    #[inline]
+    fn moving(&self, i: usize) -> bool {
+        !self.ragdolls[self.ragdoll_of[i]].asleep
+    }
+
+    /// Recomputes which ragdolls something outside holds.
+    fn update_held(&mut self) {
+        for r in &mut self.ragdolls {
+            r.held = false;
+        }
+        for i in 0..self.pos.len() {
+            if self.kinematic[i].is_some() {
+                let r = self.ragdoll_of[i];
+                self.ragdolls[r].held = true;
+            }
+        }
+        for j in &self.joints {
+            if j.drive.is_some() {
+                let r = self.ragdoll_of[j.b];
+                self.ragdolls[r].held = true;
+            }
+        }
+        for p in self.pins.iter().filter(|p| p.active) {
+            let r = self.ragdoll_of[p.body];
+            self.ragdolls[r].held = true;
+        }
+        for r in 0..self.ragdolls.len() {
+            if self.ragdolls[r].held {
+                self.wake(r);
+            }
+        }
+    }
+
+    fn set_mass_of(&mut self, i: usize, kinematic: bool) {
+        if kinematic {
+            self.inv_mass[i] = 0.0;
+            self.inv_inertia[i] = Vec3::ZERO;
+        } else {
+            self.inv_mass[i] = 1.0 / self.mass[i];
+            self.inv_inertia[i] = self.inertia[i].recip();
+        }
+        self.refresh_inertia(i);
+    }
+}
+
+/// Largest single turn of a body in the position pass, radians.
+const MAX_TURN_RAD: f32 = 0.5;
+
+/// The smallest moment of inertia a body is given, kg·m²: a point-like body would
+/// otherwise turn without bound under the smallest off-centre push.
+const MIN_INERTIA: f32 = 1.0e-7;
+
+impl Backend for FastBackend {
+    fn add_ragdoll(
+        &mut self,
+        bodies: &[BodyDesc],
+        joints: &[JointDesc],
+        disabled_pairs: &[(usize, usize)],
+    ) -> usize {
+        let first = self.pos.len();
+        let r = self.ragdolls.len();
+        for b in bodies {
+            let mass = b.mass.max(1.0e-6);
+            let i = crate::backend::geom::inertia_of(&b.shape, mass);
+            let inertia =
+                Vec3::new(i.x_axis.x, i.y_axis.y, i.z_axis.z).max(Vec3::splat(MIN_INERTIA));
+            self.pos.push(b.pose.translation);
+            self.rot.push(b.pose.rotation.normalize());
+            self.prev_pos.push(b.pose.translation);
+            self.prev_rot.push(b.pose.rotation.normalize());
+            self.pred_pos.push(b.pose.translation);
+            self.pred_rot.push(b.pose.rotation.normalize());
+            self.vel.push(b.linvel);
+            self.angvel.push(b.angvel);
+            self.step_pos.push(b.pose.translation);
+            self.step_rot.push(b.pose.rotation.normalize());
+            self.seen_vel.push(b.linvel);
+            self.seen_angvel.push(b.angvel);
+            self.mass.push(mass);
+            self.inv_mass.push(1.0 / mass);
+            self.inertia.push(inertia);
+            self.inv_inertia.push(inertia.recip());
+            self.inv_inertia_world.push(Mat3::ZERO);
+            self.shape.push(b.shape);
+            self.kinematic.push(None);
+            self.holder.push(contact::NOTHING);
+            self.ragdoll_of.push(r);
+            self.refresh_inertia(self.pos.len() - 1);
+        }
+        let pair = |a: usize, b: usize| {
+            let (a, b) = ((first + a) as u32, (first + b) as u32);
+            (a.min(b), a.max(b))
+        };
+        for j in joints {
+            self.joints.push(Joint {
+                a: first + j.parent,
+                b: first + j.child,
+                frame_a: j.frame_parent,
+                frame_b: j.frame_child,
+                limits: Limits::of(&j.kind),
+                drive: None,
+            });
+            self.disabled.insert(pair(j.parent, j.child));
+        }
+        for &(a, b) in disabled_pairs {
+            self.disabled.insert(pair(a, b));
+        }
+        self.ragdolls.push(Ragdoll {
+            bodies: first..first + bodies.len(),
+            asleep: false,
+            still_s: 0.0,
+            held: false,
+        });
+        first
+    }
+
+    fn step(&mut self, dt: f32) {
+        self.step_impl(dt);
+    }
+
+    fn apply_impulse_at_point(&mut self, index: usize, impulse: Vec3, point: Vec3) {
+        let r = point - self.pos[index];
+        let dw = self.inv_inertia_world(index, r.cross(impulse));
+        self.kick(index, impulse * self.inv_mass[index], dw);
+    }
+
+    fn apply_torque_impulse(&mut self, index: usize, impulse: Vec3) {
+        let dw = self.inv_inertia_world(index, impulse);
+        self.kick(index, Vec3::ZERO, dw);
+    }
+
+    fn body_states(&self, out: &mut Vec<BodyState>) {
+        out.clear();
+        out.extend((0..self.pos.len()).map(|i| BodyState {
+            pose: Transform::new(self.pos[i], self.rot[i]),
+            linvel: self.seen_vel[i],
+            angvel: self.seen_angvel[i],
+        }));
+    }
+
+    fn max_penetration(&self) -> f32 {
+        self.collide.max_penetration
+    }
+
+    // Of the velocities the world sees (see `observe_velocities`).
+    fn kinetic_energy(&self) -> f64 {
+        (0..self.pos.len())
+            .map(|i| {
+                let w = self.rot[i].conjugate() * self.seen_angvel[i];
+                let m = self.mass[i] as f64;
+                0.5 * m * self.seen_vel[i].length_squared() as f64
+                    + 0.5 * w.dot(self.inertia[i] * w) as f64
+            })
+            .sum()
+    }
+
+    fn cast_ray(&self, origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(usize, f32)> {
+        self.cast_ray_impl(origin, dir, max_dist)
+    }
+
+    fn set_kinematic(&mut self, index: usize, kinematic: bool) {
+        let pose = Transform::new(self.pos[index], self.rot[index]);
+        self.kinematic[index] = kinematic.then_some(Kinematic {
+            from: pose,
+            to: pose,
+        });
+        self.set_mass_of(index, kinematic);
+        self.update_held();
+        self.wake_body(index);
+    }
+
+    fn set_kinematic_target(&mut self, index: usize, pose: &Transform) {
+        if let Some(k) = &mut self.kinematic[index] {
+            k.to = Transform::new(pose.translation, pose.rotation.normalize());
+        }
+    }
+
+    fn set_body_velocity(&mut self, index: usize, linvel: Vec3, angvel: Vec3) {
+        self.wake_body(index);
+        self.vel[index] = linvel;
+        self.angvel[index] = angvel;
+        self.seen_vel[index] = linvel;
+        self.seen_angvel[index] = angvel;
+    }
+
+    fn set_joint_parent_frame(&mut self, index: usize, frame: &Transform) {
+        let j = &mut self.joints[index];
+        j.frame_a = *frame;
+        let b = j.b;
+        self.wake_body(b);
+    }
+
+    fn set_joint_child_frame(&mut self, index: usize, frame: &Transform) {
+        let j = &mut self.joints[index];
+        j.frame_b = *frame;
+        let b = j.b;
+        self.wake_body(b);
+    }
+
+    // Drives are implicit springs on the substeps' velocities, stable at any stiffness:
+    // nothing to raise.
+    fn set_solver_substeps(&mut self, _substeps: usize) {}
+
+    fn set_joint_limits(&mut self, index: usize, kind: &JointKind) {
+        let j = &mut self.joints[index];
+        j.limits = Limits::of(kind);
+        let b = j.b;
+        self.wake_body(b);
+    }
+
+    fn set_gravity(&mut self, gravity: Vec3) {
+        if gravity != self.settings.gravity {
+            for r in 0..self.ragdolls.len() {
+                self.wake(r);
+            }
+        }
+        self.settings.gravity = gravity;
+    }
+
+    fn add_pin(
+        &mut self,
+        index: usize,
+        local: Vec3,
+        target: Vec3,
+        soft: Option<(f32, f32)>,
+    ) -> usize {
+        self.pins.push(Pin {
+            body: index,
+            local,
+            from: target,
+            to: target,
+            soft,
+            active: true,
+        });
+        self.update_held();
+        self.pins.len() - 1
+    }
+
+    fn move_pin(&mut self, pin: usize, target: Vec3) {
+        self.pins[pin].to = target;
+    }
+
+    fn release_pin(&mut self, pin: usize) {
+        self.pins[pin].active = false;
+        self.update_held();
+        let b = self.pins[pin].body;
+        self.wake_body(b);
+    }
+
+    fn bodies_touching_other_ragdolls(&self, out: &mut Vec<bool>) {
+        out.clear();
+        out.extend_from_slice(&self.collide.touching);
+        out.resize(self.pos.len(), false);
+    }
+
+    fn disable_pair(&mut self, a: usize, b: usize) {
+        let (a, b) = (a as u32, b as u32);
+        self.disabled.insert((a.min(b), a.max(b)));
+    }
+
+    fn set_body_pose(&mut self, index: usize, pose: &Transform) {
+        self.pos[index] = pose.translation;
+        self.rot[index] = pose.rotation.normalize();
+        self.refresh_inertia(index);
+        if let Some(k) = &mut self.kinematic[index] {
+            k.from = Transform::new(self.pos[index], self.rot[index]);
+        }
+    }
+
+    fn drive_joint(
+        &mut self,
+        index: usize,
+        target: Quat,
+        target_angvel: Vec3,
+        stiffness: f32,
+        damping: f32,
+    ) -> bool {
+        let Some(j) = self.joints.get_mut(index) else {
+            return false;
+        };
+        let had = j.drive.is_some();
+        j.drive = (stiffness > 0.0 || damping > 0.0).then_some(Drive {
+            target: target.normalize(),
+            angvel: target_angvel,
+            stiffness: stiffness.max(0.0),
+            damping: damping.max(0.0),
+        });
+        if had != j.drive.is_some() {
+            self.update_held();
+        }
+        true
+    }
+}
