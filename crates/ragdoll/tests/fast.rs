@@ -353,3 +353,29 @@ fn a_drop_follows_the_rigid_backend() {
         rigid_rest.y
     );
 }
+
+#[test]
+fn islands_give_the_same_run_on_one_thread_or_two() {
+    // Four humanoids far apart are four islands, solved in parallel: the tracks must not
+    // depend on how many threads there are or which island runs first.
+    let (character, spec) = humanoid();
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut world = World::new(&fast()).unwrap();
+            for k in 0..4 {
+                let place = Transform::from_translation(Vec3::new(3.0 * k as f32, 0.0, 0.0));
+                world.add_ragdoll(&character, &spec, place).unwrap();
+            }
+            world
+                .add_blast(Blast::new(2.0, Vec3::new(4.5, 0.5, 1.0), 0.0))
+                .unwrap();
+            world.run(1.0);
+            world.into_tracks()
+        })
+    };
+    assert_eq!(run(1), run(2));
+}

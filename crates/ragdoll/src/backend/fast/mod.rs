@@ -27,6 +27,7 @@
 //! something touches or pushes it (`sleep.rs`).
 
 mod contact;
+mod island;
 mod sleep;
 mod solve;
 
@@ -58,13 +59,51 @@ pub(crate) struct FastSettings {
     pub substeps: usize,
 }
 
-/// A joint's limits, in radians.
+/// A joint's limits, in radians, with what tells cheaply whether they are crossed.
 #[derive(Clone, Copy, Debug)]
 enum Limits {
     Ball,
     Fixed,
-    Hinge { min: f32, max: f32 },
-    SwingTwist { swing: f32, twist: [f32; 2] },
+    Hinge(Twist),
+    SwingTwist {
+        swing: f32,
+        /// `cos(swing)`: the cone is crossed when the axes' dot product is below it.
+        cos_swing: f32,
+        twist: Twist,
+    },
+}
+
+/// A twist range `[min, max]` about the frames' X axis, with the sine and cosine of each
+/// half angle: the twist `2·atan2(x, w)` of a relative rotation (w ≥ 0) passes `max` when
+/// `x·cos(max/2) − w·sin(max/2) > 0`, a test without the arctangent the solver would
+/// otherwise take for every joint in every substep. A bound at ±180° or beyond is never
+/// crossed.
+#[derive(Clone, Copy, Debug)]
+struct Twist {
+    min: f32,
+    max: f32,
+    min_half: Option<(f32, f32)>,
+    max_half: Option<(f32, f32)>,
+}
+
+impl Twist {
+    fn new(min: f32, max: f32) -> Self {
+        let half = |a: f32| (a.abs() < std::f32::consts::PI).then(|| (0.5 * a).sin_cos());
+        Twist {
+            min,
+            max,
+            min_half: half(min),
+            max_half: half(max),
+        }
+    }
+
+    /// Whether the relative rotation `rel` (about X) is past either bound.
+    #[inline]
+    fn crossed(&self, rel: Quat) -> bool {
+        let rel = if rel.w < 0.0 { -rel } else { rel };
+        let past = |(s, c): (f32, f32)| rel.x * c - rel.w * s;
+        self.max_half.is_some_and(|h| past(h) > 0.0) || self.min_half.is_some_and(|h| past(h) < 0.0)
+    }
 }
 
 impl Limits {
@@ -72,17 +111,17 @@ impl Limits {
         match *kind {
             JointKind::Ball => Limits::Ball,
             JointKind::Fixed => Limits::Fixed,
-            JointKind::Hinge { min_deg, max_deg } => Limits::Hinge {
-                min: min_deg.to_radians(),
-                max: max_deg.to_radians(),
-            },
+            JointKind::Hinge { min_deg, max_deg } => {
+                Limits::Hinge(Twist::new(min_deg.to_radians(), max_deg.to_radians()))
+            }
             JointKind::SwingTwist {
                 swing_deg,
                 twist_deg,
                 ..
             } => Limits::SwingTwist {
                 swing: swing_deg.to_radians(),
-                twist: [twist_deg[0].to_radians(), twist_deg[1].to_radians()],
+                cos_swing: swing_deg.to_radians().cos(),
+                twist: Twist::new(twist_deg[0].to_radians(), twist_deg[1].to_radians()),
             },
         }
     }
@@ -131,6 +170,7 @@ struct Kinematic {
 #[derive(Clone, Debug)]
 struct Ragdoll {
     bodies: std::ops::Range<usize>,
+    joints: std::ops::Range<usize>,
     asleep: bool,
     /// How long its bodies have been slow, seconds.
     still_s: f32,
@@ -183,6 +223,11 @@ pub(crate) struct FastBackend {
     /// may sleep.
     islands: Vec<usize>,
     island_ready: Vec<bool>,
+    /// Scratch of the island pass: each ragdoll's island, each body's index in its
+    /// island's solver, and the island solvers themselves.
+    island_of: Vec<u32>,
+    local_of: Vec<u32>,
+    island_pool: Vec<FastBackend>,
 }
 
 impl FastBackend {
@@ -217,6 +262,9 @@ impl FastBackend {
             collide: contact::Collide::default(),
             islands: Vec::new(),
             island_ready: Vec::new(),
+            island_of: Vec::new(),
+            local_of: Vec::new(),
+            island_pool: Vec::new(),
         }
     }
 
@@ -265,7 +313,7 @@ impl FastBackend {
     /// A turn is capped at [`MAX_TURN_RAD`]: the small-angle update means nothing past
     /// that, and its unnormalised result grows with the square of the angle, so a few
     /// hundred huge turns in one pass (a 100 m pole spinning into the floor) overflowed.
-    #[inline]
+    #[inline(always)]
     fn turn_by(&mut self, i: usize, w: Vec3) {
         let len2 = w.length_squared();
         let w = if len2 > MAX_TURN_RAD * MAX_TURN_RAD {
@@ -431,6 +479,7 @@ impl Backend for FastBackend {
         }
         self.ragdolls.push(Ragdoll {
             bodies: first..first + bodies.len(),
+            joints: self.joints.len() - joints.len()..self.joints.len(),
             asleep: false,
             still_s: 0.0,
             held: false,

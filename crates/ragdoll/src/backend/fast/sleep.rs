@@ -9,7 +9,7 @@ use glam::Vec3;
 use super::{FastBackend, SLEEP_AFTER_S, SLEEP_SPEED_MPS};
 
 /// The root of `r`'s set, halving the path on the way.
-fn find(parent: &mut [usize], mut r: usize) -> usize {
+pub(super) fn find(parent: &mut [usize], mut r: usize) -> usize {
     while parent[r] != r {
         parent[r] = parent[parent[r]];
         r = parent[r];

@@ -3,7 +3,7 @@
 
 use glam::{Mat3, Quat, Vec3};
 
-use super::{FastBackend, Joint, Limits};
+use super::{FastBackend, Joint, Limits, Twist};
 use crate::math::twist_angle_x;
 
 /// Fastest a body may move, m/s, and turn, rad/s: past these a step's motion is larger than
@@ -47,9 +47,23 @@ fn rotation_vector(q: Quat) -> Vec3 {
 
 impl FastBackend {
     pub(super) fn step_impl(&mut self, dt: f32) {
+        self.find_pairs(dt);
+        self.collide.begin_step(self.pos.len());
+        self.step_islands(dt);
+        for k in self.kinematic.iter_mut().flatten() {
+            k.from = k.to;
+        }
+        for p in &mut self.pins {
+            p.from = p.to;
+        }
+        self.update_sleep(dt);
+    }
+
+    /// The substeps of one step of everything in this solver (one island's), and the
+    /// velocities the world sees.
+    pub(super) fn solve_step(&mut self, dt: f32) {
         let n = self.settings.substeps.max(1);
         let h = dt / n as f32;
-        self.find_pairs(dt);
         self.collide.begin_step(self.pos.len());
         self.step_pos.clone_from(&self.pos);
         self.step_rot.clone_from(&self.rot);
@@ -63,14 +77,7 @@ impl FastBackend {
             self.update_velocities(h);
             self.solve_contact_velocities();
         }
-        for k in self.kinematic.iter_mut().flatten() {
-            k.from = k.to;
-        }
-        for p in &mut self.pins {
-            p.from = p.to;
-        }
         self.observe_velocities(dt);
-        self.update_sleep(dt);
     }
 
     /// Predicts every moving body's pose from its velocity; kinematic bodies go `frac` of
@@ -185,8 +192,9 @@ impl FastBackend {
     /// good: a lying humanoid's feet circled their ankle cones at 1-2 rad/s for as long
     /// as we watched, and it never slept.
     fn limit_friction(&mut self, a: usize, b: usize, n: Vec3, lambda: f32) {
-        let da = rotation_vector(self.rot[a] * self.prev_rot[a].conjugate());
-        let db = rotation_vector(self.rot[b] * self.prev_rot[b].conjugate());
+        // A substep's turns are small: twice the quaternion's vector part is their angle.
+        let da = turn_rate(self.rot[a] * self.prev_rot[a].conjugate(), 1.0);
+        let db = turn_rate(self.rot[b] * self.prev_rot[b].conjugate(), 1.0);
         let rel = db - da;
         let slide = rel - n * n.dot(rel);
         let len = slide.length();
@@ -302,26 +310,33 @@ impl FastBackend {
                 let omega = rotation_vector(fb * fa.conjugate());
                 self.align(a, b, omega, None);
             }
-            Limits::Hinge { min, max } => {
+            Limits::Hinge(twist) => {
                 let (xa, xb) = (fa * Vec3::X, fb * Vec3::X);
                 self.align(a, b, xa.cross(xb), Some(xa));
                 let fa = self.rot[a] * frame_a.rotation;
                 let fb = self.rot[b] * frame_b.rotation;
-                self.limit_twist(a, b, fa, fb, min, max);
+                self.limit_twist(a, b, fa, fb, &twist);
             }
-            Limits::SwingTwist { swing, twist } => {
+            Limits::SwingTwist {
+                swing,
+                cos_swing,
+                twist,
+            } => {
                 let (xa, xb) = (fa * Vec3::X, fb * Vec3::X);
-                let axis = xa.cross(xb);
-                let sin = axis.length();
-                let angle = sin.atan2(xa.dot(xb));
-                if angle > swing && sin > 1.0e-9 {
-                    let n = axis / sin;
-                    let lambda = self.correct_rotation(a, b, n * (angle - swing));
-                    self.limit_friction(a, b, n, lambda);
+                let cos = xa.dot(xb);
+                if cos < cos_swing {
+                    let axis = xa.cross(xb);
+                    let sin = axis.length();
+                    if sin > 1.0e-9 {
+                        let n = axis / sin;
+                        let angle = sin.atan2(cos);
+                        let lambda = self.correct_rotation(a, b, n * (angle - swing));
+                        self.limit_friction(a, b, n, lambda);
+                    }
                 }
                 let fa = self.rot[a] * frame_a.rotation;
                 let fb = self.rot[b] * frame_b.rotation;
-                self.limit_twist(a, b, fa, fb, twist[0], twist[1]);
+                self.limit_twist(a, b, fa, fb, &twist);
             }
         }
     }
@@ -329,12 +344,16 @@ impl FastBackend {
     /// Keeps the twist of `fb` about its X axis relative to `fa` (the swing-twist
     /// decomposition's, the measure the metrics use) within `[min, max]`: turning `b`
     /// about its own X changes the twist alone.
-    fn limit_twist(&mut self, a: usize, b: usize, fa: Quat, fb: Quat, min: f32, max: f32) {
-        let t = twist_angle_x(fa.conjugate() * fb);
-        let over = if t > max {
-            t - max
-        } else if t < min {
-            t - min
+    fn limit_twist(&mut self, a: usize, b: usize, fa: Quat, fb: Quat, twist: &Twist) {
+        let rel = fa.conjugate() * fb;
+        if !twist.crossed(rel) {
+            return;
+        }
+        let t = twist_angle_x(rel);
+        let over = if t > twist.max {
+            t - twist.max
+        } else if t < twist.min {
+            t - twist.min
         } else {
             return;
         };
