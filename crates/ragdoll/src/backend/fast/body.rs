@@ -1,0 +1,155 @@
+//! One body's share of the solver: its inverse inertia in the world, its generalised
+//! inverse mass at a point or about an axis, and the small moves and velocity changes
+//! every constraint is made of.
+
+use glam::{Mat3, Quat, Vec3};
+
+use super::{FastBackend, MAX_TURN_RAD};
+
+impl FastBackend {
+    /// Body `i`'s inverse inertia tensor in the world times `v`, with the tensor as of
+    /// the start of the substep (XPBD keeps it fixed through the position pass).
+    #[inline]
+    pub(super) fn inv_inertia_world(&self, i: usize, v: Vec3) -> Vec3 {
+        self.inv_inertia_world[i] * v
+    }
+
+    /// Recomputes body `i`'s world inverse inertia tensor from its rotation.
+    #[inline]
+    pub(super) fn refresh_inertia(&mut self, i: usize) {
+        let m = Mat3::from_quat(self.rot[i]);
+        let d = self.inv_inertia[i];
+        let scaled = Mat3::from_cols(m.x_axis * d.x, m.y_axis * d.y, m.z_axis * d.z);
+        self.inv_inertia_world[i] = scaled * m.transpose();
+    }
+
+    /// Generalised inverse mass of body `i` for a push along `n` (unit) at the offset `r`
+    /// from its centre.
+    #[inline]
+    pub(super) fn w_at(&self, i: usize, r: Vec3, n: Vec3) -> f32 {
+        let rn = r.cross(n);
+        self.inv_mass[i] + rn.dot(self.inv_inertia_world(i, rn))
+    }
+
+    /// Generalised inverse mass of body `i` for a turn about `n` (unit).
+    #[inline]
+    pub(super) fn w_turn(&self, i: usize, n: Vec3) -> f32 {
+        n.dot(self.inv_inertia_world(i, n))
+    }
+
+    /// Moves body `i` by the positional impulse `p` at offset `r`.
+    #[inline]
+    pub(super) fn shift(&mut self, i: usize, r: Vec3, p: Vec3) {
+        self.pos[i] += p * self.inv_mass[i];
+        let w = self.inv_inertia_world(i, r.cross(p));
+        self.turn_by(i, w);
+    }
+
+    /// Turns body `i` by the small rotation vector `w` (radians, world). The result is
+    /// not normalised: the position pass makes many such small turns, and the quaternions
+    /// are normalised once at its end, when the velocities are read back.
+    ///
+    /// A turn is capped at [`MAX_TURN_RAD`]: the small-angle update means nothing past
+    /// that, and its unnormalised result grows with the square of the angle, so a few
+    /// hundred huge turns in one pass (a 100 m pole spinning into the floor) overflowed.
+    #[inline(always)]
+    pub(super) fn turn_by(&mut self, i: usize, w: Vec3) {
+        let len2 = w.length_squared();
+        let w = if len2 > MAX_TURN_RAD * MAX_TURN_RAD {
+            w * (MAX_TURN_RAD / len2.sqrt())
+        } else {
+            w
+        };
+        let q = self.rot[i];
+        let dq = Quat::from_xyzw(w.x, w.y, w.z, 0.0) * q;
+        let turned = Quat::from_xyzw(
+            q.x + 0.5 * dq.x,
+            q.y + 0.5 * dq.y,
+            q.z + 0.5 * dq.z,
+            q.w + 0.5 * dq.w,
+        );
+        // Each capped turn lengthens the quaternion by at most √(1 + 1/16); renormalise
+        // long before that compounds.
+        self.rot[i] = if turned.length_squared() > 4.0 {
+            turned.normalize()
+        } else {
+            turned
+        };
+    }
+
+    /// Adds the impulse `p` at offset `r` to body `i`'s velocities.
+    #[inline]
+    pub(super) fn push(&mut self, i: usize, r: Vec3, p: Vec3) {
+        self.vel[i] += p * self.inv_mass[i];
+        let w = self.inv_inertia_world(i, r.cross(p));
+        self.angvel[i] += w;
+    }
+
+    /// Adds a velocity change from outside the solver (an event's impulse) to body `i`,
+    /// to the velocities the world sees too, so it reads the blow at once.
+    pub(super) fn kick(&mut self, i: usize, dv: Vec3, dw: Vec3) {
+        self.wake_body(i);
+        self.vel[i] += dv;
+        self.angvel[i] += dw;
+        self.seen_vel[i] += dv;
+        self.seen_angvel[i] += dw;
+    }
+
+    /// Wakes ragdoll of body `i`.
+    pub(super) fn wake_body(&mut self, i: usize) {
+        if let Some(&r) = self.ragdoll_of.get(i) {
+            self.wake(r);
+        }
+    }
+
+    pub(super) fn wake(&mut self, r: usize) {
+        let rd = &mut self.ragdolls[r];
+        rd.asleep = false;
+        rd.still_s = 0.0;
+    }
+
+    /// Whether body `i` moves under the solver (dynamic and awake).
+    #[inline]
+    pub(super) fn moving(&self, i: usize) -> bool {
+        !self.ragdolls[self.ragdoll_of[i]].asleep
+    }
+
+    /// Recomputes which ragdolls something outside holds.
+    pub(super) fn update_held(&mut self) {
+        for r in &mut self.ragdolls {
+            r.held = false;
+        }
+        for i in 0..self.pos.len() {
+            if self.kinematic[i].is_some() {
+                let r = self.ragdoll_of[i];
+                self.ragdolls[r].held = true;
+            }
+        }
+        for j in &self.joints {
+            if j.drive.is_some() {
+                let r = self.ragdoll_of[j.b];
+                self.ragdolls[r].held = true;
+            }
+        }
+        for p in self.pins.iter().filter(|p| p.active) {
+            let r = self.ragdoll_of[p.body];
+            self.ragdolls[r].held = true;
+        }
+        for r in 0..self.ragdolls.len() {
+            if self.ragdolls[r].held {
+                self.wake(r);
+            }
+        }
+    }
+
+    pub(super) fn set_mass_of(&mut self, i: usize, kinematic: bool) {
+        if kinematic {
+            self.inv_mass[i] = 0.0;
+            self.inv_inertia[i] = Vec3::ZERO;
+        } else {
+            self.inv_mass[i] = 1.0 / self.mass[i];
+            self.inv_inertia[i] = self.inertia[i].recip();
+        }
+        self.refresh_inertia(i);
+    }
+}
