@@ -178,6 +178,15 @@ fn print_summary(r: &SceneReport) {
         m.max_joint_separation_m * 1000.0,
         m.energy_drift,
     );
+    if let Some(active) = &r.active_joints_per_frame
+        && let Some(&last) = active.last()
+    {
+        let total: usize = r.characters.iter().map(|c| c.joints).sum();
+        let mean = active.iter().map(|&n| n as f64).sum::<f64>() / active.len() as f64;
+        errln!(
+            "  joints the solver worked on (the rest were asleep): {mean:.0} of {total} on average, {last} at the end"
+        );
+    }
     for c in &r.characters {
         crate::commands::warn_if_torn(&c.name, c.max_joint_separation_m, c.height_m);
     }

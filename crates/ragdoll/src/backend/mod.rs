@@ -137,6 +137,12 @@ pub(crate) trait Backend {
     }
     /// Kinetic energy of everything, joules.
     fn kinetic_energy(&self) -> f64;
+    /// How many joints the solver works on now: those of ragdolls that are not asleep.
+    /// `None` where the backend never puts anything to rest (the count would always be
+    /// every joint).
+    fn active_joints(&self) -> Option<usize> {
+        None
+    }
     /// The first body a ray from `origin` along `dir` (unit) meets within `max_dist`
     /// metres: its global index and the distance. The ground does not count.
     fn cast_ray(&self, origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(usize, f32)>;
@@ -315,6 +321,7 @@ impl Backend for AnyBackend {
         ref fn max_penetration() -> f32;
         ref fn solver_limit_violation() -> Option<f32>;
         ref fn kinetic_energy() -> f64;
+        ref fn active_joints() -> Option<usize>;
         ref fn cast_ray(origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(usize, f32)>;
         mut fn set_kinematic(index: usize, kinematic: bool);
         mut fn set_kinematic_target(index: usize, pose: &Transform);

@@ -497,6 +497,21 @@ impl Backend for RigidBackend {
         true
     }
 
+    // rapier puts resting islands to sleep too: a joint is active while either body is
+    // awake.
+    fn active_joints(&self) -> Option<usize> {
+        let w = &self.world;
+        Some(
+            self.joints
+                .iter()
+                .filter_map(|&h| w.impulse_joints.get(h))
+                .filter(|j| {
+                    !(w.bodies[j.body1()].is_sleeping() && w.bodies[j.body2()].is_sleeping())
+                })
+                .count(),
+        )
+    }
+
     fn kinetic_energy(&self) -> f64 {
         self.bodies
             .iter()

@@ -277,6 +277,7 @@ impl Scene {
             seconds: self.duration_s,
             metrics: world.metrics(),
             wall_seconds: started.elapsed().as_secs_f64(),
+            active_joints_per_frame: world.active_joints_per_frame().map(<[u32]>::to_vec),
             characters,
             blasts: world.blast_reports(),
             projectiles: world.projectile_reports(),

@@ -37,6 +37,10 @@ pub struct SceneReport {
     /// Wall-clock seconds spent building the world and simulating (not loading or
     /// exporting).
     pub wall_seconds: f64,
+    /// How many joints the solver worked on at each output frame: all but those of
+    /// characters at rest (asleep until something touches them). `null` on the particle
+    /// backend, which never rests.
+    pub active_joints_per_frame: Option<Vec<u32>>,
     /// Per character, in scene order (the `character` indices of the event reports).
     pub characters: Vec<CharacterReport>,
     /// What each blast did, per body part and character.

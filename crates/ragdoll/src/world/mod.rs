@@ -327,6 +327,9 @@ pub struct World {
     /// Whether a body's state went non-finite: the world then stops stepping (see
     /// [`World::step`]).
     halted: bool,
+    /// Joints the backend worked on at each recorded frame (see
+    /// [`World::active_joints_per_frame`]); empty where it does not say.
+    active_joints: Vec<u32>,
 }
 
 impl World {
@@ -375,6 +378,7 @@ impl World {
             pins: Vec::new(),
             start_index: overlap::StartIndex::default(),
             halted: false,
+            active_joints: Vec::new(),
         })
     }
 
@@ -777,6 +781,15 @@ impl World {
             AnyBackend::Particle(p) => Some(p.broad_phase_footprint()),
             AnyBackend::Rigid(_) | AnyBackend::Fast(_) => None,
         }
+    }
+
+    /// How many joints the backend worked on at each recorded frame: every joint but
+    /// those of ragdolls put to rest (the first level of detail: a ragdoll at rest costs
+    /// nothing until something touches it). `None` on the particle backend, which never
+    /// rests.
+    pub fn active_joints_per_frame(&self) -> Option<&[u32]> {
+        (self.backend.active_joints().is_some() || !self.active_joints.is_empty())
+            .then_some(self.active_joints.as_slice())
     }
 
     /// Worst-case quality metrics so far.

@@ -65,6 +65,9 @@ impl super::World {
                 self.metrics.nan = true;
             }
             self.frames_recorded += 1;
+            if let Some(n) = self.backend.active_joints() {
+                self.active_joints.push(n.min(u32::MAX as usize) as u32);
+            }
             self.measure_frame_energy();
         }
     }

@@ -386,6 +386,16 @@ impl Backend for FastBackend {
         self.cast_ray_impl(origin, dir, max_dist)
     }
 
+    fn active_joints(&self) -> Option<usize> {
+        Some(
+            self.ragdolls
+                .iter()
+                .filter(|r| !r.asleep)
+                .map(|r| r.joints.len())
+                .sum(),
+        )
+    }
+
     fn set_kinematic(&mut self, index: usize, kinematic: bool) {
         let pose = Transform::new(self.pos[index], self.rot[index]);
         self.kinematic[index] = kinematic.then_some(Kinematic {
