@@ -438,6 +438,12 @@ pub fn demo(a: &DemoArgs) -> Result<()> {
 }
 
 pub fn simulate(a: &SimulateArgs) -> Result<()> {
+    if a.split {
+        bail!(
+            "--split applies to a scene file (one glTF per character), not to {}",
+            a.file.display()
+        );
+    }
     let out = Outputs {
         kind: output_kind(&a.output)?,
         path: &a.output,

@@ -343,6 +343,10 @@ struct SimulateArgs {
     /// this folder (character files only).
     #[arg(long, value_name = "DIR")]
     obj_sequence: Option<PathBuf>,
+    /// Scene files only: one glTF per character ({name}.glb) instead of one with every
+    /// character, as `glb = "{name}.glb"` in the scene's [output] table.
+    #[arg(long)]
+    split: bool,
 }
 
 #[derive(Args, Debug)]

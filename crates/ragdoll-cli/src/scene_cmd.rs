@@ -92,6 +92,18 @@ pub fn run(a: &SimulateArgs, matches: &ArgMatches) -> Result<()> {
     if a.sim.anim.rest_pose {
         scene.settings.start = StartPose::Rest;
     }
+    if a.split {
+        match &scene.outputs.glb {
+            Some(name) if !name.contains("{name}") => {
+                scene.outputs.glb = Some("{name}.glb".into());
+            }
+            Some(_) => {}
+            None => bail!(
+                "--split: the scene writes no glTF (glb = false in its [output] table) ({})",
+                a.file.display()
+            ),
+        }
+    }
     // The flag overrides the scene's `backend` only when given.
     if given(matches, "backend") {
         scene.settings.backend = a.sim.run.backend.backend;

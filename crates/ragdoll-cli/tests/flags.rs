@@ -30,6 +30,12 @@ fn check(rows: Vec<Case>) {
         ] {
             std::fs::copy(fx.path(name), dir.path().join(name)).unwrap();
         }
+        // A one-character scene for the flags that apply to scene files.
+        std::fs::write(
+            dir.path().join("scene.toml"),
+            "duration_s = 0.2\n[[character]]\nname = \"solo\"\n",
+        )
+        .unwrap();
         // Roles files for `--roles`: the fixture's joints are named by their roles.
         std::fs::write(dir.path().join("roles.toml"), "ignore = [\"hand_l\"]\n").unwrap();
         std::fs::write(

@@ -109,3 +109,29 @@ fn demo_and_a_scene_run_on_the_fast_backend() {
         "fast"
     );
 }
+
+#[test]
+fn split_writes_one_gltf_per_character_of_a_scene() {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(
+        tmp.path().join("s.toml"),
+        "duration_s = 0.3\nbackend = \"fast\"\n[[crowd]]\nname = \"p\"\ncount = 3\n",
+    )
+    .unwrap();
+    let o = ragdoll(tmp.path(), &["simulate", "s.toml", "-o", "out", "--split"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = tmp.path().join("out");
+    for n in 1..=3 {
+        let doc = gltf::Gltf::open(out.join(format!("p-{n}.glb"))).unwrap();
+        assert_eq!(doc.skins().count(), 1, "p-{n}.glb holds one character");
+    }
+    assert!(!out.join("scene.glb").exists());
+    // A character file has one glTF already: the flag is refused, nothing written.
+    let o = ragdoll(
+        tmp.path(),
+        &["simulate", "--split", "nonexistent.bvh", "-o", "x.glb"],
+    );
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--split"), "{}", stderr(&o));
+    assert!(!tmp.path().join("x.glb").exists());
+}

@@ -201,6 +201,13 @@ fn bench_json(_: &Path, o: &Output) {
 fn bench_particle(_: &Path, o: &Output) {
     assert!(out(o).contains("particle"), "{}", out(o));
 }
+fn split_written(dir: &Path, _: &Output) {
+    assert!(dir.join("sc/solo.glb").is_file(), "no sc/solo.glb");
+    assert!(
+        !dir.join("sc/scene.glb").exists(),
+        "sc/scene.glb written too"
+    );
+}
 fn bench_compare(_: &Path, o: &Output) {
     let text = out(o);
     assert!(
@@ -318,6 +325,7 @@ fn simulate() -> Vec<Case> {
         help("simulate", &["simulate"]),
         case("simulate", "--output", &["simulate", "anim.bvh", "--seconds", "0.2"], &["--output", "out.bvh"], Some(bvh_written), &["--output", "out.fbx"], "out.fbx"),
         case("simulate", "--obj-sequence", short, &["--obj-sequence", "seq"], Some(seven_objs), &["--obj-sequence", "anim.bvh"], "anim.bvh"),
+        case("simulate", "--split", &["simulate", "scene.toml", "-o", "sc"], &["--split"], Some(split_written), &["--split=yes"], "--split"),
     ];
     t.extend(ragdoll_rows("simulate", short, true));
     t.extend(character_import_rows("simulate", short));

@@ -160,7 +160,8 @@ pub struct Event<T> {
 /// Output file names inside the output folder; `None` skips that output.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Outputs {
-    /// One glTF with every character (default `scene.glb`).
+    /// One glTF with every character (default `scene.glb`), or one per character where
+    /// the name holds `{name}` (replaced by the character's name).
     pub glb: Option<String>,
     /// One BVH per character, `{name}` replaced by the character's name (default
     /// `{name}.bvh`).
@@ -349,7 +350,19 @@ impl Scene {
                 .zip(&result.tracks)
                 .map(|(c, t)| (&c.character, &c.spec, t))
                 .collect();
-            files.push((name.clone(), export::gltf::scene_to_glb(&parts)?));
+            if name.contains("{name}") {
+                // One file per character (`--split`): a thousand characters in one glTF
+                // is too much for most viewers to open.
+                for (c, part) in self.characters.iter().zip(&parts) {
+                    let file = name.replace("{name}", &c.name);
+                    files.push((
+                        file,
+                        export::gltf::scene_to_glb(std::slice::from_ref(part))?,
+                    ));
+                }
+            } else {
+                files.push((name.clone(), export::gltf::scene_to_glb(&parts)?));
+            }
         }
         for (c, track) in self.characters.iter().zip(&result.tracks) {
             if let Some(name) = self.outputs.bvh_file(&c.name) {

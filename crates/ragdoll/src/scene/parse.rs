@@ -22,15 +22,16 @@ use crate::world::{
 };
 
 /// Most characters in one scene. Each is loaded and built before anything runs; a crowd
-/// needs bodies to fit [`MAX_SCENE_BODIES`] too.
-pub const MAX_CHARACTERS: usize = 1000;
+/// needs bodies to fit [`MAX_SCENE_BODIES`] too, and its frames the world's cap on
+/// recorded joint transforms (10,000 humanoids record about 200,000 a frame).
+pub const MAX_CHARACTERS: usize = 10_000;
 
-/// Most bodies over every character of a scene: a thousand 16-body humanoids.
+/// Most bodies over every character of a scene: ten thousand 16-body humanoids.
 ///
 /// Spread out, a crowd costs in proportion to its bodies; bodies of different characters
 /// that start inside each other cost per pair (100 humanoids on one spot took 23 s and
 /// 768 MB), so keep characters apart.
-pub const MAX_SCENE_BODIES: usize = 16_384;
+pub const MAX_SCENE_BODIES: usize = 163_840;
 
 /// Most events in one scene, counting each shot of a burst: every event is looked at
 /// every substep until it is over.
