@@ -176,7 +176,7 @@ fn scene_counts_are_bounded() {
     let many = "[[character]]\nposition = [0, 0, 0]\n".repeat(scene::MAX_CHARACTERS + 1);
     let (line, message) = scene_failure(&many, path);
     assert_eq!(line, 2 * scene::MAX_CHARACTERS + 1);
-    assert!(message.contains("1000 characters"), "{message}");
+    assert!(message.contains("10000 characters"), "{message}");
 
     let blasts = "[[blast]]\ntnt_kg = 1\nposition = [5, 0, 0]\n".repeat(scene::MAX_EVENTS + 1);
     let (line, message) = scene_failure(&format!("[[character]]\n{blasts}"), path);
