@@ -40,7 +40,7 @@ pub fn scratch_path(name: &str) -> PathBuf {
 /// few times. Errors are fine (refusing an input is the point); panics, aborts, hangs and
 /// runaway allocations are what the fuzzer reports.
 pub fn run_world(character: &Character, spec: &RagdollSpec) {
-    for backend in [BackendKind::Rigid, BackendKind::Particle] {
+    for backend in BackendKind::ALL {
         let settings = WorldSettings {
             backend,
             ..WorldSettings::default()
