@@ -1,5 +1,6 @@
-//! One step of the fast backend: substeps of prediction, one constraint pass on positions
-//! and a velocity pass (Müller et al. 2020, algorithm 2), and sleeping at the end.
+//! One step of the fast backend: candidate pairs, then island by island the substeps
+//! (prediction, one constraint pass on positions, velocities read back, the contacts'
+//! normal velocity taken away: Müller et al. 2020, algorithm 2), and sleeping at the end.
 
 use glam::{Mat3, Quat, Vec3};
 
@@ -10,10 +11,10 @@ use crate::math::twist_angle_x;
 /// any body, and a solver fed such motion only amplifies it. A blast's near field reaches a
 /// few hundred m/s.
 const MAX_SPEED_MPS: f32 = 400.0;
+const MAX_SPIN_RADPS: f32 = 500.0;
 /// Friction coefficient of a joint pressed against its cone (see
 /// [`FastBackend::limit_friction`]): as skin on a floor.
 const LIMIT_FRICTION: f32 = 0.7;
-const MAX_SPIN_RADPS: f32 = 500.0;
 
 /// The cross-product matrix of `r`: `skew(r) * v == r × v`.
 #[inline]
