@@ -11,7 +11,16 @@ use rayon::prelude::*;
 use super::{FastBackend, Pin, Ragdoll};
 
 /// No island: the ragdoll sleeps.
-const NO_ISLAND: u32 = u32::MAX;
+pub(super) const NO_ISLAND: u32 = u32::MAX;
+
+/// The root of `r`'s set, halving the path on the way.
+fn find(parent: &mut [usize], mut r: usize) -> usize {
+    while parent[r] != r {
+        parent[r] = parent[parent[r]];
+        r = parent[r];
+    }
+    r
+}
 
 impl FastBackend {
     /// One step of every awake ragdoll, island by island.
@@ -43,10 +52,7 @@ impl FastBackend {
         for &(i, j) in &self.collide.pairs {
             let (ri, rj) = (self.ragdoll_of[i as usize], self.ragdoll_of[j as usize]);
             if ri != rj && !self.ragdolls[ri].asleep && !self.ragdolls[rj].asleep {
-                let (a, b) = (
-                    super::sleep::find(&mut parent, ri),
-                    super::sleep::find(&mut parent, rj),
-                );
+                let (a, b) = (find(&mut parent, ri), find(&mut parent, rj));
                 parent[a.max(b)] = a.min(b);
             }
         }
@@ -57,7 +63,7 @@ impl FastBackend {
             if self.ragdolls[r].asleep {
                 continue;
             }
-            let root = super::sleep::find(&mut parent, r);
+            let root = find(&mut parent, r);
             if self.island_of[root] == NO_ISLAND {
                 self.island_of[root] = count;
                 count += 1;

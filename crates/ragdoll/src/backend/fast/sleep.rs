@@ -6,16 +6,8 @@
 
 use glam::Vec3;
 
+use super::island::NO_ISLAND;
 use super::{FastBackend, SLEEP_AFTER_S, SLEEP_SPEED_MPS};
-
-/// The root of `r`'s set, halving the path on the way.
-pub(super) fn find(parent: &mut [usize], mut r: usize) -> usize {
-    while parent[r] != r {
-        parent[r] = parent[parent[r]];
-        r = parent[r];
-    }
-    r
-}
 
 impl FastBackend {
     /// Whether every point of ragdoll `r` moved slower than [`SLEEP_SPEED_MPS`] over the
@@ -40,28 +32,22 @@ impl FastBackend {
             let rd = &mut self.ragdolls[r];
             rd.still_s = if still { rd.still_s + dt } else { 0.0 };
         }
-        let mut parent = std::mem::take(&mut self.islands);
-        parent.clear();
-        parent.extend(0..n);
-        for &(i, j) in &self.collide.pairs {
-            let (ri, rj) = (self.ragdoll_of[i as usize], self.ragdoll_of[j as usize]);
-            if ri != rj && !self.ragdolls[ri].asleep && !self.ragdolls[rj].asleep {
-                let (a, b) = (find(&mut parent, ri), find(&mut parent, rj));
-                parent[a.max(b)] = a.min(b);
-            }
-        }
-        // An island is ready when none of its ragdolls is not.
+        // The islands of this step ([`FastBackend::step_islands`] numbered them): an island
+        // is ready when none of its ragdolls is not.
+        let islands = self.island_of.iter().filter(|&&k| k != NO_ISLAND);
+        let count = islands.map(|&k| k as usize + 1).max().unwrap_or(0);
         let mut ready = std::mem::take(&mut self.island_ready);
         ready.clear();
-        ready.resize(n, true);
+        ready.resize(count, true);
         for r in 0..n {
-            if !self.ragdolls[r].asleep && self.ragdolls[r].still_s < SLEEP_AFTER_S {
-                let root = find(&mut parent, r);
-                ready[root] = false;
+            let island = self.island_of.get(r).copied().unwrap_or(NO_ISLAND);
+            if island != NO_ISLAND && self.ragdolls[r].still_s < SLEEP_AFTER_S {
+                ready[island as usize] = false;
             }
         }
         for r in 0..n {
-            if self.ragdolls[r].asleep || !ready[find(&mut parent, r)] {
+            let island = self.island_of.get(r).copied().unwrap_or(NO_ISLAND);
+            if island == NO_ISLAND || !ready[island as usize] {
                 continue;
             }
             self.ragdolls[r].asleep = true;
@@ -72,7 +58,6 @@ impl FastBackend {
                 self.seen_angvel[i] = Vec3::ZERO;
             }
         }
-        self.islands = parent;
         self.island_ready = ready;
     }
 }
