@@ -92,6 +92,43 @@ pub(crate) fn ray_box(origin: Vec3, dir: Vec3, half: Vec3) -> Option<f32> {
     Some(near)
 }
 
+/// Distance along the unit ray to `shape` at `pos`, `rot`: a box as a box, a capsule by the
+/// segment `ends` the backend reads for it (a particle body's come from its particles).
+pub(crate) fn ray_shape(
+    origin: Vec3,
+    dir: Vec3,
+    shape: &Shape,
+    pos: Vec3,
+    rot: glam::Quat,
+    ends: (Vec3, Vec3),
+) -> Option<f32> {
+    match *shape {
+        Shape::Capsule { radius_m, .. } => ray_capsule(origin, dir, ends.0, ends.1, radius_m),
+        Shape::Box { size_m } => {
+            let inv = rot.conjugate();
+            let half = Vec3::from_array(size_m) * 0.5;
+            ray_box(inv * (origin - pos), inv * dir, half)
+        }
+    }
+}
+
+/// The index and distance of the nearest of `hits` (one per body, `None` for a miss)
+/// within `max_dist`.
+pub(crate) fn nearest_hit(
+    hits: impl Iterator<Item = Option<f32>>,
+    max_dist: f32,
+) -> Option<(usize, f32)> {
+    hits.enumerate()
+        .filter_map(|(i, t)| t.filter(|&t| t <= max_dist).map(|t| (i, t)))
+        .fold(None, |best: Option<(usize, f32)>, (i, t)| {
+            if best.is_none_or(|(_, bt)| t < bt) {
+                Some((i, t))
+            } else {
+                best
+            }
+        })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -115,5 +152,16 @@ mod tests {
         assert!(ray_box(Vec3::new(0.0, 0.5, 5.0), slanted, half).is_some());
         assert!(ray_box(Vec3::new(0.0, 0.11, 5.0), -Vec3::Z, half).is_none());
         assert_eq!(ray_box(Vec3::ZERO, Vec3::X, half), Some(0.0));
+    }
+
+    #[test]
+    fn the_nearest_hit_within_range_wins() {
+        let hits = [Some(3.0), None, Some(1.5), Some(0.5)];
+        assert_eq!(nearest_hit(hits.into_iter(), 10.0), Some((3, 0.5)));
+        assert_eq!(nearest_hit(hits.into_iter(), 0.4), None);
+        assert_eq!(
+            nearest_hit([None, Some(2.0)].into_iter(), 2.0),
+            Some((1, 2.0))
+        );
     }
 }

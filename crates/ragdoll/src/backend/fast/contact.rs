@@ -11,7 +11,7 @@ use rapier3d::parry::shape::Cuboid;
 
 use super::{FRICTION, FastBackend};
 use crate::backend::broad::BroadPhase;
-use crate::backend::geom::{ray_box, ray_capsule};
+use crate::backend::geom::{nearest_hit, ray_shape};
 use crate::spec::Shape;
 
 /// Closer than this counts as touching another ragdoll, metres (as the other backends).
@@ -589,27 +589,15 @@ impl FastBackend {
         dir: Vec3,
         max_dist: f32,
     ) -> Option<(usize, f32)> {
-        let mut best: Option<(usize, f32)> = None;
-        for i in 0..self.pos.len() {
-            let hit = match self.shape[i] {
-                Shape::Capsule { radius_m, length_m } => {
-                    let (e0, e1) = ends(self.pos[i], self.rot[i], length_m);
-                    ray_capsule(origin, dir, e0, e1, radius_m)
-                }
-                Shape::Box { size_m } => {
-                    let inv = self.rot[i].conjugate();
-                    let half = Vec3::from_array(size_m) * 0.5;
-                    ray_box(inv * (origin - self.pos[i]), inv * dir, half)
-                }
+        let hits = (0..self.pos.len()).map(|i| {
+            let length = match self.shape[i] {
+                Shape::Capsule { length_m, .. } => length_m,
+                Shape::Box { .. } => 0.0,
             };
-            if let Some(t) = hit
-                && t <= max_dist
-                && best.is_none_or(|(_, bt)| t < bt)
-            {
-                best = Some((i, t));
-            }
-        }
-        best
+            let ends = ends(self.pos[i], self.rot[i], length);
+            ray_shape(origin, dir, &self.shape[i], self.pos[i], self.rot[i], ends)
+        });
+        nearest_hit(hits, max_dist)
     }
 }
 

@@ -6,7 +6,7 @@ use glam::Vec3;
 
 use super::{FRICTION, ParticleBackend};
 use crate::backend::broad::BroadPhase;
-use crate::backend::geom::{ray_box, ray_capsule};
+use crate::backend::geom::{nearest_hit, ray_shape};
 use crate::spec::Shape;
 
 /// Closer than this counts as touching another ragdoll, metres (as the rigid backend).
@@ -279,27 +279,14 @@ impl ParticleBackend {
         dir: Vec3,
         max_dist: f32,
     ) -> Option<(usize, f32)> {
-        let mut best: Option<(usize, f32)> = None;
-        for (b, body) in self.bodies.iter().enumerate() {
-            let hit = match body.shape {
-                Shape::Capsule { radius_m, .. } => {
-                    let (e0, e1) = self.capsule_world(b);
-                    ray_capsule(origin, dir, e0, e1, radius_m)
-                }
-                Shape::Box { size_m } => {
-                    let inv = body.rot.conjugate();
-                    let half = Vec3::from_array(size_m) * 0.5;
-                    ray_box(inv * (origin - body.pos), inv * dir, half)
-                }
+        let hits = self.bodies.iter().enumerate().map(|(b, body)| {
+            let ends = match body.shape {
+                Shape::Capsule { .. } => self.capsule_world(b),
+                Shape::Box { .. } => (body.pos, body.pos),
             };
-            if let Some(t) = hit
-                && t <= max_dist
-                && best.is_none_or(|(_, bt)| t < bt)
-            {
-                best = Some((b, t));
-            }
-        }
-        best
+            ray_shape(origin, dir, &body.shape, body.pos, body.rot, ends)
+        });
+        nearest_hit(hits, max_dist)
     }
 }
 
