@@ -62,31 +62,8 @@ fn pinned_link_swings_with_the_pendulum_period_of_theory() {
     world
         .add_pin(id, pin_at("j0", Vec3::new(0.0, 2.0, 0.0)))
         .unwrap();
-    world.run(0.0);
-    let dt = 1.0 / 60.0f64;
-    let mut last_x = world.body_poses(id)[0].translation.x;
-    let mut crossings = Vec::new();
-    for step in 1..=(8.0 / dt) as usize {
-        world.step();
-        let x = world.body_poses(id)[0].translation.x;
-        if last_x > 0.0 && x <= 0.0 {
-            crossings.push((step as f64 - 1.0 + (last_x / (last_x - x)) as f64) * dt);
-        }
-        last_x = x;
-    }
-    assert!(crossings.len() >= 4, "{crossings:?}");
-    let period = (crossings[crossings.len() - 1] - crossings[0]) / (crossings.len() - 1) as f64;
-    let (r, l, m) = (radius as f64, len as f64, mass as f64);
-    let (v_cyl, v_sph) = (
-        std::f64::consts::PI * r * r * l,
-        4.0 / 3.0 * std::f64::consts::PI * r.powi(3),
-    );
-    let (mc, ms) = (m * v_cyl / (v_cyl + v_sph), m * v_sph / (v_cyl + v_sph));
-    let i_centre =
-        mc * (l * l / 12.0 + r * r / 4.0) + ms * (0.4 * r * r + l * l / 4.0 + 0.375 * l * r);
-    let d = l / 2.0;
-    let theory =
-        std::f64::consts::TAU * ((i_centre + m * d * d) / (m * STANDARD_GRAVITY as f64 * d)).sqrt();
+    let period = common::measured_swing_period(&mut world, id, 1.0 / 60.0);
+    let theory = common::capsule_pendulum_period(radius, len, mass);
     assert!(
         ((period - theory) / theory).abs() < 0.01,
         "period {period} s, theory {theory} s"

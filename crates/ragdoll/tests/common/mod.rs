@@ -183,3 +183,41 @@ pub fn chain(
     spec.validate().unwrap();
     (character, spec)
 }
+
+/// The period of body 0 of ragdoll `id` swinging about x = 0, seconds: the mean spacing of
+/// its centre's crossings from +x to −x over 8 s of `world` stepping at `dt`.
+pub fn measured_swing_period(
+    world: &mut ragdoll::world::World,
+    id: ragdoll::world::RagdollId,
+    dt: f64,
+) -> f64 {
+    world.run(0.0);
+    let mut last_x = world.body_poses(id)[0].translation.x;
+    let mut crossings = Vec::new();
+    for step in 1..=(8.0 / dt) as usize {
+        world.step();
+        let x = world.body_poses(id)[0].translation.x;
+        if last_x > 0.0 && x <= 0.0 {
+            crossings.push((step as f64 - 1.0 + (last_x / (last_x - x)) as f64) * dt);
+        }
+        last_x = x;
+    }
+    assert!(crossings.len() >= 4, "{crossings:?}");
+    (crossings[crossings.len() - 1] - crossings[0]) / (crossings.len() - 1) as f64
+}
+
+/// The period in theory of a solid capsule (cylinder plus two hemispheres) hanging from
+/// one end as a compound pendulum, small swings: 2π √(I_pivot / (m g d)).
+pub fn capsule_pendulum_period(radius: f32, length: f32, mass: f32) -> f64 {
+    let (r, l, m) = (radius as f64, length as f64, mass as f64);
+    let (v_cyl, v_sph) = (
+        std::f64::consts::PI * r * r * l,
+        4.0 / 3.0 * std::f64::consts::PI * r.powi(3),
+    );
+    let (mc, ms) = (m * v_cyl / (v_cyl + v_sph), m * v_sph / (v_cyl + v_sph));
+    let i_centre =
+        mc * (l * l / 12.0 + r * r / 4.0) + ms * (0.4 * r * r + l * l / 4.0 + 0.375 * l * r);
+    let d = l / 2.0;
+    let g = ragdoll::world::STANDARD_GRAVITY as f64;
+    std::f64::consts::TAU * ((i_centre + m * d * d) / (m * g * d)).sqrt()
+}
