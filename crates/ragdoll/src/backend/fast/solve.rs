@@ -29,7 +29,7 @@ fn skew(r: Vec3) -> Mat3 {
 /// The angular velocity that turns by `dq` (a small rotation, world) in `1 / inv_h`
 /// seconds.
 #[inline]
-fn turn_rate(dq: Quat, inv_h: f32) -> Vec3 {
+pub(super) fn turn_rate(dq: Quat, inv_h: f32) -> Vec3 {
     let dq = if dq.w < 0.0 { -dq } else { dq };
     Vec3::new(dq.x, dq.y, dq.z) * (2.0 * inv_h)
 }
