@@ -105,7 +105,7 @@ impl FastBackend {
     pub(super) fn wake(&mut self, r: usize) {
         let rd = &mut self.ragdolls[r];
         rd.asleep = false;
-        rd.still_s = 0.0;
+        rd.still_s = None;
     }
 
     /// Whether body `i` moves under the solver (dynamic and awake).
