@@ -93,6 +93,7 @@ pub fn single_character_scene(
             position: glam::Vec3::ZERO,
             facing_deg: 0.0,
             activation: Activation::Immediately,
+            clip_offset_s: 0.0,
             motors: None,
             line: 0,
         }],

@@ -324,6 +324,14 @@ fn characters_within(
             Some(p) => Some(powered(&c, p, &character)?),
             None => None,
         };
+        let clip_offset_s = c.time(&r.clip_offset_s, "clip_offset_s", 0.0)?;
+        if let Some(v) = &r.clip_offset_s
+            && activation == Activation::Immediately
+            && motors.is_none()
+        {
+            let message = "needs activate or powered: only then does the character play its clip";
+            return Err(c.err(&v.span(), "clip_offset_s", message));
+        }
         out.push(SceneCharacter {
             name,
             input,
@@ -332,6 +340,7 @@ fn characters_within(
             position,
             facing_deg,
             activation,
+            clip_offset_s,
             motors,
             line: src.line(rc.span().start),
         });

@@ -1,13 +1,15 @@
 //! `[[crowd]]` tables: many characters from one description, placed on a grid or
-//! scattered, each with its own facing, height, mass and sex drawn from a seeded generator,
-//! so the same table gives the same crowd on every machine. A crowd becomes ordinary
-//! `[[character]]` tables, checked and built as those are.
+//! scattered, each with its own facing, height, mass and sex (and, where asked, file and
+//! clip offset) drawn from a seeded generator, so the same table gives the same crowd on
+//! every machine. A crowd becomes ordinary `[[character]]` tables, checked and built as
+//! those are.
 
 use rand_chacha::ChaCha8Rng;
 use rand_chacha::rand_core::{RngCore, SeedableRng};
 
 use super::parse::{Ctx, Src};
 use super::raw::{Formation, RawCharacter, RawCrowd, S};
+use crate::bounds::MAX_SECONDS;
 use crate::error::Result;
 use crate::spec::check_within;
 
@@ -20,6 +22,9 @@ pub const MAX_CROWD_SPACING_M: f32 = 100.0;
 
 /// Largest share by which heights and masses may vary either way: ±50 %.
 pub const MAX_CROWD_SPREAD: f32 = 0.5;
+
+/// Most files one crowd may draw from.
+pub const MAX_CROWD_FILES: usize = 64;
 
 /// Default spacing between neighbours, metres (issue 12's crowd: 2 m).
 const DEFAULT_SPACING_M: f32 = 2.0;
@@ -59,8 +64,20 @@ fn members(c: &Ctx, table: &S<RawCrowd>, index: usize) -> Result<Vec<S<RawCharac
         .name
         .as_ref()
         .map_or(format!("crowd{}", index + 1), |n| n.get_ref().clone());
+    // Files and clip offsets come from a stream of their own, so that adding them to a
+    // table leaves its members' facings, heights and masses as they were.
+    let mut extra = ChaCha8Rng::seed_from_u64(seed);
+    extra.set_stream(1);
     let mut out = Vec::with_capacity(s.count);
     for (k, (x, z)) in spots.into_iter().enumerate() {
+        let file = match &s.files {
+            Some((files, span)) => Some(at(span, pick(files, unit(&mut extra)).clone())),
+            None => r.file.clone(),
+        };
+        let clip_offset_s = s
+            .clip_offset
+            .as_ref()
+            .map(|(base, spread, span)| at(span, base + spread * unit(&mut extra)));
         let mut u = || unit(&mut rng);
         // Kept within a turn either way, as a character's facing must be.
         let turned = s.facing + s.facing_spread * (2.0 * u() - 1.0);
@@ -83,7 +100,7 @@ fn members(c: &Ctx, table: &S<RawCrowd>, index: usize) -> Result<Vec<S<RawCharac
             &span,
             RawCharacter {
                 name: Some(at(&span, format!("{name}-{}", k + 1))),
-                file: r.file.clone(),
+                file,
                 position: Some(at(
                     &span,
                     (s.center + glam::Vec3::new(x, 0.0, z)).to_array(),
@@ -98,12 +115,17 @@ fn members(c: &Ctx, table: &S<RawCrowd>, index: usize) -> Result<Vec<S<RawCharac
                 up: r.up.clone(),
                 height,
                 clip: r.clip.clone(),
+                clip_offset_s,
                 roles: None,
             },
         ));
     }
     Ok(out)
 }
+
+/// The files a crowd draws from with their cumulative shares (the last is 1), and the
+/// span of its `files` key.
+type Draw = (Vec<(String, f32)>, std::ops::Range<usize>);
 
 /// A crowd's checked numbers: how many, where, and how much they vary.
 struct Spread {
@@ -115,6 +137,11 @@ struct Spread {
     height_spread: f32,
     mass_spread: f32,
     female_share: f32,
+    /// The files to draw from; `None` for `file` (or the built-in humanoid).
+    files: Option<Draw>,
+    /// Clip offset: the least, how much more it may be, and the span of the key it is
+    /// from; `None` when neither key is given.
+    clip_offset: Option<(f32, f32, std::ops::Range<usize>)>,
 }
 
 /// Checks a crowd table's numbers, each error naming its key and line.
@@ -165,7 +192,90 @@ fn spread(c: &Ctx, table: &S<RawCrowd>) -> Result<Spread> {
         height_spread,
         mass_spread,
         female_share,
+        files: files(c, table)?,
+        clip_offset: clip_offset(c, table)?,
     })
+}
+
+/// `files` and their `weights`, checked: cumulative shares in file order.
+fn files(c: &Ctx, table: &S<RawCrowd>) -> Result<Option<Draw>> {
+    let r = table.get_ref();
+    let Some(files) = &r.files else {
+        if let Some(w) = &r.weights {
+            return Err(c.err(&w.span(), "weights", "needs files, the files it weighs"));
+        }
+        return Ok(None);
+    };
+    if r.file.is_some() {
+        let message = "give either file (every member the same) or files, not both";
+        return Err(c.err(&files.span(), "files", message));
+    }
+    let names = files.get_ref();
+    if names.is_empty() || names.len() > MAX_CROWD_FILES {
+        let message = format!(
+            "must list 1 to {MAX_CROWD_FILES} files, not {}",
+            names.len()
+        );
+        return Err(c.err(&files.span(), "files", message));
+    }
+    let weights = match &r.weights {
+        Some(w) => {
+            let ws = w.get_ref();
+            if ws.len() != names.len() {
+                let message = format!(
+                    "must give one weight per file: {} files, {} weights",
+                    names.len(),
+                    ws.len()
+                );
+                return Err(c.err(&w.span(), "weights", message));
+            }
+            if let Some(bad) = ws.iter().find(|x| !(x.is_finite() && **x >= 0.0)) {
+                let message = format!("must be finite and not negative, not {bad}");
+                return Err(c.err(&w.span(), "weights", message));
+            }
+            if ws.iter().sum::<f32>() <= 0.0 {
+                return Err(c.err(&w.span(), "weights", "must not all be 0"));
+            }
+            ws.clone()
+        }
+        None => vec![1.0; names.len()],
+    };
+    let total: f32 = weights.iter().sum();
+    let mut sum = 0.0;
+    let shares = names
+        .iter()
+        .zip(&weights)
+        .map(|(n, w)| {
+            sum += w / total;
+            (n.clone(), sum)
+        })
+        .collect();
+    Ok(Some((shares, files.span())))
+}
+
+/// `clip_offset_s` and `clip_offset_spread_s`, checked.
+fn clip_offset(c: &Ctx, table: &S<RawCrowd>) -> Result<Option<(f32, f32, std::ops::Range<usize>)>> {
+    let r = table.get_ref();
+    let (base, spread) = (&r.clip_offset_s, &r.clip_offset_spread_s);
+    let Some(span) = base.as_ref().or(spread.as_ref()).map(|v| v.span()) else {
+        return Ok(None);
+    };
+    let first = c.time(base, "clip_offset_s", 0.0)?;
+    let more = c.time(spread, "clip_offset_spread_s", 0.0)?;
+    if first + more > MAX_SECONDS {
+        let message = format!(
+            "clip_offset_s + clip_offset_spread_s must be at most {MAX_SECONDS} s, not {}",
+            first + more
+        );
+        return Err(c.err(&span, "clip_offset_spread_s", message));
+    }
+    Ok(Some((first, more, span)))
+}
+
+/// The file whose cumulative share first reaches `u` (in [0, 1)).
+fn pick(files: &[(String, f32)], u: f32) -> &String {
+    let k = files.iter().position(|(_, share)| u < *share);
+    &files[k.unwrap_or(files.len() - 1)].0
 }
 
 /// `v` marked as written at `span` (its crowd table).

@@ -25,6 +25,7 @@
 //! up = "z"                          # BVH and OBJ only: "y" or "z" (glTF is Y up)
 //! height = 1.8                      # scaled to this height, metres
 //! clip = "Walk"                     # the animation it plays: a name, or an index from 0
+//! clip_offset_s = 0.5               # start that far into it (with activate or powered)
 //! roles = "alice_roles.toml"        # roles by hand, as --roles; relative to the scene file
 //! mass_kg = 70.0                    # or spec = "alice.ragdoll.toml" (relative to the scene file)
 //! female = false
@@ -33,13 +34,21 @@
 //! activate = "start"                # or "blast", "contact", or seconds of its animation first
 //! powered = { strength = 1.0, fade_out = [1.0, 2.0], root_on_clip = false }  # motors track the clip
 //!
+//! [[crowd]]                         # count characters from one description
+//! count = 50                        # required
+//! files = ["bob.glb", "eve.vrm"]    # each member drawn from these (or one file, or none)
+//! weights = [3, 1]                  # this often
+//! clip_offset_s = 0.0               # each starts its clip this far in,
+//! clip_offset_spread_s = 1.0        # plus up to this much more
+//!
 //! [[blast]]
 //! tnt_kg = 1.0                      # required
 //! position = [0.0, 0.5, 0.0]        # required
 //! time_s = 0.5
 //! ```
 //!
-//! plus `[[projectile]]`, `[[push]]`, `[[field]]` and `[[pin]]` tables (see
+//! plus `[[projectile]]`, `[[push]]`, `[[field]]` and `[[pin]]` tables, and the rest of a
+//! crowd's keys (placement and seeded variation; see the README) (see
 //! [`Scene::from_toml`]). Unknown keys and bad values are errors that name the file, the
 //! line and the key. Every value is held to the bounds the library holds it to (positions
 //! within [`crate::world::MAX_COORDINATE_M`], times within [`crate::world::MAX_SECONDS`],
@@ -61,7 +70,7 @@ pub use characters::{
     MAX_CHARACTER_KG, MAX_CHARACTER_NAME_BYTES, MAX_FACING_DEG, MAX_SCENE_CHARACTER_BYTES,
     character_bytes,
 };
-pub use crowd::{MAX_CROWD_SPACING_M, MAX_CROWD_SPREAD, MIN_CROWD_SPACING_M};
+pub use crowd::{MAX_CROWD_FILES, MAX_CROWD_SPACING_M, MAX_CROWD_SPREAD, MIN_CROWD_SPACING_M};
 pub use parse::{MAX_CHARACTERS, MAX_EVENTS, MAX_OUTPUT_NAME_BYTES, MAX_SCENE_BODIES};
 use report::Watch;
 pub use report::{AIRBORNE_CLEARANCE_M, CharacterReport, SceneReport};
@@ -130,6 +139,8 @@ pub struct SceneCharacter {
     pub facing_deg: f32,
     /// When physics takes over from its animation.
     pub activation: Activation,
+    /// How far into its clip it starts, seconds (see [`World::set_clip_offset`]).
+    pub clip_offset_s: f32,
     /// Joint motors tracking its animation (powered mode), if any.
     pub motors: Option<crate::world::Motors>,
     /// Line of its `[[character]]` table in the scene file, for error messages.
@@ -297,6 +308,11 @@ impl Scene {
             let id = world
                 .add_ragdoll(&c.character, &c.spec, c.placement())
                 .map_err(|e| self.error(c.line, &place, e))?;
+            if c.clip_offset_s > 0.0 {
+                world
+                    .set_clip_offset(id, c.clip_offset_s)
+                    .map_err(|e| self.error(c.line, &place, e))?;
+            }
             world
                 .set_activation(id, c.activation)
                 .map_err(|e| self.error(c.line, &place, e))?;

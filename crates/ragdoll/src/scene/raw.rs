@@ -69,6 +69,7 @@ pub(super) struct RawCharacter {
     pub(super) up: Option<S<UpAxis>>,
     pub(super) height: Option<S<f32>>,
     pub(super) clip: Option<S<ClipValue>>,
+    pub(super) clip_offset_s: Option<S<f32>>,
     pub(super) roles: Option<S<String>>,
 }
 
@@ -79,6 +80,8 @@ pub(super) struct RawCrowd {
     pub(super) count: S<u32>,
     pub(super) name: Option<S<String>>,
     pub(super) file: Option<S<String>>,
+    pub(super) files: Option<S<Vec<String>>>,
+    pub(super) weights: Option<S<Vec<f32>>>,
     pub(super) center: Option<S<[f32; 3]>>,
     pub(super) spacing_m: Option<S<f32>>,
     pub(super) formation: Option<S<Formation>>,
@@ -92,6 +95,8 @@ pub(super) struct RawCrowd {
     pub(super) seed: Option<S<u64>>,
     pub(super) activate: Option<S<ActivateValue>>,
     pub(super) clip: Option<S<ClipValue>>,
+    pub(super) clip_offset_s: Option<S<f32>>,
+    pub(super) clip_offset_spread_s: Option<S<f32>>,
     pub(super) units: Option<S<Units>>,
     pub(super) up: Option<S<UpAxis>>,
 }

@@ -515,6 +515,7 @@ impl World {
                 clip: clip.clone(),
                 placement,
                 lift,
+                offset_s: 0.0,
                 bone_of_body: resolved.bone_of_body.clone(),
                 body_local: resolved.body_local.clone(),
             });

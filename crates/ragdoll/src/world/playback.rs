@@ -35,15 +35,19 @@ pub(crate) struct Playback {
     /// ground.
     pub placement: Transform,
     pub lift: Vec3,
+    /// Clip time at the world's time 0, seconds: a character can start part-way into its
+    /// clip (a crowd walking out of step).
+    pub offset_s: f64,
     /// Each body's bone (skeleton joint) and its frame in the bone's frame.
     pub bone_of_body: Vec<usize>,
     pub body_local: Vec<Transform>,
 }
 
 impl Playback {
-    /// World transforms of every joint at `t` seconds of the clip (held at its last frame
-    /// after the end), placed and lifted like the ragdoll.
+    /// World transforms of every joint at world time `t` (the clip's `t + offset_s`, held
+    /// at its last frame after the end), placed and lifted like the ragdoll.
     pub fn joint_world(&self, t: f64, out: &mut Vec<Transform>) {
+        let t = t + self.offset_s;
         let n = self.skeleton.len();
         let frames = &self.clip.frames;
         let last = frames.len().saturating_sub(1);
@@ -112,6 +116,55 @@ impl Playback {
 }
 
 impl super::World {
+    /// Makes ragdoll `id`'s clip start `seconds` in: at the world's time 0 it is at that
+    /// moment of the clip, and the clip's end comes that much sooner (its last frame is held
+    /// after it). Applies to the clip played before physics takes over and to the one the
+    /// motors follow. Call before [`World::set_activation`], which places a playing ragdoll
+    /// on its clip's first moment.
+    ///
+    /// # Example
+    ///
+    /// ```no_run
+    /// use ragdoll::world::{Activation, World, WorldSettings};
+    ///
+    /// let character = ragdoll::import::load("walk.bvh".as_ref(), &Default::default())?;
+    /// let spec = ragdoll::spec::build_spec(&character, &Default::default())?;
+    /// let (mut world, id) = World::with_ragdoll(&character, &spec, &WorldSettings::default())?;
+    /// world.set_clip_offset(id, 0.4)?;
+    /// world.set_activation(id, Activation::AtTime(1.0))?;
+    /// world.run(3.0);
+    /// # Ok::<(), ragdoll::error::Error>(())
+    /// ```
+    pub fn set_clip_offset(&mut self, id: RagdollId, seconds: f32) -> Result<()> {
+        let setting = |message: String| Error::Setting {
+            setting: "clip_offset_s".into(),
+            message,
+        };
+        if self.frames_recorded > 0 {
+            return Err(setting(
+                "the clip offset must be set before the world starts stepping".into(),
+            ));
+        }
+        if !(seconds.is_finite() && (0.0..=super::MAX_SECONDS).contains(&seconds)) {
+            return Err(setting(format!(
+                "the clip offset must be between 0 and {} s, not {seconds}",
+                super::MAX_SECONDS
+            )));
+        }
+        let inst = &mut self.instances[id.0];
+        if inst.activation != Activation::Immediately {
+            return Err(setting(format!(
+                "{}'s clip offset must be set before its activation",
+                inst.name
+            )));
+        }
+        let Some(play) = &mut inst.playback else {
+            return Err(setting(format!("{} has no animation to offset", inst.name)));
+        };
+        play.offset_s = seconds as f64;
+        Ok(())
+    }
+
     /// Makes ragdoll `id` play its first animation clip (kinematically, pushing but not
     /// pushed) until `activation`, then hand over to physics with the clip's velocities.
     /// Must be called before the first step; fails when the character has no clip.
@@ -180,6 +233,8 @@ impl super::World {
             self.backend
                 .set_kinematic(inst.first_body + b, !inst.active);
         }
+        // The poses read before the first step are the clip's.
+        self.backend.body_states(&mut self.states);
         Ok(())
     }
 
