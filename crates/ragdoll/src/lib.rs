@@ -45,7 +45,7 @@
 //! ([`world::Activation`]); scene files ([`scene`]) put characters and events together.
 #![deny(missing_docs)]
 
-mod backend;
+pub mod backend;
 pub mod bounds;
 pub mod error;
 pub mod events;

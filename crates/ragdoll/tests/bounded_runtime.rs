@@ -380,7 +380,7 @@ fn the_rigid_backend_refuses_a_ragdoll_off_the_edge_of_its_ground() {
         .expect_err("off the ground")
         .to_string();
     assert!(
-        err.contains("edge") && err.contains("particle backend"),
+        err.contains("edge") && err.contains("particle or fast backend"),
         "{err}"
     );
     let on = Transform::from_translation(Vec3::new(0.0, 0.0, 490.0));

@@ -1,9 +1,19 @@
-//! Physics backends behind one small interface, so the world, the metrics and the exporters
-//! never see which engine moved the bodies.
+//! Physics backends behind one interface, so the world, the events, the metrics and the
+//! exporters never see which engine moved the bodies.
 //!
-//! - `rigid`: rapier3d rigid bodies and impulse joints (the accurate default);
+//! Ours, chosen with [`BackendKind`]:
+//! - `rigid`: rapier3d rigid bodies and impulse joints (the reference);
 //! - `particle`: our own position-based particle ragdoll (XPBD-style), for creatures;
 //! - `fast`: our own rigid-body solver built for ragdolls (small-step XPBD), for crowds.
+//!
+//! Another engine (a GPU solver, a game engine's physics) plugs in by implementing
+//! [`Backend`] and handing it to [`World::with_backend`](crate::world::World::with_backend):
+//! the world then places ragdolls, plays clips, applies blasts, shots, fields, pins and
+//! motors, measures and records through it alone. The seam is batched where a world step
+//! is: the world reads every body's state in one call ([`Backend::body_states`]) after
+//! each step, and hands over each step's event impulses in one call
+//! ([`Backend::apply_impulses`]) before it. `tests/custom_backend.rs` holds a whole
+//! backend written against this interface alone.
 
 pub(crate) mod broad;
 pub(crate) mod fast;
@@ -21,7 +31,7 @@ use crate::spec::Shape;
 
 /// The state of one body after a step: world pose of its centre frame and velocities.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct BodyState {
+pub struct BodyState {
     /// World transform of the body frame (unit scale).
     pub pose: Transform,
     /// Linear velocity of the centre of mass, m/s.
@@ -97,8 +107,41 @@ impl BackendKind {
     }
 }
 
-/// What every backend does for the world.
-pub(crate) trait Backend {
+/// An impulse the world's events give one body (global index), delivered before the next
+/// step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BodyImpulse {
+    /// `impulse` (N·s, world) at the world `point`: blasts, shots, pushes, drag, soft pins.
+    AtPoint {
+        /// The body, global index.
+        body: usize,
+        /// N·s, world.
+        impulse: Vec3,
+        /// Where it acts, world.
+        point: Vec3,
+    },
+    /// An angular impulse (N·m·s, world): joint motors and damping applied from outside
+    /// the solver, in equal and opposite pairs.
+    Angular {
+        /// The body, global index.
+        body: usize,
+        /// N·m·s, world.
+        impulse: Vec3,
+    },
+}
+
+/// What an engine does for the [`World`](crate::world::World).
+///
+/// Bodies and joints have global indices in the order they were added (a ragdoll's
+/// bodies are contiguous, starting at what [`Backend::add_ragdoll`] returned); every pose
+/// is the body frame of [`BodyDesc::pose`]. Units are SI, Y is up, gravity and the ground
+/// come from the backend's own settings (see [`World::with_backend`]).
+///
+/// A backend must be `Send` so a world can move to a worker thread (the viewer and the
+/// CLI's progress bar do that).
+///
+/// [`World::with_backend`]: crate::world::World::with_backend
+pub trait Backend: Send {
     /// Adds one ragdoll's bodies (world poses), joints (between its bodies) and pairs that
     /// never collide (indices into `bodies`); returns the global index of its first body.
     fn add_ragdoll(
@@ -119,11 +162,37 @@ pub(crate) trait Backend {
     fn went_non_finite(&self) -> bool {
         false
     }
+    /// Whether one [`Backend::step`] per world step is all it takes: the backend substeps
+    /// inside (the fast backend does), so the world runs its events, motors and clips once
+    /// per step rather than once per collision substep.
+    fn substeps_inside(&self) -> bool {
+        false
+    }
+    /// Half the side of the square ground it has, metres, where its ground is not a
+    /// plane without end (rapier's is a box): the world refuses ragdolls placed beyond it.
+    fn ground_half_extent(&self) -> Option<f32> {
+        None
+    }
     /// Adds `impulse` (N·s, world) at the world `point` of body `index` (global), waking it.
     fn apply_impulse_at_point(&mut self, index: usize, impulse: Vec3, point: Vec3);
     /// Adds the angular impulse `impulse` (N·m·s, world) to body `index` (global), waking
     /// it: what a joint motor gives over one substep.
     fn apply_torque_impulse(&mut self, index: usize, impulse: Vec3);
+    /// Every impulse the world's events gave since the last step, in the order given:
+    /// what the world calls. One body at a time by default; a backend that keeps its
+    /// bodies elsewhere (a GPU) takes them in one transfer.
+    fn apply_impulses(&mut self, impulses: &[BodyImpulse]) {
+        for i in impulses {
+            match *i {
+                BodyImpulse::AtPoint {
+                    body,
+                    impulse,
+                    point,
+                } => self.apply_impulse_at_point(body, impulse, point),
+                BodyImpulse::Angular { body, impulse } => self.apply_torque_impulse(body, impulse),
+            }
+        }
+    }
     /// Writes the state of every body of every ragdoll, in insertion order.
     fn body_states(&self, out: &mut Vec<BodyState>);
     /// Deepest contact penetration seen in the last step, metres (0 when none).
@@ -240,7 +309,7 @@ pub(crate) fn capsule_of(shape: &Shape) -> ([Vec3; 2], f32) {
 
 /// A body to create, in world space.
 #[derive(Clone, Debug)]
-pub(crate) struct BodyDesc {
+pub struct BodyDesc {
     /// Start pose of the body frame (shape centre, long axis = local Y).
     pub pose: Transform,
     /// Collision shape.
@@ -256,7 +325,7 @@ pub(crate) struct BodyDesc {
 /// A joint to create between two bodies of the same ragdoll (indices into the ragdoll's
 /// bodies), with its frame expressed in each body's frame.
 #[derive(Clone, Debug)]
-pub(crate) struct JointDesc {
+pub struct JointDesc {
     /// Parent body index within the ragdoll.
     pub parent: usize,
     /// Child body index within the ragdoll.
@@ -271,9 +340,8 @@ pub(crate) struct JointDesc {
 
 /// One of the backends, chosen at run time ([`BackendKind`]).
 ///
-/// An enum rather than a `Box<dyn Backend>`: calls dispatch with a match the optimiser can
-/// see through, the world stays `Send` without a bound to repeat, and the event code keeps
-/// calling the [`Backend`] trait as it does for a concrete backend.
+/// An enum rather than a `Box<dyn Backend>` for ours: their calls dispatch with a match
+/// the optimiser can see through; someone else's goes through the trait object.
 pub(crate) enum AnyBackend {
     /// rapier3d.
     Rigid(Box<rigid::RigidBackend>),
@@ -281,6 +349,8 @@ pub(crate) enum AnyBackend {
     Particle(Box<particle::ParticleBackend>),
     /// Our rigid-body solver.
     Fast(Box<fast::FastBackend>),
+    /// Someone else's ([`World::with_backend`](crate::world::World::with_backend)).
+    Custom(Box<dyn Backend>),
 }
 
 /// Forwards each listed trait method to the backend inside (`ref` methods take `&self`,
@@ -295,6 +365,7 @@ macro_rules! forward {
                 AnyBackend::Rigid(b) => b.$name($($arg),*),
                 AnyBackend::Particle(b) => b.$name($($arg),*),
                 AnyBackend::Fast(b) => b.$name($($arg),*),
+                AnyBackend::Custom(b) => b.$name($($arg),*),
             }
         }
     };
@@ -304,6 +375,7 @@ macro_rules! forward {
                 AnyBackend::Rigid(b) => b.$name($($arg),*),
                 AnyBackend::Particle(b) => b.$name($($arg),*),
                 AnyBackend::Fast(b) => b.$name($($arg),*),
+                AnyBackend::Custom(b) => b.$name($($arg),*),
             }
         }
     };
@@ -315,6 +387,9 @@ impl Backend for AnyBackend {
         ref fn enforces_limits() -> bool;
         mut fn step(dt: f32);
         ref fn went_non_finite() -> bool;
+        ref fn substeps_inside() -> bool;
+        ref fn ground_half_extent() -> Option<f32>;
+        mut fn apply_impulses(impulses: &[BodyImpulse]);
         mut fn apply_impulse_at_point(index: usize, impulse: Vec3, point: Vec3);
         mut fn apply_torque_impulse(index: usize, impulse: Vec3);
         ref fn body_states(out: &mut Vec<BodyState>);

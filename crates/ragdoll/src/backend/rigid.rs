@@ -73,6 +73,8 @@ pub(crate) struct RigidBackend {
     quarantined: bool,
     /// Each body's ragdoll (insertion order).
     ragdoll_of: Vec<u32>,
+    /// Whether there is a ground (a box [`GROUND_HALF_EXTENT_M`] each way).
+    has_ground: bool,
 }
 
 fn pose(t: &Transform) -> Pose {
@@ -106,6 +108,7 @@ impl RigidBackend {
             drives: Vec::new(),
             quarantined: false,
             ragdoll_of: Vec::new(),
+            has_ground: settings.ground.is_some(),
         }
     }
 
@@ -272,6 +275,10 @@ impl Backend for RigidBackend {
             }
         }
         deepest
+    }
+
+    fn ground_half_extent(&self) -> Option<f32> {
+        self.has_ground.then_some(GROUND_HALF_EXTENT_M)
     }
 
     fn apply_impulse_at_point(&mut self, index: usize, impulse: Vec3, point: Vec3) {

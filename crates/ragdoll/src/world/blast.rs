@@ -3,6 +3,7 @@
 //! along the direction from the charge, at the part's surface point facing the charge, so
 //! the part is pushed and twisted. Each part sees its own arrival time.
 
+use crate::backend::BodyImpulse;
 use glam::{DVec3, Vec3};
 
 use crate::backend::BodyState;
@@ -10,7 +11,6 @@ use crate::events::blast::{self, BlastAt};
 use crate::events::{Blast, BlastCharacterReport, BlastPartReport, BlastReport};
 use crate::spec::Shape;
 
-use crate::backend::Backend;
 use crate::error::Result;
 
 /// Drag coefficient of a body part: DESIGN §7 gives C_d ≈ 1…1.3 for bluff bodies; a
@@ -290,11 +290,11 @@ impl super::World {
                     if j > 0.0 && j.is_finite() {
                         let impulse = dir.as_dvec3() * j;
                         record.impulse += impulse;
-                        self.backend.apply_impulse_at_point(
-                            inst.first_body + k,
-                            impulse.as_vec3(),
+                        self.impulses.push(BodyImpulse::AtPoint {
+                            body: inst.first_body + k,
+                            impulse: impulse.as_vec3(),
                             point,
-                        );
+                        });
                     }
                 }
             }

@@ -10,11 +10,11 @@
 //! Off by default and refused on the particle backend (`WorldSettings::validate`): there
 //! the couple acted on velocities a substep old and fed energy in.
 
+use crate::backend::BodyImpulse;
 use glam::Vec3;
 
 use super::World;
 use super::motors::{effective_inertia, inertia_about, principal_inertia};
-use crate::backend::Backend;
 use crate::spec::JointKind;
 
 impl World {
@@ -53,8 +53,14 @@ impl World {
                 let inertia = effective_inertia(about(j.child), Some(about(j.parent)));
                 let impulse: Vec3 = -relative * (share * inertia);
                 if impulse.is_finite() {
-                    self.backend.apply_torque_impulse(base + j.child, impulse);
-                    self.backend.apply_torque_impulse(base + j.parent, -impulse);
+                    self.impulses.push(BodyImpulse::Angular {
+                        body: base + j.child,
+                        impulse,
+                    });
+                    self.impulses.push(BodyImpulse::Angular {
+                        body: base + j.parent,
+                        impulse: -impulse,
+                    });
                 }
             }
         }

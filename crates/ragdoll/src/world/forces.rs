@@ -1,5 +1,6 @@
 //! Pushes, fields and pins (DESIGN §4): what they do to the bodies over one substep.
 
+use crate::backend::BodyImpulse;
 use glam::Vec3;
 
 use crate::events::{Field, Pin, Push};
@@ -322,7 +323,11 @@ impl super::World {
                 }
             };
             if impulse != Vec3::ZERO {
-                self.backend.apply_impulse_at_point(p.body, impulse, point);
+                self.impulses.push(BodyImpulse::AtPoint {
+                    body: p.body,
+                    impulse,
+                    point,
+                });
             }
         }
         if self
@@ -346,11 +351,11 @@ impl super::World {
                         );
                     }
                     if impulse != Vec3::ZERO {
-                        self.backend.apply_impulse_at_point(
-                            inst.first_body + k,
+                        self.impulses.push(BodyImpulse::AtPoint {
+                            body: inst.first_body + k,
                             impulse,
-                            state.pose.translation,
-                        );
+                            point: state.pose.translation,
+                        });
                     }
                 }
             }
@@ -385,7 +390,11 @@ impl super::World {
                     let accel = (target - point) * omega * omega
                         - point_velocity * (2.0 * p.pin.damping_ratio * omega);
                     let impulse = accel * p.mass * (t1 - t0) as f32;
-                    self.backend.apply_impulse_at_point(p.body, impulse, point);
+                    self.impulses.push(BodyImpulse::AtPoint {
+                        body: p.body,
+                        impulse,
+                        point,
+                    });
                 }
             }
         }

@@ -29,7 +29,7 @@ use crate::backend::fast::{FastBackend, FastSettings};
 use crate::backend::particle::{ParticleBackend, ParticleSettings};
 use crate::backend::rigid::{RigidBackend, RigidSettings};
 use crate::backend::tree::JointTree;
-use crate::backend::{AnyBackend, Backend, BodyDesc, BodyState, JointDesc};
+use crate::backend::{AnyBackend, Backend, BodyDesc, BodyImpulse, BodyState, JointDesc};
 use crate::error::{Error, Result};
 use crate::events::{Projectile, ProjectileReport};
 use crate::math::Transform;
@@ -330,6 +330,9 @@ pub struct World {
     /// Joints the backend worked on at each recorded frame (see
     /// [`World::active_joints_per_frame`]); empty where it does not say.
     active_joints: Vec<u32>,
+    /// The events' impulses of this substep, handed to the backend together before it
+    /// steps ([`Backend::apply_impulses`]).
+    impulses: Vec<BodyImpulse>,
 }
 
 impl World {
@@ -360,7 +363,41 @@ impl World {
                 substeps: settings.fast_substeps,
             }))),
         };
-        Ok(World {
+        Ok(Self::with_any(settings, backend))
+    }
+
+    /// An empty world stepped by someone else's engine (see [`Backend`]). The world reads
+    /// `settings` as for its own engines but for `backend` and the solver counts; the
+    /// engine must simulate the same `gravity` and `ground` (the world lifts ragdolls onto
+    /// that ground and measures energy with that gravity).
+    ///
+    /// # Example
+    ///
+    /// A backend that counts the impulses the world's events hand over, wrapped around
+    /// another (here a world's own engine would do; any [`Backend`] fits):
+    ///
+    /// ```
+    /// use ragdoll::backend::{Backend, BodyImpulse};
+    /// use ragdoll::world::{World, WorldSettings};
+    ///
+    /// fn run(engine: Box<dyn Backend>) -> ragdoll::error::Result<()> {
+    ///     let mut world = World::with_backend(&WorldSettings::default(), engine)?;
+    ///     let character = ragdoll::skeleton::humanoid();
+    ///     let spec = ragdoll::spec::build_spec(&character, &Default::default())?;
+    ///     let id = world.add_ragdoll(&character, &spec, Default::default())?;
+    ///     world.run(1.0);
+    ///     assert_eq!(world.body_poses(id).len(), spec.bodies.len());
+    ///     Ok(())
+    /// }
+    /// # let _ = run;
+    /// ```
+    pub fn with_backend(settings: &WorldSettings, backend: Box<dyn Backend>) -> Result<Self> {
+        settings.validate()?;
+        Ok(Self::with_any(settings, AnyBackend::Custom(backend)))
+    }
+
+    fn with_any(settings: &WorldSettings, backend: AnyBackend) -> Self {
+        World {
             settings: settings.clone(),
             backend,
             instances: Vec::new(),
@@ -379,7 +416,8 @@ impl World {
             start_index: overlap::StartIndex::default(),
             halted: false,
             active_joints: Vec::new(),
-        })
+            impulses: Vec::new(),
+        }
     }
 
     /// A world with one ragdoll: the common case.
@@ -617,8 +655,11 @@ impl World {
                     let h = self.settings.dt as f64 / self.outer_steps() as f64;
                     self.hand_over(c, t1, h);
                 }
-                self.backend
-                    .apply_impulse_at_point(body, dir * momentum, point);
+                self.impulses.push(BodyImpulse::AtPoint {
+                    body,
+                    impulse: dir * momentum,
+                    point,
+                });
                 if let Some((c, inst)) =
                     self.instances.iter().enumerate().find(|(_, i)| {
                         (i.first_body..i.first_body + i.shapes.len()).contains(&body)
@@ -688,22 +729,17 @@ impl World {
         let h = self.settings.dt / n as f32;
         for i in 0..n {
             let t0 = self.time + (i as f64) * h as f64;
+            // Every event of the substep reads the bodies as the last substep left them
+            // (and a clip's hand-over, which sets velocities); their impulses reach the
+            // backend together, before it steps.
             if self.instances.iter().any(|inst| !inst.active) {
-                if i > 0 {
-                    self.backend.body_states(&mut self.states);
-                }
                 self.play_clips(t0, t0 + h as f64, h as f64);
+                self.backend.body_states(&mut self.states);
             }
             if !self.blasts.is_empty() {
-                if i > 0 {
-                    self.backend.body_states(&mut self.states);
-                }
                 self.apply_blasts(t0, t0 + h as f64);
             }
             if !(self.pushes.is_empty() && self.fields.is_empty() && self.pins.is_empty()) {
-                if i > 0 {
-                    self.backend.body_states(&mut self.states);
-                }
                 self.apply_forces(t0, t0 + h as f64);
             }
             if self
@@ -711,17 +747,12 @@ impl World {
                 .iter()
                 .any(|inst| inst.active && inst.motors.is_some())
             {
-                if i > 0 {
-                    self.backend.body_states(&mut self.states);
-                }
                 self.apply_motors(t0, h);
             }
             if self.settings.joint_damping > 0.0 {
-                if i > 0 {
-                    self.backend.body_states(&mut self.states);
-                }
                 self.apply_joint_damping(h);
             }
+            self.flush_impulses();
             self.backend.step(h);
             // Checked every substep: a non-finite body must not reach the next substep's
             // events or the backend's queries.
@@ -731,12 +762,15 @@ impl World {
                 return;
             }
             // After the step: rapier's scene queries see the bodies only once a step has
-            // updated them; the shot lands at most one substep (1/240 s) late.
+            // updated them; the shot lands at most one substep (1/240 s) late. Its impulse
+            // goes in at once, and the states are read again for the next substep.
             self.fire_projectiles(t0 + h as f64);
+            if !self.impulses.is_empty() {
+                self.flush_impulses();
+                self.backend.body_states(&mut self.states);
+            }
         }
         self.time += self.settings.dt as f64;
-        // Read again: the last substep's shots changed velocities after the check.
-        self.backend.body_states(&mut self.states);
         self.blast_after_step();
         // What the solver left, before any clamp: the backend's own reading where it clamps
         // itself, else the bodies as they are before the world's projection.
@@ -757,9 +791,18 @@ impl World {
     /// How many times per step the backend steps, events and motors between: the fast
     /// backend substeps inside one call.
     fn outer_steps(&self) -> usize {
-        match self.settings.backend {
-            BackendKind::Fast => 1,
-            _ => self.settings.collision_substeps,
+        if self.backend.substeps_inside() {
+            1
+        } else {
+            self.settings.collision_substeps
+        }
+    }
+
+    /// Hands the impulses the events gave since the last call to the backend, in one call.
+    fn flush_impulses(&mut self) {
+        if !self.impulses.is_empty() {
+            self.backend.apply_impulses(&self.impulses);
+            self.impulses.clear();
         }
     }
 
@@ -780,7 +823,7 @@ impl World {
     pub fn broad_phase_footprint(&self) -> Option<(usize, usize)> {
         match &self.backend {
             AnyBackend::Particle(p) => Some(p.broad_phase_footprint()),
-            AnyBackend::Rigid(_) | AnyBackend::Fast(_) => None,
+            AnyBackend::Rigid(_) | AnyBackend::Fast(_) | AnyBackend::Custom(_) => None,
         }
     }
 

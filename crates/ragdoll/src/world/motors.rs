@@ -11,6 +11,7 @@
 //! widen to take in every clip pose, each hinge turns to the axis the clip's own elbow or
 //! knee bends about, and parts the clip passes through each other stop colliding.
 
+use crate::backend::BodyImpulse;
 use glam::{Quat, Vec3};
 
 use super::{HANDOVER_LIMIT_MARGIN_DEG, World, setting_error};
@@ -340,8 +341,14 @@ impl World {
                 );
                 let impulse = accel * inertia * h;
                 if impulse.is_finite() {
-                    self.backend.apply_torque_impulse(base + j.child, impulse);
-                    self.backend.apply_torque_impulse(base + j.parent, -impulse);
+                    self.impulses.push(BodyImpulse::Angular {
+                        body: base + j.child,
+                        impulse,
+                    });
+                    self.impulses.push(BodyImpulse::Angular {
+                        body: base + j.parent,
+                        impulse: -impulse,
+                    });
                 }
             }
         }

@@ -4,7 +4,8 @@
 use glam::Vec3;
 
 use super::overlap::{self, Solid};
-use super::{BackendKind, setting_error};
+use super::setting_error;
+use crate::backend::Backend;
 use crate::error::{Error, Result};
 use crate::math::Transform;
 use crate::skeleton::Character;
@@ -61,19 +62,19 @@ impl super::World {
             );
             return Err(beyond_world("placement", &what, p.translation));
         }
-        if let (Some(_), BackendKind::Rigid) = (self.settings.ground, self.settings.backend) {
-            let edge = crate::backend::rigid::GROUND_HALF_EXTENT_M;
+        if let Some(edge) = self.backend.ground_half_extent() {
             let off = |p: &Transform| p.translation.x.abs().max(p.translation.z.abs()) > edge;
             if let Some(b) = body_start.iter().position(off) {
                 return Err(setting_error(
                     "placement",
                     &format!(
                         "ragdoll {} \"{}\"'s body \"{}\" would start beyond the edge of the \
-                     rigid backend's ground, a square {edge} m from the origin each way; \
-                     place it nearer, or use the particle backend (its ground has no edge)",
+                     backend's ground, a square {edge} m from the origin each way; \
+                     place it nearer, or use the particle or fast backend (their ground has \
+                     no edge)",
                         self.instances.len(),
                         character.name,
-                        spec.bodies[b].name
+                        spec.bodies[b].name,
                     ),
                 ));
             }

@@ -361,6 +361,10 @@ impl Backend for FastBackend {
         self.step_impl(dt);
     }
 
+    fn substeps_inside(&self) -> bool {
+        true
+    }
+
     fn apply_impulse_at_point(&mut self, index: usize, impulse: Vec3, point: Vec3) {
         let r = point - self.pos[index];
         let dw = self.inv_inertia_world(index, r.cross(impulse));
