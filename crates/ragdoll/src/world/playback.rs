@@ -119,7 +119,7 @@ impl super::World {
     /// Makes ragdoll `id`'s clip start `seconds` in: at the world's time 0 it is at that
     /// moment of the clip, and the clip's end comes that much sooner (its last frame is held
     /// after it). Applies to the clip played before physics takes over and to the one the
-    /// motors follow. Call before [`World::set_activation`], which places a playing ragdoll
+    /// motors follow. Call before [`World::set_activation`](super::World::set_activation), which places a playing ragdoll
     /// on its clip's first moment.
     ///
     /// # Example
