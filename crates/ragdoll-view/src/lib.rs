@@ -81,6 +81,7 @@ pub fn single_character_scene(
     input: &str,
     settings: WorldSettings,
 ) -> Scene {
+    let place = format!("[[character]] \"{}\"", character.name);
     Scene {
         path: PathBuf::from(input),
         duration_s: 0.0,
@@ -96,6 +97,7 @@ pub fn single_character_scene(
             clip_offset_s: 0.0,
             motors: None,
             line: 0,
+            place,
         }],
         blasts: Vec::new(),
         projectiles: Vec::new(),

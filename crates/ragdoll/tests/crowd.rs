@@ -158,3 +158,15 @@ fn crowd_mistakes_name_the_line_and_the_key() {
         assert!(e.starts_with("crowd.toml"), "{e}");
     }
 }
+
+#[test]
+fn a_member_the_world_refuses_is_named_by_its_crowd() {
+    // Two built-in humanoids 0.3 m apart start inside each other: the world's refusal
+    // names the member and the crowd table it comes from, at the table's line.
+    let scene = parse("duration_s = 1\n[[crowd]]\ncount = 2\nspacing_m = 0.3\n").unwrap();
+    let e = scene.build_world().map(|_| ()).unwrap_err().to_string();
+    assert!(
+        e.contains("line 2: [[crowd]] 1 \"crowd1-2\": placement:"),
+        "{e}"
+    );
+}

@@ -332,6 +332,7 @@ fn characters_within(
             let message = "needs activate or powered: only then does the character play its clip";
             return Err(c.err(&v.span(), "clip_offset_s", message));
         }
+        let place = table.named(&name);
         out.push(SceneCharacter {
             name,
             input,
@@ -343,6 +344,7 @@ fn characters_within(
             clip_offset_s,
             motors,
             line: src.line(rc.span().start),
+            place,
         });
     }
     Ok(out)

@@ -145,6 +145,9 @@ pub struct SceneCharacter {
     pub motors: Option<crate::world::Motors>,
     /// Line of its `[[character]]` table in the scene file, for error messages.
     pub line: usize,
+    /// Its table as errors name it: `[[character]] "alice"`, or `[[crowd]] 1 "people-3"`
+    /// for a crowd's member.
+    pub place: String,
 }
 
 impl SceneCharacter {
@@ -304,22 +307,22 @@ impl Scene {
         let mut world = World::new(&self.settings).map_err(|e| self.error(1, "settings", e))?;
         let mut ids = Vec::with_capacity(self.characters.len());
         for c in &self.characters {
-            let place = format!("[[character]] \"{}\"", c.name);
+            let place = &c.place;
             let id = world
                 .add_ragdoll(&c.character, &c.spec, c.placement())
-                .map_err(|e| self.error(c.line, &place, e))?;
+                .map_err(|e| self.error(c.line, place, e))?;
             if c.clip_offset_s > 0.0 {
                 world
                     .set_clip_offset(id, c.clip_offset_s)
-                    .map_err(|e| self.error(c.line, &place, e))?;
+                    .map_err(|e| self.error(c.line, place, e))?;
             }
             world
                 .set_activation(id, c.activation)
-                .map_err(|e| self.error(c.line, &place, e))?;
+                .map_err(|e| self.error(c.line, place, e))?;
             if let Some(motors) = &c.motors {
                 world
                     .set_motors(id, motors.clone())
-                    .map_err(|e| self.error(c.line, &place, e))?;
+                    .map_err(|e| self.error(c.line, place, e))?;
             }
             ids.push(id);
         }

@@ -344,9 +344,9 @@ fn check_size(src: &Src, raw: &RawScene, scene: &Scene) -> Result<()> {
             return Err(src.err_line(
                 c.line,
                 format!(
-                    "[[character]] \"{}\": the scene's characters would have {bodies} bodies, \
-                     more than the {MAX_SCENE_BODIES} a scene may hold",
-                    c.name
+                    "{}: the scene's characters would have {bodies} bodies, more than the \
+                     {MAX_SCENE_BODIES} a scene may hold",
+                    c.place
                 ),
             ));
         }
@@ -418,8 +418,8 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Scene> {
         return Err(src.err_line(
             c.line,
             format!(
-                "[[character]] \"{}\": activate: \"blast\" needs a [[blast]] in the scene",
-                c.name
+                "{}: activate: \"blast\" needs a [[blast]] in the scene",
+                c.place
             ),
         ));
     }
