@@ -15,6 +15,7 @@ mod forces;
 mod motors;
 mod overlap;
 mod playback;
+mod projectile;
 mod record;
 mod start;
 
@@ -595,84 +596,6 @@ impl World {
             .iter()
             .map(|s| (s.linvel, s.angvel))
             .collect()
-    }
-
-    /// Adds a projectile; it hits at its time    /// Adds a projectile; it hits at its time (see [`Projectile`]).
-    pub fn add_projectile(&mut self, projectile: Projectile) -> Result<()> {
-        projectile.validate()?;
-        if !within_world(projectile.origin) {
-            return Err(beyond_world(
-                "from",
-                "the projectile's origin",
-                projectile.origin,
-            ));
-        }
-        self.projectiles.push((projectile, None));
-        Ok(())
-    }
-
-    /// What every projectile fired so far hit.
-    pub fn projectile_reports(&self) -> Vec<ProjectileReport> {
-        self.projectiles
-            .iter()
-            .filter_map(|(_, r)| r.clone())
-            .collect()
-    }
-
-    /// Fires the projectiles whose time has come by `t1`.
-    fn fire_projectiles(&mut self, t1: f64) {
-        /// Projectiles fly at most this far, metres.
-        const RANGE_M: f32 = 1.0e4;
-        for k in 0..self.projectiles.len() {
-            let (p, done) = &self.projectiles[k];
-            let t = p.time_s as f64;
-            if done.is_some() || t >= t1 {
-                continue;
-            }
-            let p = *p;
-            let dir = p.direction.normalize();
-            let momentum = p.mass_kg * p.speed_mps;
-            let mut report = ProjectileReport {
-                time_s: p.time_s,
-                origin: p.origin.to_array(),
-                character: None,
-                body: None,
-                point: None,
-                impulse_ns: 0.0,
-            };
-            if let Some((body, dist)) = self.backend.cast_ray(p.origin, dir, RANGE_M) {
-                let point = p.origin + dir * dist;
-                // A character waiting for contact is handed over before the hit lands (a
-                // clip-driven body would not feel it).
-                let owner = self
-                    .instances
-                    .iter()
-                    .position(|i| (i.first_body..i.first_body + i.shapes.len()).contains(&body));
-                if let Some(c) = owner
-                    && !self.instances[c].active
-                    && self.instances[c].activation == Activation::OnContact
-                {
-                    let h = self.settings.dt as f64 / self.outer_steps() as f64;
-                    self.hand_over(c, t1, h);
-                }
-                self.impulses.push(BodyImpulse::AtPoint {
-                    body,
-                    impulse: dir * momentum,
-                    point,
-                });
-                if let Some((c, inst)) =
-                    self.instances.iter().enumerate().find(|(_, i)| {
-                        (i.first_body..i.first_body + i.shapes.len()).contains(&body)
-                    })
-                {
-                    report.character = Some(c);
-                    report.body = Some(inst.body_names[body - inst.first_body].clone());
-                }
-                report.point = Some(point.to_array());
-                report.impulse_ns = momentum;
-            }
-            self.projectiles[k].1 = Some(report);
-        }
     }
 
     /// Simulated time so far, seconds.
