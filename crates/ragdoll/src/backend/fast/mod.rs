@@ -27,6 +27,7 @@
 //! nothing) until something touches or pushes it (`sleep.rs`).
 
 mod body;
+mod box_capsule;
 mod contact;
 mod island;
 mod sleep;
