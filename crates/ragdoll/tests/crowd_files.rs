@@ -189,7 +189,7 @@ fn file_weight_and_offset_mistakes_name_the_line_and_the_key() {
         ),
         (
             "[[crowd]]\ncount = 2\nfiles = [\"nowhere.bvh\"]\n",
-            "line 3: [[crowd]] 1: file: ",
+            "line 3: [[crowd]] 1: files: ",
         ),
         (
             "[[character]]\nfile = \"walk.bvh\"\nclip_offset_s = 0.5\n",

@@ -117,6 +117,7 @@ fn members(c: &Ctx, table: &S<RawCrowd>, index: usize) -> Result<Vec<S<RawCharac
                 clip: r.clip.clone(),
                 clip_offset_s,
                 roles: None,
+                file_key: if s.files.is_some() { "files" } else { "file" },
             },
         ));
     }

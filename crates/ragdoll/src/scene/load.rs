@@ -79,7 +79,7 @@ impl Files {
             let bytes = character_bytes(&ch);
             return Ok((ch, "built-in".to_string(), bytes));
         };
-        let path = regular_file(c, f, dir, "file")?;
+        let path = regular_file(c, f, dir, r.file_key)?;
         let key = (path, opts);
         if let Some((_, ch, bytes)) = self.characters.iter().find(|(k, _, _)| *k == key) {
             return Ok((ch.clone(), f.get_ref().clone(), *bytes));
@@ -122,7 +122,7 @@ fn import_error(c: &Ctx, r: &RawCharacter, f: &S<String>, e: Error) -> Error {
             "clip",
             format!("{}: {place}: {message}", f.get_ref()),
         ),
-        (e, _, _) => c.err(&f.span(), "file", e),
+        (e, _, _) => c.err(&f.span(), r.file_key, e),
     }
 }
 

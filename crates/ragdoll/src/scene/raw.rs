@@ -71,6 +71,14 @@ pub(super) struct RawCharacter {
     pub(super) clip: Option<S<ClipValue>>,
     pub(super) clip_offset_s: Option<S<f32>>,
     pub(super) roles: Option<S<String>>,
+    /// The key `file` came from, for errors: `file`, or `files` for a crowd's member drawn
+    /// from its list.
+    #[serde(skip, default = "file_key")]
+    pub(super) file_key: &'static str,
+}
+
+fn file_key() -> &'static str {
+    "file"
 }
 
 /// `[[crowd]]`: many characters from one description (see `crowd.rs`).
