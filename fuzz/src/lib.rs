@@ -12,6 +12,10 @@ use ragdoll::world::{BackendKind, World, WorldSettings};
 /// to see the bodies, few enough to keep a run in milliseconds.
 pub const WORLD_STEPS: usize = 8;
 
+/// Most characters a scene target runs through the world: the example crowd's hundred fit
+/// the time a fuzz input may take; larger scenes are parsed but not run.
+pub const MAX_WORLD_CHARACTERS: usize = 128;
+
 /// An empty folder (on tmpfs where there is one): the importers and the scene parser
 /// resolve relative file names against the input's folder, so an input that names a file
 /// next to itself finds nothing rather than a file of the repository. Nothing is ever
