@@ -206,7 +206,7 @@ fn print_row(r: &Row, backend: &str, steps: usize) {
         None => "CPU time unknown".into(),
     };
     outln!(
-        "pile  {backend:<8} N={:<5} threads={:<2} {:>9.0} ragdoll-steps/s ({:.2} s wall)  {cpu}  stable={}  limit {:.1}° (solver {:.1}°)  penetration {:.1} mm  separation {:.1} mm",
+        "pile  {backend:<8} N={:<5} threads={:<2} {:>9.0} ragdoll-steps/s ({:.2} s wall)  {cpu}  stable={}  limit {:.1}° (solver {:.1}°)  penetration {:.1} mm  separation {:.1} mm  energy gain {:.2} % (most in a frame)",
         r.ragdolls,
         r.threads,
         r.per_second(steps, r.seconds),
@@ -216,6 +216,7 @@ fn print_row(r: &Row, backend: &str, steps: usize) {
         m.max_limit_violation_solver_deg,
         m.max_penetration_m * 1000.0,
         m.max_joint_separation_m * 1000.0,
+        m.energy_drift * 100.0,
     );
 }
 
