@@ -130,6 +130,24 @@ pub enum BodyImpulse {
     },
 }
 
+impl BodyImpulse {
+    /// The equal and opposite angular impulses a joint's torque gives its child and its
+    /// parent (global indices): what motors and damping applied from outside the solver
+    /// give.
+    pub(crate) fn joint_pair(child: usize, parent: usize, impulse: Vec3) -> [BodyImpulse; 2] {
+        [
+            BodyImpulse::Angular {
+                body: child,
+                impulse,
+            },
+            BodyImpulse::Angular {
+                body: parent,
+                impulse: -impulse,
+            },
+        ]
+    }
+}
+
 /// What an engine does for the [`World`](crate::world::World).
 ///
 /// Bodies and joints have global indices in the order they were added (a ragdoll's

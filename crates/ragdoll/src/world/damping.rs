@@ -53,14 +53,11 @@ impl World {
                 let inertia = effective_inertia(about(j.child), Some(about(j.parent)));
                 let impulse: Vec3 = -relative * (share * inertia);
                 if impulse.is_finite() {
-                    self.impulses.push(BodyImpulse::Angular {
-                        body: base + j.child,
+                    self.impulses.extend(BodyImpulse::joint_pair(
+                        base + j.child,
+                        base + j.parent,
                         impulse,
-                    });
-                    self.impulses.push(BodyImpulse::Angular {
-                        body: base + j.parent,
-                        impulse: -impulse,
-                    });
+                    ));
                 }
             }
         }

@@ -341,14 +341,11 @@ impl World {
                 );
                 let impulse = accel * inertia * h;
                 if impulse.is_finite() {
-                    self.impulses.push(BodyImpulse::Angular {
-                        body: base + j.child,
+                    self.impulses.extend(BodyImpulse::joint_pair(
+                        base + j.child,
+                        base + j.parent,
                         impulse,
-                    });
-                    self.impulses.push(BodyImpulse::Angular {
-                        body: base + j.parent,
-                        impulse: -impulse,
-                    });
+                    ));
                 }
             }
         }
