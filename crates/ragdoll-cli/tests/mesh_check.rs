@@ -33,6 +33,8 @@ const PASSING: &[&str] = &[
     "rigs/godot_mannequiny.glb",
     "rigs/kaykit_knight.glb",
     "rigs/quaternius_um_orc_ikfeet.gltf",
+    // A creature whose bodies hold their skin.
+    "rigs/webxr_generic_hand_left.glb",
 ];
 
 /// The data files that do not meet the targets yet, with what is wrong (issue 11's next
@@ -44,12 +46,13 @@ const FAILING: &[&str] = &[
     "gltf/CesiumMan.glb",            // p99 1.75
     "rigs/godot_robi_ik.glb",        // p99 1.95
     "rigs/threevrm_sphere_vrm0.vrm", // p99 2.10 (a 1 m sphere skinned to a humanoid)
-    // Creatures keep capsules fitted to 65 % of their skin (see CHAIN_RADIUS_PERCENTILE).
-    "gltf/Fox.glb",                     // p99 2.13 (centimetres in a metres format)
-    "rigs/webxr_generic_hand_left.glb", // sinks 11.5 % of its 0.21 m on the way down
-    // Rigged automatically (weights by distance, not volume): spikes and sinking.
-    "mesh/stanford_dragon_13k.obj", // sinks 27 %, p99 3.81, max 27.7×
-    "mesh/stanford_dragon_1k7.obj", // sinks 36 %, p99 3.03, max 6.7×
+    // A creature whose bodies hold their skin: it no longer sinks (lowest -0.1 %), but its
+    // weights stretch edges where legs meet the body.
+    "gltf/Fox.glb", // p99 2.05 (centimetres in a metres format)
+    // Rigged automatically (bone heat weights); bodies hold the skin whose weight is
+    // mostly theirs, but skin spread over three or four bones is held by none.
+    "mesh/stanford_dragon_13k.obj", // sinks 9.3 % while landing (rests 0.2 %), p99 1.47
+    "mesh/stanford_dragon_1k7.obj", // rests 3.2 % of its height above the floor (boxes)
 ];
 
 /// How a case's baked glTF is made.

@@ -257,8 +257,8 @@ fn body_fit_bodies_reach_as_far_as_the_skin_and_not_much_farther() {
 #[ignore = "needs ../shared/data"]
 fn body_fit_every_data_rig_holds_its_skin() {
     // Every skinned humanoid of the data folder (glTF and VRM): each body holds the skin
-    // it carries, within 1 % of the character's height. (Creatures keep capsules fitted to
-    // most of their skin: see `CHAIN_RADIUS_PERCENTILE` in spec/build/shapes.rs.)
+    // it carries, within 1 % of the character's height. (Creatures' bodies are fitted the
+    // same way: see `Builder::chain_plan` in spec/build/shapes.rs.)
     let data = common::shared_data();
     let mut files = Vec::new();
     for folder in ["gltf", "rigs"] {

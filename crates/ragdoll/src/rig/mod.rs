@@ -28,13 +28,21 @@
 //! 5. **Rest rotations**: each joint's Y axis runs along its bone (to the next joint, or
 //!    to its tip), X toward the body's left, as in glTF and Blender rigs.
 //!
-//! Skin weights come from [`auto_weights`].
+//! Skin weights come from [`heat_weights`] (bone heat: they follow the body's volume),
+//! which falls back to [`auto_weights`] (straight-line distance) where heat cannot be
+//! solved.
 
 mod centre_line;
+mod cg;
+mod heat;
+mod visibility;
 mod weights;
 
 use glam::{Quat, Vec3};
 
+pub use heat::{
+    MAX_HEAT_TRIANGLES, MAX_HEAT_VERTICES, MAX_HEAT_WORK, NoHeat, heat_weights, try_heat_weights,
+};
 pub use weights::auto_weights;
 use weights::distance_squared_to_segment;
 
@@ -124,7 +132,8 @@ impl Default for RigOptions {
 }
 
 /// Builds a skeleton for `meshes` (world space, metres, Y up) and skins them to it: their
-/// `joints` and `weights` are overwritten with [`auto_weights`].
+/// `joints` and `weights` are overwritten with [`heat_weights`], solved over all the
+/// meshes together (a character split into meshes along a seam stays joined there).
 ///
 /// Fails with [`Error::Setting`] on options that cannot be met (a joint count out of
 /// range, a landmark vertex that does not exist, a mirrored branch on the symmetry plane)
@@ -148,10 +157,24 @@ impl Default for RigOptions {
 /// ```
 pub fn rig(meshes: &mut [SkinnedMesh], opts: &RigOptions) -> Result<Skeleton> {
     let skeleton = build_skeleton(meshes, opts)?;
-    for m in meshes.iter_mut() {
-        let (joints, weights) = auto_weights(&skeleton, &m.positions);
-        m.joints = joints;
-        m.weights = weights;
+    let mut positions = Vec::new();
+    let mut indices = Vec::new();
+    for m in meshes.iter() {
+        let base = positions.len() as u32;
+        // An index past its own mesh must not name the next mesh's vertex.
+        let own = m.positions.len() as u32;
+        indices.extend(
+            m.indices
+                .iter()
+                .map(|&i| if i < own { base + i } else { u32::MAX }),
+        );
+        positions.extend_from_slice(&m.positions);
+    }
+    let (mut joints, mut weights) = heat_weights(&skeleton, &positions, &indices);
+    for m in meshes.iter_mut().rev() {
+        let at = joints.len() - m.positions.len();
+        m.weights = weights.split_off(at);
+        m.joints = joints.split_off(at);
     }
     Ok(skeleton)
 }

@@ -1,5 +1,7 @@
 //! Masses: de Leva's segment fractions for humanoids, volume × density for anything
-//! else, then stabilised so no jointed pair is too unequal for an iterative solver.
+//! else (the volume its skin encloses where it is closed, shared among the bodies as
+//! their shapes' volumes are), then stabilised so no jointed pair is too unequal for an
+//! iterative solver.
 
 use super::{Builder, Plan};
 use crate::spec::Role;
@@ -13,19 +15,25 @@ use crate::spec::anthropometry::*;
 pub(super) const MAX_LINKED_MASS_RATIO: f32 = 5.0;
 
 impl Builder<'_> {
-    pub(super) fn masses(&self, plans: &[Plan], parents: &[usize]) -> Vec<f32> {
+    /// Each body's mass. `enclosed_m3`: the volume the character's skin encloses, where it
+    /// is closed ([`super::volume::enclosed_volume_m3`]).
+    pub(super) fn masses(
+        &self,
+        plans: &[Plan],
+        parents: &[usize],
+        enclosed_m3: Option<f32>,
+    ) -> Vec<f32> {
         let mut m: Vec<f32> = if self.roles.humanoid {
             let total = self.opts.total_mass_kg.unwrap_or(DEFAULT_HUMANOID_MASS_KG);
             self.humanoid_masses(plans, total)
         } else {
             let volumes: Vec<f32> = plans.iter().map(|p| p.shape.volume()).collect();
-            match self.opts.total_mass_kg {
-                Some(total) => {
-                    let v: f32 = volumes.iter().sum();
-                    volumes.iter().map(|x| total * x / v).collect()
-                }
-                None => volumes.iter().map(|x| x * BODY_DENSITY_KG_M3).collect(),
-            }
+            let v: f32 = volumes.iter().sum();
+            let total = match self.opts.total_mass_kg {
+                Some(total) => total,
+                None => enclosed_m3.unwrap_or(v) * BODY_DENSITY_KG_M3,
+            };
+            volumes.iter().map(|x| total * x / v).collect()
         };
         let total = match (self.roles.humanoid, self.opts.total_mass_kg) {
             (_, Some(t)) => t,

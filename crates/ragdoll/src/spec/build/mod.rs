@@ -21,6 +21,7 @@ mod order;
 mod shapes;
 #[cfg(test)]
 mod tests;
+mod volume;
 
 use std::collections::HashSet;
 
@@ -39,8 +40,9 @@ use order::{parent_body, parent_first};
 /// weighed by its volume).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct BuildOptions {
-    /// Total mass, kg. `None`: 75 kg for a humanoid (DESIGN §3), shape volume × 1000 kg/m³
-    /// for anything else (so a creature's mass follows its size).
+    /// Total mass, kg. `None`: 75 kg for a humanoid (DESIGN §3), volume × 1000 kg/m³ for
+    /// anything else (so a creature's mass follows its size): the volume its skin encloses
+    /// where the skin is closed, else its bodies' shapes'.
     pub total_mass_kg: Option<f32>,
     /// Use de Leva's female segment fractions (more mass in the hips and legs) instead of
     /// the male ones.
@@ -197,7 +199,8 @@ impl<'a> Builder<'a> {
                 .unwrap_or_else(|| self.rig.parent(plans[b].joint).map_or(0, |p| self.owner[p])),
             })
             .collect();
-        let masses = self.masses(&plans, &parents);
+        let enclosed = volume::enclosed_volume_m3(&character.meshes);
+        let masses = self.masses(&plans, &parents, enclosed);
 
         let mut names: Vec<String> = Vec::new();
         let mut taken = HashSet::new();

@@ -49,22 +49,13 @@ const MAX_TRUNK_SIZE_H: f32 = 1.0;
 const MIN_TRUNK_HEIGHT_H: f32 = 0.04;
 /// Chest length when nothing lies above it (no neck, no head joint).
 const CHEST_LENGTH_H: f32 = 0.15;
-/// Radius of a non-humanoid link without skin, as a fraction of its length (a tapering
+/// Radius of a non-humanoid link without skin to measure, as a fraction of its length (a tapering
 /// tail or leg is about a fifth as thick as long)...
 const CHAIN_RADIUS_OF_LENGTH: f32 = 0.15;
 /// ...but at least this fraction of the skeleton's extent, so stubby links stay solid.
 const CHAIN_MIN_RADIUS_EXTENT: f32 = 0.01;
 /// Length of a link whose bone has none (all joints in one place): fraction of extent.
 const DEGENERATE_LENGTH_EXTENT: f32 = 0.05;
-/// A creature link's capsule radius: this percentile of the distance to the bone of the
-/// skin alongside it, within [`CHAIN_RADIUS_RANGE`] of the extent, its round ends stopping
-/// at the joints. Creatures do not get the humanoids' skin-holding shapes yet: with them,
-/// the automatically rigged dragons became chains of balls and boxes as thick as they are
-/// long that fought their joint limits on the floor and never came to rest (still moving
-/// at 0.01-0.3 m/s after 14 s on both backends, where these settle within 7 s).
-const CHAIN_RADIUS_PERCENTILE: f32 = 0.65;
-/// See [`CHAIN_RADIUS_PERCENTILE`].
-const CHAIN_RADIUS_RANGE: [f32; 2] = [0.004, 0.12];
 
 impl Builder<'_> {
     pub(super) fn plan(&self, b: usize) -> Plan {
@@ -460,8 +451,11 @@ impl Builder<'_> {
         }
     }
 
-    /// A non-humanoid link: a capsule along its bone, or along its skin when the bone has
-    /// no length (every joint in one place, as in SimpleSkin's rest pose).
+    /// A non-humanoid link: a body along its bone, or along its skin when the bone has no
+    /// length (every joint in one place, as in SimpleSkin's rest pose), holding its skin as
+    /// a humanoid's limbs do ([`Builder::capsule_plan`]): a creature lying on its side rests
+    /// on the shape around the skin it carries, so the skin neither sinks into the floor
+    /// nor floats above it.
     fn chain_plan(&self, j: usize, name: String, group: &[Vec3]) -> Plan {
         let rig = self.rig;
         let a = rig.pos[j];
@@ -492,51 +486,9 @@ impl Builder<'_> {
             }
         };
         let len = end.distance(start);
-        let radius = chain_radius(start, end, group, rig.extent)
-            .unwrap_or((CHAIN_RADIUS_OF_LENGTH * len).max(CHAIN_MIN_RADIUS_EXTENT * rig.extent));
-        let u = (end - start).normalize_or(Vec3::Y);
-        let x = perpendicular_part(self.left, u)
-            .or_else(|| perpendicular_part(Vec3::Z, u))
-            .unwrap_or_else(|| u.any_orthonormal_vector());
-        Plan {
-            joint: j,
-            role: Role::Chain,
-            name,
-            start,
-            end,
-            shape: Shape::Capsule {
-                radius_m: radius,
-                length_m: (len - 2.0 * CAPSULE_END_INSET_RADII * radius).max(0.0),
-            },
-            centre: 0.5 * (start + end),
-            rotation: quat_from_cols(x, u, x.cross(u)),
-        }
+        let radius = (CHAIN_RADIUS_OF_LENGTH * len).max(CHAIN_MIN_RADIUS_EXTENT * rig.extent);
+        self.capsule_plan(j, Role::Chain, name, start, end, radius, group)
     }
-}
-
-/// A creature link's radius from the skin alongside its bone `a → b`
-/// ([`CHAIN_RADIUS_PERCENTILE`]); `None` with too little skin there to measure.
-fn chain_radius(a: Vec3, b: Vec3, group: &[Vec3], extent: f32) -> Option<f32> {
-    let axis = b - a;
-    let len2 = axis.length_squared();
-    if len2 < 1e-12 {
-        return None;
-    }
-    let d: Vec<f32> = group
-        .iter()
-        .filter_map(|v| {
-            let t = (*v - a).dot(axis) / len2;
-            (0.0..=1.0)
-                .contains(&t)
-                .then(|| (*v - (a + axis * t)).length())
-        })
-        .collect();
-    (d.len() >= MIN_FIT_VERTICES).then(|| {
-        percentile(d, CHAIN_RADIUS_PERCENTILE).clamp(
-            CHAIN_RADIUS_RANGE[0] * extent,
-            CHAIN_RADIUS_RANGE[1] * extent,
-        )
-    })
 }
 
 fn quat_from_cols(x: Vec3, y: Vec3, z: Vec3) -> Quat {
