@@ -33,8 +33,10 @@ const PASSING: &[&str] = &[
     "rigs/godot_mannequiny.glb",
     "rigs/kaykit_knight.glb",
     "rigs/quaternius_um_orc_ikfeet.gltf",
-    // A creature whose bodies hold their skin.
+    // Creatures whose bodies hold their skin.
     "rigs/webxr_generic_hand_left.glb",
+    // Rigged automatically (bone heat weights), bodies holding their skin.
+    "mesh/stanford_dragon_1k7.obj",
 ];
 
 /// The data files that do not meet the targets yet, with what is wrong (issue 11's next
@@ -47,12 +49,12 @@ const FAILING: &[&str] = &[
     "rigs/godot_robi_ik.glb",        // p99 1.95
     "rigs/threevrm_sphere_vrm0.vrm", // p99 2.10 (a 1 m sphere skinned to a humanoid)
     // A creature whose bodies hold their skin: it no longer sinks (lowest -0.1 %), but its
-    // weights stretch edges where legs meet the body.
-    "gltf/Fox.glb", // p99 2.05 (centimetres in a metres format)
+    // weights stretch edges at the hips, spine and neck as it lands (its hind legs are
+    // hinges: with cones there it landed otherwise and read 2.05).
+    "gltf/Fox.glb", // p99 2.53 (centimetres in a metres format)
     // Rigged automatically (bone heat weights); bodies hold the skin whose weight is
     // mostly theirs, but skin spread over three or four bones is held by none.
-    "mesh/stanford_dragon_13k.obj", // sinks 9.3 % while landing (rests 0.2 %), p99 1.47
-    "mesh/stanford_dragon_1k7.obj", // rests 3.2 % of its height above the floor (boxes)
+    "mesh/stanford_dragon_13k.obj", // sinks 8.0 % while landing (rests 0.1 %), p99 1.41
 ];
 
 /// How a case's baked glTF is made.

@@ -198,6 +198,42 @@ pub const CHEST_WIDTH_H: f32 = 0.18;
 /// Chest depth, see [`PELVIS_WIDTH_H`].
 pub const CHEST_DEPTH_H: f32 = 0.12;
 
+// Creatures (non-humanoids): joints read from the rest pose's geometry, not from names.
+
+/// Flexion range of a creature's limb hinge (knee, elbow, hock), `[min, max]` from
+/// straight. Goniometry of Labrador Retrievers (Jaegger, Marcellin-Little & Levine 2002,
+/// Am. J. Vet. Res. 63(7):979) puts the stifle, elbow and hock between about 40° (fully
+/// flexed) and 162–165° (extended) joint angle: about 140° of flexion from straight and
+/// none past it; the carpus, the one that extends past straight, reaches 196°, so 10° of
+/// hyperextension is allowed.
+pub const CREATURE_LIMB_FLEXION_DEG: [f32; 2] = [-10.0, 140.0];
+/// How much further than its rest pose a creature's limb hinge flexes, degrees, within
+/// [`CREATURE_LIMB_FLEXION_DEG`]. A game creature's skin is weighted for the poses its
+/// animations use; bent 97° past rest, the Fox's hind legs stretched its mesh's
+/// 99th-percentile edge from 2.27× to 3.15× (`mesh_check`), where the 45° cones before
+/// them stretched none of it further.
+pub const CREATURE_SKIN_FLEXION_DEG: f32 = 45.0;
+/// A limb joint is a hinge only when its rest pose bends at least this much: a straight
+/// leg does not say which way it bends, and keeps a cone.
+pub const CREATURE_MIN_HINGE_BEND_DEG: f32 = 10.0;
+/// A limb bone points at least this far below horizontal, degrees: what tells a leg from a
+/// spine or tail bone.
+pub const CREATURE_LIMB_DOWN_DEG: f32 = 30.0;
+/// A leg reaches within this fraction of the standing height of the ground.
+pub const CREATURE_GROUND_BAND_H: f32 = 0.1;
+/// Joints followed down a limb looking for the ground: legs have a handful.
+pub const CREATURE_MAX_LIMB_LINKS: usize = 8;
+/// Total swing an unbranched chain (spine, tail, snake, fish) may bend through, degrees,
+/// shared among its links: one full loop, the curl of a sleeping fox's tail or a resting
+/// snake's coil. A design bound, not a measured range: 45° per link lets a 20-link snake
+/// fold 855° and tie itself in knots when it falls.
+pub const CREATURE_CHAIN_TOTAL_BEND_DEG: f32 = 360.0;
+/// Smallest cone any chain link gets, so very long chains still bend.
+pub const CREATURE_MIN_SWING_DEG: f32 = 3.0;
+/// Links counted each way along a chain: past `CREATURE_CHAIN_TOTAL_BEND_DEG /
+/// CREATURE_MIN_SWING_DEG` every link gets the smallest cone anyway.
+pub const CREATURE_MAX_RUN_LINKS: usize = 120;
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -83,14 +83,84 @@ impl Builder<'_> {
                 NECK_SWING_DEG + HEAD_SWING_DEG,
                 add(NECK_TWIST_DEG, HEAD_TWIST_DEG),
             ),
-            Pelvis | Chain => swing_twist(
-                d,
-                &[up, f, self.left],
-                None,
-                CHAIN_SWING_DEG,
-                CHAIN_TWIST_DEG,
-            ),
+            Pelvis | Chain => self.creature_joint(child, parent),
         }
+    }
+
+    /// A joint of a creature, read from the geometry rather than the names: the middle
+    /// joint of a leg (its bone and its parent both in a limb that reaches down to the
+    /// ground, bent at rest) is a hinge in the plane of that bend, flexing further the way
+    /// the rest pose bends and barely past straight the other way, as a dog's stifle,
+    /// elbow and hock do; links of a long unbranched chain (a spine, tail, snake or fish)
+    /// share one total bend, so twenty links curl no further than three; anything else
+    /// is a modest swing-twist cone.
+    fn creature_joint(&self, child: &Plan, parent: &Plan) -> (Quat, JointKind) {
+        let (d, dp) = (child.dir(), parent.dir());
+        let down = -CREATURE_LIMB_DOWN_DEG.to_radians().sin();
+        let bend = dp.angle_between(d).to_degrees();
+        let limb = dp.y <= down
+            && self.joints.first() != Some(&parent.joint)
+            && (CREATURE_MIN_HINGE_BEND_DEG..=180.0 - CREATURE_MIN_HINGE_BEND_DEG).contains(&bend)
+            && self.reach_down(child.joint) <= self.rig.ground + CREATURE_GROUND_BAND_H * self.h;
+        if limb && let Some(away) = perpendicular_part(-dp, d) {
+            let [lo, hi] = CREATURE_LIMB_FLEXION_DEG;
+            let range = [lo, hi.min(bend + CREATURE_SKIN_FLEXION_DEG)];
+            return self.hinge(d, dp, away, Vec3::Y, range);
+        }
+        let scale =
+            (CREATURE_CHAIN_TOTAL_BEND_DEG / self.run_links(child.joint) as f32 / CHAIN_SWING_DEG)
+                .clamp(CREATURE_MIN_SWING_DEG / CHAIN_SWING_DEG, 1.0);
+        swing_twist(
+            d,
+            &[Vec3::Y, self.forward, self.left],
+            None,
+            CHAIN_SWING_DEG * scale,
+            CHAIN_TWIST_DEG.map(|t| t * scale),
+        )
+    }
+
+    /// The lowest point (Y) of the limb below joint `j`, following its lowest child at
+    /// each joint for at most [`CREATURE_MAX_LIMB_LINKS`] joints: a leg, not the whole
+    /// subtree, and a bounded walk however deep the skeleton.
+    fn reach_down(&self, j: usize) -> f32 {
+        let mut at = j;
+        let mut lowest = self.rig.pos[j].y;
+        for _ in 0..CREATURE_MAX_LIMB_LINKS {
+            if let Some(t) = self.rig.tips[at] {
+                lowest = lowest.min(t.y);
+            }
+            let next = self.rig.children[at]
+                .iter()
+                .copied()
+                .min_by(|&a, &b| self.rig.pos[a].y.total_cmp(&self.rig.pos[b].y));
+            let Some(n) = next else { break };
+            lowest = lowest.min(self.rig.pos[n].y);
+            at = n;
+        }
+        lowest
+    }
+
+    /// How many links the unbranched run of joints through `j` has (joints with one
+    /// child each), counted at most [`CREATURE_MAX_RUN_LINKS`] each way: past that every
+    /// link already gets the smallest cone.
+    fn run_links(&self, j: usize) -> usize {
+        let children = &self.rig.children;
+        let mut n = 1;
+        let mut at = j;
+        while n < CREATURE_MAX_RUN_LINKS
+            && let Some(p) = self.rig.skeleton.parent(at)
+            && children[p].len() == 1
+        {
+            n += 1;
+            at = p;
+        }
+        let mut at = j;
+        let mut down = 0;
+        while down < CREATURE_MAX_RUN_LINKS && children[at].len() == 1 {
+            down += 1;
+            at = children[at][0];
+        }
+        n + down
     }
 
     /// A hinge turning the bone `d` toward `flex` for positive angles: X = d × flex. The
