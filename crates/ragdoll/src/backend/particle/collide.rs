@@ -1,6 +1,7 @@
-//! Capsule collision for the particle backend: a hierarchical hash grid for candidate
-//! pairs ([`BroadPhase`]), contacts against the ground and between capsules solved on the
-//! particles, ray casts against the bodies' own shapes.
+//! Collision for the particle backend: a hierarchical hash grid for candidate pairs
+//! ([`BroadPhase`]), contacts against the ground (a box by its corners) and between bodies
+//! (each as a capsule, a box as the one inside it) solved on the particles, ray casts
+//! against the bodies' own shapes.
 
 use glam::Vec3;
 
@@ -16,6 +17,14 @@ const BROAD_MARGIN_M: f32 = 0.01;
 /// Mass scaling of a supported body under another, per metre of height between their
 /// contact points: 10 cm apart, the lower one answers 20 times heavier.
 const SHOCK_PER_M: f32 = 30.0;
+
+/// The eight corners of a box of half extents `half` about its centre.
+fn box_corners(half: Vec3) -> [Vec3; 8] {
+    std::array::from_fn(|k| {
+        let sign = |bit: usize| if k & bit == 0 { -1.0 } else { 1.0 };
+        half * Vec3::new(sign(1), sign(2), sign(4))
+    })
+}
 
 /// Reusable buffers of the broad phase.
 #[derive(Default)]
@@ -118,43 +127,98 @@ impl ParticleBackend {
         }
     }
 
-    /// Capsule ends against the ground plane, each body answering as one rigid body, with
-    /// positional friction (static up to μ times the depth).
+    /// Each body against the ground plane, answering as one rigid body, with positional
+    /// friction (static up to μ times the depth): a capsule at its two ends, a box at its
+    /// eight corners. A box taken for the capsule its body contacts use (round across its
+    /// smaller edges) rolls on the floor where the rigid backend's box lies still.
     pub(super) fn solve_ground(&mut self) {
         let Some(ground) = self.settings.ground else {
             return;
         };
         for b in 0..self.bodies.len() {
-            let radius = self.bodies[b].radius;
-            let [e0, e1] = self.caps[b];
-            if e0.y.min(e1.y) - radius >= ground || self.bodies[b].kinematic {
+            if self.bodies[b].kinematic {
                 continue;
             }
-            for s in 0..2 {
-                let end = self.capsule_from_particles(b)[s];
-                let depth = ground + radius - end.y;
-                if depth <= 0.0 {
-                    continue;
+            let radius = self.bodies[b].radius;
+            let [e0, e1] = self.caps[b];
+            match self.bodies[b].shape {
+                Shape::Box { size_m } => {
+                    let half = 0.5 * Vec3::from_array(size_m);
+                    if 0.5 * (e0.y + e1.y) - half.length() >= ground {
+                        continue;
+                    }
+                    let mut now = self.frame_of(b, &self.x);
+                    let mut start = None;
+                    for corner in box_corners(half) {
+                        let p = now.0 + now.1 * corner;
+                        let depth = ground - p.y;
+                        if depth <= 0.0 {
+                            continue;
+                        }
+                        self.push_up(b, p, depth);
+                        now = self.frame_of(b, &self.x);
+                        let (pos0, rot0) =
+                            *start.get_or_insert_with(|| self.frame_of(b, &self.x_prev));
+                        let moved = now.0 + now.1 * corner - (pos0 + rot0 * corner);
+                        self.slide_friction(b, p, depth, moved);
+                        now = self.frame_of(b, &self.x);
+                    }
                 }
-                self.supported[b] = true;
-                let p = end - Vec3::Y * radius;
-                let (w, c, turn) = self.rigid_response(b, p, Vec3::Y);
-                let lambda = depth / w;
-                let inv_mass = self.bodies[b].inv_mass;
-                self.rigid_move(b, c, Vec3::Y * (lambda * inv_mass), turn * lambda);
-                let moved = self.axis_moved(b, s as f32);
-                let slide = Vec3::new(moved.x, 0.0, moved.z);
-                let len = slide.length();
-                if len > 1e-9 {
-                    let t = -slide / len;
-                    let amount = len.min(FRICTION * depth);
-                    let (wt, c, turn) = self.rigid_response(b, p, t);
-                    let lambda = amount / wt;
-                    self.rigid_move(b, c, t * (lambda * inv_mass), turn * lambda);
+                _ => {
+                    if e0.y.min(e1.y) - radius >= ground {
+                        continue;
+                    }
+                    for s in 0..2 {
+                        let end = self.capsule_from_particles(b)[s];
+                        let depth = ground + radius - end.y;
+                        if depth > 0.0 {
+                            let p = end - Vec3::Y * radius;
+                            self.push_up(b, p, depth);
+                            // A capsule's friction stops its axis point's slide.
+                            let moved = self.axis_moved(b, s as f32);
+                            self.slide_friction(b, p, depth, moved);
+                        }
+                    }
                 }
             }
             self.caps[b] = self.capsule_from_particles(b);
         }
+    }
+
+    /// The normal half of a ground contact: body `b` pushed up by `depth` at the world
+    /// point `p`, as one rigid body.
+    fn push_up(&mut self, b: usize, p: Vec3, depth: f32) {
+        self.supported[b] = true;
+        let (w, c, turn) = self.rigid_response(b, p, Vec3::Y);
+        let lambda = depth / w;
+        let inv_mass = self.bodies[b].inv_mass;
+        self.rigid_move(b, c, Vec3::Y * (lambda * inv_mass), turn * lambda);
+    }
+
+    /// The friction half of a ground contact at `p`: the horizontal part of `moved` (the
+    /// contact point's motion over the substep so far) taken back, up to μ times `depth`.
+    fn slide_friction(&mut self, b: usize, p: Vec3, depth: f32, moved: Vec3) {
+        let slide = Vec3::new(moved.x, 0.0, moved.z);
+        let len = slide.length();
+        if len > 1e-9 {
+            let t = -slide / len;
+            let amount = len.min(FRICTION * depth);
+            let (wt, c, turn) = self.rigid_response(b, p, t);
+            let lambda = amount / wt;
+            let inv_mass = self.bodies[b].inv_mass;
+            self.rigid_move(b, c, t * (lambda * inv_mass), turn * lambda);
+        }
+    }
+
+    /// Body `b`'s frame from its three frame particles in `x` (`self.x` now, or
+    /// `self.x_prev` at the substep's start). From the frame, not the affine weights: a
+    /// stick's particles lie in one plane, and a box's corner off it has no affine
+    /// combination of them.
+    fn frame_of(&self, b: usize, x: &[Vec3]) -> (Vec3, glam::Quat) {
+        let body = &self.bodies[b];
+        let [i0, i1, i2] = body.triad.map(|i| x[i as usize]);
+        let rot = (super::triad_frame(i0, i1, i2) * body.tri_inv).normalize();
+        (i0 - rot * body.tri_origin, rot)
     }
 
     /// Displacement of body `b`'s axis point at `t` (0: first capsule end, 1: second) over
@@ -247,7 +311,9 @@ impl ParticleBackend {
         }
     }
 
-    /// Deepest penetration now (ground, and candidate pairs), from the body frames.
+    /// Deepest penetration now (ground, and candidate pairs), from the body frames: a box
+    /// against the ground by its corners, against other bodies as the capsule those
+    /// contacts use.
     pub(super) fn measure_penetration(&self) -> f32 {
         let mut deepest = 0.0f32;
         for b in 0..self.bodies.len() {
@@ -255,8 +321,19 @@ impl ParticleBackend {
                 continue;
             }
             if let Some(g) = self.settings.ground {
-                let (e0, e1) = self.capsule_world(b);
-                deepest = deepest.max(g - (e0.y.min(e1.y) - self.bodies[b].radius));
+                let body = &self.bodies[b];
+                let lowest = match body.shape {
+                    // The box itself, as its ground contacts see it.
+                    Shape::Box { size_m } => box_corners(0.5 * Vec3::from_array(size_m))
+                        .iter()
+                        .map(|c| (body.pos + body.rot * *c).y)
+                        .fold(f32::INFINITY, f32::min),
+                    _ => {
+                        let (e0, e1) = self.capsule_world(b);
+                        e0.y.min(e1.y) - body.radius
+                    }
+                };
+                deepest = deepest.max(g - lowest);
             }
         }
         for &(a, b) in &self.pairs {

@@ -232,7 +232,7 @@ pub(crate) struct ParticleBackend {
 }
 
 /// The orthonormal frame of three points: X along `x1 − x0`, Y toward `x2` in their plane.
-fn triad_frame(x0: Vec3, x1: Vec3, x2: Vec3) -> Quat {
+pub(super) fn triad_frame(x0: Vec3, x1: Vec3, x2: Vec3) -> Quat {
     let u = (x1 - x0).normalize_or(Vec3::X);
     let v0 = x2 - x0;
     let v = (v0 - u * v0.dot(u)).normalize_or(u.any_orthonormal_vector());
