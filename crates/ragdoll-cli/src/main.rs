@@ -326,7 +326,7 @@ struct BuildArgs {
 struct SimulateArgs {
     /// A .bvh, .glb, .gltf, .vrm or .obj file, or a scene file (.toml; see the README's "Scene files").
     file: PathBuf,
-    /// Output file: .glb or .bvh. The report goes next to it as <stem>.report.json. For a
+    /// Output file: .glb or .bvh. The report goes next to it as STEM.report.json. For a
     /// scene file, the output folder (--seconds, --fps and --rest-pose then override the
     /// scene's settings).
     #[arg(short, long, value_name = "OUT.glb|OUT.bvh|DIR")]
@@ -365,7 +365,7 @@ struct BlastArgs {
     /// Artistic multiplier on the blast loads (1 = physical).
     #[arg(long, allow_negative_numbers = true, default_value_t = 1.0)]
     scale: f32,
-    /// Output file: .glb or .bvh. The report goes next to it as <stem>.report.json.
+    /// Output file: .glb or .bvh. The report goes next to it as STEM.report.json.
     #[arg(short, long, value_name = "OUT.glb|OUT.bvh")]
     output: PathBuf,
     #[command(flatten)]
@@ -402,7 +402,7 @@ struct ShootArgs {
     /// When it hits, seconds after the start.
     #[arg(long, allow_negative_numbers = true, default_value_t = 0.0)]
     time: f32,
-    /// Output file: .glb or .bvh. The report goes next to it as <stem>.report.json.
+    /// Output file: .glb or .bvh. The report goes next to it as STEM.report.json.
     #[arg(short, long, value_name = "OUT.glb|OUT.bvh")]
     output: PathBuf,
     #[command(flatten)]

@@ -125,7 +125,7 @@ pub fn stage_obj_sequence(
 #[derive(Args, Debug)]
 pub struct PreviewArgs {
     /// A .glb written by ragdoll (its animation "ragdoll" is the motion drawn). Blasts and
-    /// shots are marked when its report (<stem>.report.json) lies beside it.
+    /// shots are marked when its report (STEM.report.json) lies beside it.
     file: PathBuf,
     /// The picture: .png (one frame) or .gif (the animation).
     #[arg(short, long, value_name = "FILE.png|FILE.gif")]
