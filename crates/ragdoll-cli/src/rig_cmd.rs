@@ -140,6 +140,9 @@ pub fn run(a: &RigArgs) -> Result<()> {
     )
     .map_err(rig_flag_error)?;
     progress.finish();
+    for w in &character.warnings {
+        eprintln!("warning: {w}");
+    }
     if !matches!(character.source, Source::Mesh(_)) {
         bail!(
             "{}: already has a skeleton; `ragdoll rig` is for meshes without one (simulate it directly)",

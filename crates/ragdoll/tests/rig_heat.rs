@@ -343,3 +343,53 @@ fn the_stanford_dragons_take_heat_weights_that_change_smoothly_across_edges() {
         assert!(heat < dist, "{name}: heat {heat}, distance {dist}");
     }
 }
+
+/// A mesh rigged without triangles to spread heat on is still rigged, and the rig says
+/// its weights fell back to distance; a mesh with a surface says nothing. An OBJ imported
+/// so carries the fallback as a warning naming the file.
+#[test]
+fn rigging_reports_a_fallback_to_distance_weights() {
+    use ragdoll::rig::{RigOptions, rig_reporting};
+    use ragdoll::skeleton::SkinnedMesh;
+    let path: Vec<Vec3> = (0..=10)
+        .map(|i| Vec3::new(i as f32 * 0.1, 0.0, 0.0))
+        .collect();
+    let (positions, indices) = tube(&path, 0.05, 8, false);
+    let opts = RigOptions {
+        joints: 4,
+        ..Default::default()
+    };
+    let mesh = |indices: Vec<u32>| SkinnedMesh {
+        positions: positions.clone(),
+        indices,
+        ..Default::default()
+    };
+    let (_, why) = rig_reporting(&mut [mesh(indices.clone())], &opts).unwrap();
+    assert_eq!(why, None);
+    let mut cloud = [mesh(Vec::new())];
+    let (skeleton, why) = rig_reporting(&mut cloud, &opts).unwrap();
+    assert_eq!(why, Some(NoHeat::NoTriangles));
+    assert_eq!(skeleton.len(), 4);
+    assert_eq!(cloud[0].weights.len(), positions.len());
+
+    // The same tube as an OBJ whose faces all repeat a corner: no surface to spread on.
+    let mut obj = String::new();
+    for p in &positions {
+        obj += &format!("v {} {} {}\n", p.x, p.y, p.z);
+    }
+    for t in indices.chunks_exact(3) {
+        obj += &format!("f {} {} {}\n", t[0] + 1, t[0] + 1, t[1] + 1);
+    }
+    let file = std::env::temp_dir().join(format!("ragdoll-{}-flat.obj", std::process::id()));
+    std::fs::write(&file, obj).unwrap();
+    let loaded = ragdoll::import::load(&file, &Default::default());
+    let _ = std::fs::remove_file(&file);
+    let c = loaded.unwrap();
+    assert!(
+        c.warnings.iter().any(|w| w.contains("flat.obj")
+            && w.contains("straight-line distance")
+            && w.contains("no triangles")),
+        "{:?}",
+        c.warnings
+    );
+}

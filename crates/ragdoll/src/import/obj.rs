@@ -28,7 +28,7 @@ use glam::{Quat, Vec3};
 
 use super::{ImportOptions, UpAxis};
 use crate::error::{Error, Result};
-use crate::rig::{RigOptions, rig};
+use crate::rig::{RigOptions, rig_reporting};
 use crate::skeleton::{Character, SkinnedMesh, Source};
 
 /// Largest absolute coordinate a `v` or `vn` line may have, in file units: one million
@@ -64,7 +64,7 @@ pub(crate) fn rigged_character(
     rig_opts: &RigOptions,
     path: &Path,
 ) -> Result<Character> {
-    let skeleton = rig(&mut meshes, rig_opts).map_err(|e| match e {
+    let (skeleton, fallback) = rig_reporting(&mut meshes, rig_opts).map_err(|e| match e {
         Error::Skeleton { message, .. } => Error::Format {
             path: path.to_path_buf(),
             place: "mesh".into(),
@@ -72,9 +72,18 @@ pub(crate) fn rigged_character(
         },
         other => other,
     })?;
+    let warnings = fallback
+        .map(|why| {
+            format!(
+                "{}: skin weights follow straight-line distance, not the body (bone heat): {why}",
+                path.display()
+            )
+        })
+        .into_iter()
+        .collect();
     Ok(Character {
         humanoid_bones: Vec::new(),
-        warnings: Vec::new(),
+        warnings,
         name,
         skeleton,
         meshes,

@@ -156,6 +156,16 @@ impl Default for RigOptions {
 /// assert_eq!(meshes[0].weights.len(), 8);
 /// ```
 pub fn rig(meshes: &mut [SkinnedMesh], opts: &RigOptions) -> Result<Skeleton> {
+    rig_reporting(meshes, opts).map(|(skeleton, _)| skeleton)
+}
+
+/// [`rig`], also saying why the skin weights fell back to straight-line distance, when
+/// they did ([`NoHeat`]): a tool should tell its user the mesh was too large for bone heat
+/// rather than hand back weights that blend across the air without a word.
+pub fn rig_reporting(
+    meshes: &mut [SkinnedMesh],
+    opts: &RigOptions,
+) -> Result<(Skeleton, Option<NoHeat>)> {
     let skeleton = build_skeleton(meshes, opts)?;
     let mut positions = Vec::new();
     let mut indices = Vec::new();
@@ -170,13 +180,17 @@ pub fn rig(meshes: &mut [SkinnedMesh], opts: &RigOptions) -> Result<Skeleton> {
         );
         positions.extend_from_slice(&m.positions);
     }
-    let (mut joints, mut weights) = heat_weights(&skeleton, &positions, &indices);
+    let ((mut joints, mut weights), fallback) =
+        match try_heat_weights(&skeleton, &positions, &indices) {
+            Ok(w) => (w, None),
+            Err(why) => (auto_weights(&skeleton, &positions), Some(why)),
+        };
     for m in meshes.iter_mut().rev() {
         let at = joints.len() - m.positions.len();
         m.weights = weights.split_off(at);
         m.joints = joints.split_off(at);
     }
-    Ok(skeleton)
+    Ok((skeleton, fallback))
 }
 
 fn setting(setting: impl Into<String>, message: impl Into<String>) -> Error {
