@@ -3,9 +3,11 @@
 //! whatever way it faces; a long chain shares one total bend among its links and a
 //! 20-link snake falls and settles without tearing.
 
+mod common;
+
 use glam::{Quat, Vec3};
 use ragdoll::math::Transform;
-use ragdoll::skeleton::{Character, Joint, Skeleton, Source};
+use ragdoll::skeleton::{Character, Joint, Skeleton};
 use ragdoll::spec::{BuildOptions, JointKind, RagdollSpec, build_spec};
 use ragdoll::world::{World, WorldSettings};
 
@@ -24,15 +26,7 @@ fn character(name: &str, rows: &[(&str, Option<usize>, Vec3)]) -> Character {
             tip: None,
         })
         .collect();
-    Character {
-        name: name.into(),
-        skeleton: Skeleton::new(joints).unwrap(),
-        meshes: Vec::new(),
-        clips: Vec::new(),
-        humanoid_bones: Vec::new(),
-        warnings: Vec::new(),
-        source: Source::BuiltIn,
-    }
+    common::skeleton_character(name, joints)
 }
 
 /// A dog-like quadruped facing +Z: hind legs with the stifle bent forward and the hock

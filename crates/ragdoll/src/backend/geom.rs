@@ -129,6 +129,15 @@ pub(crate) fn nearest_hit(
         })
 }
 
+/// The eight corners of a box of half extents `half` about its centre, in its own frame
+/// (corner `k` takes +x, +y, +z where bits 0, 1, 2 of `k` are set).
+pub(crate) fn box_corners(half: Vec3) -> [Vec3; 8] {
+    std::array::from_fn(|k| {
+        let sign = |bit: usize| if k & bit == 0 { -1.0 } else { 1.0 };
+        half * Vec3::new(sign(1), sign(2), sign(4))
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -13,7 +13,7 @@ use super::box_capsule;
 use super::solve::turn_rate;
 use super::{FRICTION, FastBackend};
 use crate::backend::broad::BroadPhase;
-use crate::backend::geom::{nearest_hit, ray_shape};
+use crate::backend::geom::{box_corners, nearest_hit, ray_shape};
 use crate::spec::Shape;
 
 /// Closer than this counts as touching another ragdoll, metres (as the other backends).
@@ -252,13 +252,8 @@ impl FastBackend {
             }
             Shape::Box { size_m } => {
                 let half = Vec3::from_array(size_m) * 0.5;
-                for c in 0..8 {
-                    let s = Vec3::new(
-                        if c & 1 == 0 { -1.0 } else { 1.0 },
-                        if c & 2 == 0 { -1.0 } else { 1.0 },
-                        if c & 4 == 0 { -1.0 } else { 1.0 },
-                    );
-                    let pa = self.pos[i] + self.rot[i] * (half * s);
+                for corner in box_corners(half) {
+                    let pa = self.pos[i] + self.rot[i] * corner;
                     let depth = g - pa.y;
                     if depth > 0.0 {
                         let pb = Vec3::new(pa.x, g, pa.z);

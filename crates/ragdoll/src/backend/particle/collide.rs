@@ -7,7 +7,7 @@ use glam::Vec3;
 
 use super::{FRICTION, ParticleBackend};
 use crate::backend::broad::BroadPhase;
-use crate::backend::geom::{nearest_hit, ray_shape};
+use crate::backend::geom::{box_corners, nearest_hit, ray_shape};
 use crate::spec::Shape;
 
 /// Closer than this counts as touching another ragdoll, metres (as the rigid backend).
@@ -17,14 +17,6 @@ const BROAD_MARGIN_M: f32 = 0.01;
 /// Mass scaling of a supported body under another, per metre of height between their
 /// contact points: 10 cm apart, the lower one answers 20 times heavier.
 const SHOCK_PER_M: f32 = 30.0;
-
-/// The eight corners of a box of half extents `half` about its centre.
-fn box_corners(half: Vec3) -> [Vec3; 8] {
-    std::array::from_fn(|k| {
-        let sign = |bit: usize| if k & bit == 0 { -1.0 } else { 1.0 };
-        half * Vec3::new(sign(1), sign(2), sign(4))
-    })
-}
 
 /// Reusable buffers of the broad phase.
 #[derive(Default)]
