@@ -29,6 +29,7 @@
 mod body;
 mod box_capsule;
 mod contact;
+mod hub;
 mod island;
 mod sleep;
 mod solve;
@@ -153,6 +154,8 @@ struct Joint {
     frame_b: Transform,
     limits: Limits,
     drive: Option<Drive>,
+    /// Share of its correction a substep's pass applies (see [`hub::joint_relaxation`]).
+    relax: f32,
 }
 
 /// A point of a body tied to a moving world point.
@@ -334,7 +337,14 @@ impl Backend for FastBackend {
             let (a, b) = ((first + a) as u32, (first + b) as u32);
             (a.min(b), a.max(b))
         };
-        for j in joints {
+        let relax = hub::joint_relaxation(
+            &self.mass[first..],
+            &joints
+                .iter()
+                .map(|j| (j.parent, j.child))
+                .collect::<Vec<_>>(),
+        );
+        for (j, relax) in joints.iter().zip(relax) {
             self.joints.push(Joint {
                 a: first + j.parent,
                 b: first + j.child,
@@ -342,6 +352,7 @@ impl Backend for FastBackend {
                 frame_b: j.frame_child,
                 limits: Limits::of(&j.kind),
                 drive: None,
+                relax,
             });
             self.disabled.insert(pair(j.parent, j.child));
         }

@@ -221,7 +221,7 @@ impl FastBackend {
             let ra = self.rot[a] * j.frame_a.translation;
             let rb = self.rot[b] * j.frame_b.translation;
             let delta = (self.pos[b] + rb) - (self.pos[a] + ra);
-            self.join_anchors(a, b, ra, rb, delta);
+            self.join_anchors(a, b, ra, rb, delta * j.relax);
         }
     }
 
@@ -301,6 +301,7 @@ impl FastBackend {
             frame_a,
             frame_b,
             limits,
+            relax,
             ..
         } = self.joints[k].clone();
         let fa = self.rot[a] * frame_a.rotation;
@@ -309,14 +310,14 @@ impl FastBackend {
             Limits::Ball => {}
             Limits::Fixed => {
                 let omega = rotation_vector(fb * fa.conjugate());
-                self.align(a, b, omega, None);
+                self.align(a, b, omega * relax, None);
             }
             Limits::Hinge(twist) => {
                 let (xa, xb) = (fa * Vec3::X, fb * Vec3::X);
-                self.align(a, b, xa.cross(xb), Some(xa));
+                self.align(a, b, xa.cross(xb) * relax, Some(xa));
                 let fa = self.rot[a] * frame_a.rotation;
                 let fb = self.rot[b] * frame_b.rotation;
-                self.limit_twist(a, b, fa, fb, &twist);
+                self.limit_twist(a, b, fa, fb, &twist, relax);
             }
             Limits::SwingTwist {
                 swing,
@@ -331,21 +332,22 @@ impl FastBackend {
                     if sin > 1.0e-9 {
                         let n = axis / sin;
                         let angle = sin.atan2(cos);
-                        let lambda = self.correct_rotation(a, b, n * (angle - swing));
+                        let lambda = self.correct_rotation(a, b, n * ((angle - swing) * relax));
                         self.limit_friction(a, b, n, lambda);
                     }
                 }
                 let fa = self.rot[a] * frame_a.rotation;
                 let fb = self.rot[b] * frame_b.rotation;
-                self.limit_twist(a, b, fa, fb, &twist);
+                self.limit_twist(a, b, fa, fb, &twist, relax);
             }
         }
     }
 
     /// Keeps the twist of `fb` about its X axis relative to `fa` (the swing-twist
     /// decomposition's, the measure the metrics use) within `[min, max]`: turning `b`
-    /// about its own X changes the twist alone.
-    fn limit_twist(&mut self, a: usize, b: usize, fa: Quat, fb: Quat, twist: &Twist) {
+    /// about its own X changes the twist alone. `relax`: the joint's share of the
+    /// correction ([`super::hub::joint_relaxation`]).
+    fn limit_twist(&mut self, a: usize, b: usize, fa: Quat, fb: Quat, twist: &Twist, relax: f32) {
         let rel = fa.conjugate() * fb;
         if !twist.crossed(rel) {
             return;
@@ -359,7 +361,7 @@ impl FastBackend {
             return;
         };
         let n = fb * Vec3::X;
-        let lambda = self.correct_rotation(a, b, n * over);
+        let lambda = self.correct_rotation(a, b, n * (over * relax));
         self.limit_friction(a, b, n, lambda);
     }
 
