@@ -99,11 +99,36 @@ impl Builder<'_> {
 }
 
 /// Raises the lighter of any jointed pair until no pair's mass ratio exceeds `max_ratio`,
-/// then rescales everything so the total is what it was (Strunk, GDC 2013; Jolt's
-/// `RagdollSettings::Stabilize` does the same with a tighter ratio). Raising only ever
-/// lifts a body toward a heavier neighbour, so the loop ends; rescaling keeps the ratios.
+/// and raises a body that carries several others until it weighs at least `1/max_ratio`
+/// of what hangs directly from it, then rescales everything so the total is what it was.
+///
+/// Strunk ("Stop my Constraints from Blowing Up!", GDC 2013) bounds each linked pair's
+/// ratio (Jolt's `RagdollSettings::Stabilize` does the same with a tighter ratio), and
+/// asks a parent to outweigh the sum of its children too (Jolt does it with inertia): a
+/// pair rule alone let a spider's 0.3 kg thorax carry eight legs of 1.4 kg each, and
+/// rapier blew the spider apart when its feet touched the floor. Each rule only ever lifts
+/// a body; they take turns until the hubs need nothing more (two rounds on the spider), at
+/// most [`MAX_STABILIZE_ROUNDS`] times: a hub with more than `max_ratio²` children cannot
+/// meet both rules and keeps what the last round gave it.
 pub fn stabilize_masses(masses: &mut [f32], parents: &[usize], max_ratio: f32) {
     let total: f32 = masses.iter().sum();
+    for _ in 0..MAX_STABILIZE_ROUNDS {
+        raise_linked_pairs(masses, parents, max_ratio);
+        if !raise_hubs(masses, parents, max_ratio) {
+            break;
+        }
+    }
+    let now: f32 = masses.iter().sum();
+    if now > 0.0 {
+        for m in masses.iter_mut() {
+            *m *= total / now;
+        }
+    }
+    keep_total(masses, total);
+}
+
+/// The pair rule of [`stabilize_masses`].
+fn raise_linked_pairs(masses: &mut [f32], parents: &[usize], max_ratio: f32) {
     for _ in 0..masses.len().max(1) * 4 {
         let mut changed = false;
         for (c, &p) in parents.iter().enumerate() {
@@ -123,13 +148,28 @@ pub fn stabilize_masses(masses: &mut [f32], parents: &[usize], max_ratio: f32) {
             break;
         }
     }
-    let now: f32 = masses.iter().sum();
-    if now > 0.0 {
-        for m in masses.iter_mut() {
-            *m *= total / now;
+}
+
+/// Rounds of [`stabilize_masses`]' two rules at most.
+const MAX_STABILIZE_ROUNDS: usize = 8;
+
+/// The hub rule of [`stabilize_masses`], leaves first: `parents` lists every body after
+/// its parent (the builder's order), so walking backwards settles each body's children
+/// before the body itself is weighed against them. Returns whether it raised any.
+fn raise_hubs(masses: &mut [f32], parents: &[usize], max_ratio: f32) -> bool {
+    let mut carried = vec![0.0f32; masses.len()];
+    let mut changed = false;
+    for c in (0..masses.len()).rev() {
+        if masses[c] * max_ratio < carried[c] * (1.0 - 1e-6) {
+            masses[c] = carried[c] / max_ratio;
+            changed = true;
+        }
+        match parents.get(c) {
+            Some(&p) if p != c && p < masses.len() => carried[p] += masses[c],
+            _ => {}
         }
     }
-    keep_total(masses, total);
+    changed
 }
 
 /// Puts the rounding residue of a float sum on the first (root, heaviest-ish) body so the

@@ -486,8 +486,37 @@ impl Builder<'_> {
             }
         };
         let len = end.distance(start);
-        let radius = (CHAIN_RADIUS_OF_LENGTH * len).max(CHAIN_MIN_RADIUS_EXTENT * rig.extent);
+        let mut radius = (CHAIN_RADIUS_OF_LENGTH * len).max(CHAIN_MIN_RADIUS_EXTENT * rig.extent);
+        if !enough_skin {
+            radius = radius.max(self.hub_radius(j, start, end));
+        }
         self.capsule_plan(j, Role::Chain, name, start, end, radius, group)
+    }
+
+    /// How thick a body without skin must be to reach around to the roots of the limbs it
+    /// carries, when it carries more than one: the farthest of its children's joints from
+    /// its bone's line (at most [`RADIUS_RANGE`]'s share of the extent). A spider's thorax drawn around the
+    /// bone to its head alone was a pencil 3 cm thick with eight legs attached around it,
+    /// too little inertia to hold them: rapier and `fast` blew it apart on landing.
+    fn hub_radius(&self, j: usize, start: Vec3, end: Vec3) -> f32 {
+        let rig = self.rig;
+        let carried: Vec<Vec3> = rig.children[j]
+            .iter()
+            .filter(|c| self.joints.contains(c))
+            .map(|&c| rig.pos[c])
+            .collect();
+        if carried.len() < 2 {
+            return 0.0;
+        }
+        let u = (end - start).normalize_or_zero();
+        let reach = carried
+            .iter()
+            .map(|&p| {
+                let d = p - start;
+                (d - u * d.dot(u)).length()
+            })
+            .fold(0.0, f32::max);
+        reach.min(RADIUS_RANGE[1] * rig.extent)
     }
 }
 

@@ -426,6 +426,32 @@ fn spec_build_stabilize_keeps_total_and_bounds_ratios() {
 }
 
 #[test]
+fn spec_build_stabilize_makes_a_hub_outweigh_a_fifth_of_what_it_carries() {
+    // A 0.3 kg thorax carrying eight legs of 1.4 kg, each with a 7 kg shin: the pair rule
+    // alone is met (1.4 / 0.3 < 5), the hub is not.
+    let mut m = vec![0.3];
+    let mut parents = vec![0];
+    for _ in 0..8 {
+        parents.push(0);
+        m.push(1.4);
+        parents.push(m.len() - 1);
+        m.push(7.0);
+    }
+    let total: f32 = m.iter().sum();
+    stabilize_masses(&mut m, &parents, 5.0);
+    assert!((m.iter().sum::<f32>() - total).abs() < 1e-3);
+    let carried: f32 = (1..m.len())
+        .filter(|&c| parents[c] == 0)
+        .map(|c| m[c])
+        .sum();
+    assert!(m[0] >= carried / 5.0 * 0.9999, "{m:?}");
+    for c in 1..m.len() {
+        let (a, b) = (m[c], m[parents[c]]);
+        assert!(a.max(b) / a.min(b) <= 5.0 * 1.0001, "{m:?}");
+    }
+}
+
+#[test]
 fn spec_build_nearby_pairs_holds_every_touching_pair_in_loop_order() {
     let mut seed = 0x2545_f491_4f6c_dd1du64;
     let mut next = move || {

