@@ -2,10 +2,10 @@
 //! arms) in zero gravity: nothing acts on it, so nothing may move. A solver making one
 //! Gauss-Seidel pass per substep overshoots around such a hub, and the overshoot, read
 //! back as velocity every substep, grows from rounding noise: eight 1 kg arms on a 1 kg
-//! hub flew about at 19 m/s within two seconds on `fast` (and 4-9 m/s on `particle`,
-//! which still does: not checked here). rapier is the reference up to 16 arms; with 32
-//! on a 0.5 kg hub it flies apart at thousands of m/s (ragdolls the builder makes never
-//! have such a hub: it weighs a hub at least a fifth of what it carries).
+//! hub flew about at 56 m/s within two seconds on `fast` and 10 m/s on `particle`.
+//! rapier is the reference up to 16 arms; with 32 on a 0.5 kg hub it flies apart at
+//! thousands of m/s (ragdolls the builder makes never have such a hub: it weighs a hub at
+//! least a fifth of what it carries).
 
 mod common;
 
@@ -92,9 +92,9 @@ fn star(arms: usize, hub_kg: f32) -> (Character, RagdollSpec) {
 fn a_light_hub_with_many_arms_holds_still_in_zero_gravity() {
     use BackendKind::*;
     for (arms, hub_kg, backends) in [
-        (8, 1.0, &[Rigid, Fast][..]),
-        (16, 1.0, &[Rigid, Fast]),
-        (32, 0.5, &[Fast]),
+        (8, 1.0, &[Rigid, Fast, Particle][..]),
+        (16, 1.0, &[Rigid, Fast, Particle]),
+        (32, 0.5, &[Fast, Particle]),
     ] {
         let (character, spec) = star(arms, hub_kg);
         for &backend in backends {
@@ -113,8 +113,12 @@ fn a_light_hub_with_many_arms_holds_still_in_zero_gravity() {
                     fastest = fastest.max(v.length()).max(w.length() * 0.3);
                 }
             }
+            // The particle backend's bodies are sets of particles whose rigidity is
+            // solved like the joints: in zero gravity their rounding alone moves two
+            // arms on a hub (no hub to relax) at up to 1 cm/s over 15 s.
+            let still = if backend == Particle { 0.02 } else { 0.01 };
             assert!(
-                fastest < 0.01,
+                fastest < still,
                 "{arms} arms on a {hub_kg} kg hub, {backend:?}: moved at {fastest} m/s"
             );
             assert!(

@@ -18,6 +18,7 @@
 pub(crate) mod broad;
 pub(crate) mod fast;
 pub(crate) mod geom;
+pub(crate) mod hub;
 pub(crate) mod particle;
 pub(crate) mod rigid;
 pub(crate) mod tree;

@@ -29,7 +29,6 @@
 mod body;
 mod box_capsule;
 mod contact;
-mod hub;
 mod island;
 mod sleep;
 mod solve;
@@ -154,7 +153,8 @@ struct Joint {
     frame_b: Transform,
     limits: Limits,
     drive: Option<Drive>,
-    /// Share of its correction a substep's pass applies (see [`hub::joint_relaxation`]).
+    /// Share of its correction a substep's pass applies: the lighter hub's of its two
+    /// bodies (see [`crate::backend::hub::hub_relaxation`]).
     relax: f32,
 }
 
@@ -337,14 +337,9 @@ impl Backend for FastBackend {
             let (a, b) = ((first + a) as u32, (first + b) as u32);
             (a.min(b), a.max(b))
         };
-        let relax = hub::joint_relaxation(
-            &self.mass[first..],
-            &joints
-                .iter()
-                .map(|j| (j.parent, j.child))
-                .collect::<Vec<_>>(),
-        );
-        for (j, relax) in joints.iter().zip(relax) {
+        let links: Vec<(usize, usize)> = joints.iter().map(|j| (j.parent, j.child)).collect();
+        let hub = crate::backend::hub::hub_relaxation(&self.mass[first..], &links);
+        for j in joints {
             self.joints.push(Joint {
                 a: first + j.parent,
                 b: first + j.child,
@@ -352,7 +347,7 @@ impl Backend for FastBackend {
                 frame_b: j.frame_child,
                 limits: Limits::of(&j.kind),
                 drive: None,
-                relax,
+                relax: hub[j.parent].min(hub[j.child]),
             });
             self.disabled.insert(pair(j.parent, j.child));
         }

@@ -346,7 +346,7 @@ impl FastBackend {
     /// Keeps the twist of `fb` about its X axis relative to `fa` (the swing-twist
     /// decomposition's, the measure the metrics use) within `[min, max]`: turning `b`
     /// about its own X changes the twist alone. `relax`: the joint's share of the
-    /// correction ([`super::hub::joint_relaxation`]).
+    /// correction ([`crate::backend::hub::hub_relaxation`]).
     fn limit_twist(&mut self, a: usize, b: usize, fa: Quat, fb: Quat, twist: &Twist, relax: f32) {
         let rel = fa.conjugate() * fb;
         if !twist.crossed(rel) {

@@ -421,6 +421,7 @@ impl ParticleBackend {
                     a: points[a],
                     b: points[b],
                     len: (rest[b] - rest[a]).length(),
+                    relax: 1.0,
                 });
             }
         }

@@ -128,6 +128,9 @@ struct Distance {
     a: u32,
     b: u32,
     len: f32,
+    /// Share of its correction a pass applies: its body's
+    /// ([`crate::backend::hub::hub_relaxation`]).
+    relax: f32,
 }
 
 /// Particle `c` stays at `Σ alpha[k] · x[refs[k]]` (the weights sum to one).
@@ -347,8 +350,12 @@ impl ParticleBackend {
                 parent_joint[j.child] = Some(k);
             }
         }
-        // 2. Each body's particles, masses and rigidity.
+        // 2. Each body's particles, masses and rigidity; a light hub's distances relaxed.
+        let masses: Vec<f32> = descs.iter().map(|d| d.mass).collect();
+        let links: Vec<(usize, usize)> = joint_descs.iter().map(|j| (j.parent, j.child)).collect();
+        let hub = crate::backend::hub::hub_relaxation(&masses, &links);
         for (b, desc) in descs.iter().enumerate() {
+            let first_distance = self.distances.len();
             self.build_body(
                 fb + b,
                 ragdoll,
@@ -360,6 +367,9 @@ impl ParticleBackend {
                     .filter(|(_, j)| j.parent == b || j.child == b)
                     .map(|(k, _)| jp[k]),
             );
+            for d in &mut self.distances[first_distance..] {
+                d.relax = hub[b];
+            }
         }
         for i in fp..self.x.len() {
             self.w[i] = if self.kin[i] > 0 || self.m[i] <= 0.0 {

@@ -298,7 +298,7 @@ impl ParticleBackend {
             if len < 1e-9 {
                 continue;
             }
-            let corr = delta * ((len - d.len) / (len * (wa + wb)));
+            let corr = delta * ((len - d.len) * d.relax / (len * (wa + wb)));
             self.x[a] += corr * wa;
             self.x[b] -= corr * wb;
         }
