@@ -20,8 +20,9 @@ const HUB_MAX_OUTWEIGHED: f32 = 4.0;
 /// from rounding noise alone: eight 1 kg arms ball-jointed to a 1 kg hub in zero gravity
 /// flew about at 19 m/s within two seconds on `fast` and 10 m/s on `particle`, and a
 /// spider with a 1 kg thorax and eight legs blew apart in free fall
-/// (`tests/light_hub.rs`, `tests/creature_drops.rs`). Relaxing what acts at the hub
-/// (successive under-relaxation) damps that. A humanoid's most loaded hub, its pelvis, is
+/// (`tests/light_hub.rs`, `tests/creature_drops.rs`). Relaxing what ties the hub to its
+/// limbs (successive under-relaxation: `fast`'s joint anchors and alignments, `particle`'s
+/// distances within the hub) damps that. A humanoid's most loaded hub, its pelvis, is
 /// outweighed 3.996 times by its spine and thighs (de Leva's fractions) and keeps the
 /// full correction.
 pub(crate) fn hub_relaxation(masses: &[f32], links: &[(usize, usize)]) -> Vec<f32> {
