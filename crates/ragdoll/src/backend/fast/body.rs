@@ -9,7 +9,7 @@ use super::{FastBackend, MAX_TURN_RAD};
 impl FastBackend {
     /// Body `i`'s inverse inertia tensor in the world times `v`, with the tensor as of
     /// the start of the substep (XPBD keeps it fixed through the position pass).
-    #[inline]
+    #[inline(always)]
     pub(super) fn inv_inertia_world(&self, i: usize, v: Vec3) -> Vec3 {
         self.inv_inertia_world[i] * v
     }
@@ -38,7 +38,7 @@ impl FastBackend {
     }
 
     /// Moves body `i` by the positional impulse `p` at offset `r`.
-    #[inline]
+    #[inline(always)]
     pub(super) fn shift(&mut self, i: usize, r: Vec3, p: Vec3) {
         self.pos[i] += p * self.inv_mass[i];
         let w = self.inv_inertia_world(i, r.cross(p));
