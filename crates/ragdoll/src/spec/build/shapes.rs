@@ -495,14 +495,17 @@ impl Builder<'_> {
 
     /// How thick a body without skin must be to reach around to the roots of the limbs it
     /// carries, when it carries more than one: the farthest of its children's joints from
-    /// its bone's line (at most [`RADIUS_RANGE`]'s share of the extent). A spider's thorax drawn around the
-    /// bone to its head alone was a pencil 3 cm thick with eight legs attached around it,
-    /// too little inertia to hold them: rapier and `fast` blew it apart on landing.
+    /// its bone's line (at most [`RADIUS_RANGE`]'s share of the extent). A spider's thorax
+    /// drawn around the bone to its head alone was a pencil 3 cm thick with eight legs
+    /// attached around it, too little inertia to hold them: rapier and `fast` blew it
+    /// apart on landing.
     fn hub_radius(&self, j: usize, start: Vec3, end: Vec3) -> f32 {
         let rig = self.rig;
+        // A child carries a body when it owns itself (a constant-time test: this runs for
+        // every body, and skeletons reach 65,536 joints).
         let carried: Vec<Vec3> = rig.children[j]
             .iter()
-            .filter(|c| self.joints.contains(c))
+            .filter(|&&c| self.joints[self.owner[c]] == c)
             .map(|&c| rig.pos[c])
             .collect();
         if carried.len() < 2 {
