@@ -402,7 +402,7 @@ fn encode(
 }
 
 pub fn demo(a: &DemoArgs) -> Result<()> {
-    output::check_folder(&a.output)?;
+    output::check_output_folder(&a.output)?;
     a.preview.check()?;
     let character = skeleton::humanoid();
     let spec = ragdoll_spec(&character, "built-in", &a.ragdoll)?;

@@ -46,6 +46,21 @@ pub fn check_folder(dir: &Path) -> Result<()> {
     probe_writable(existing)
 }
 
+/// [`check_folder`] for the folder a command writes several files into (`demo`, a scene):
+/// also fails when `dir` does not exist yet and is named like one of our output files
+/// (`out.glb`), which a user who typed it expects as a file, not a folder holding one.
+pub fn check_output_folder(dir: &Path) -> Result<()> {
+    const FILE_EXTENSIONS: [&str; 6] = ["glb", "gltf", "bvh", "json", "png", "gif"];
+    let ext = dir.extension().and_then(|e| e.to_str()).unwrap_or("");
+    if !dir.exists() && FILE_EXTENSIONS.iter().any(|f| f.eq_ignore_ascii_case(ext)) {
+        bail!(
+            "{}: this command writes its files into a folder; give a folder name (without .{ext})",
+            dir.display()
+        );
+    }
+    check_folder(dir)
+}
+
 /// Creates and removes an empty file in `dir`: the one test of write permission that
 /// holds everywhere (permissions, read-only mounts, ACLs).
 fn probe_writable(dir: &Path) -> Result<()> {
@@ -276,6 +291,11 @@ mod tests {
         assert!(check_file(&dir.join("file/out.glb")).is_err());
         assert!(check_folder(&dir.join("file")).is_err());
         assert!(check_folder(&dir.join("new")).is_ok());
+        assert!(check_output_folder(&dir.join("out.glb")).is_err());
+        assert!(check_output_folder(&dir.join("out")).is_ok());
+        std::fs::create_dir(dir.join("existing.glb")).unwrap();
+        assert!(check_output_folder(&dir.join("existing.glb")).is_ok());
+        std::fs::remove_dir(dir.join("existing.glb")).unwrap();
         assert_eq!(listing(&dir), ["file"], "checks leave nothing behind");
         std::fs::remove_dir_all(&dir).unwrap();
     }

@@ -63,7 +63,7 @@ pub fn run(a: &SimulateArgs, matches: &ArgMatches) -> Result<()> {
     if a.obj_sequence.is_some() {
         bail!("--obj-sequence applies to a character file, not a scene file");
     }
-    output::check_folder(&a.output)?;
+    output::check_output_folder(&a.output)?;
     a.preview.check()?;
     let progress = Progress::new(0, "reading the scene");
     let mut scene = Scene::load(&a.file)?;

@@ -241,6 +241,12 @@ fn bad_input_fails_cleanly_without_output() {
 
     let o = ragdoll(dir, &["demo", "-o", "d", "--seconds", "0.1"]);
     assert!(o.status.success(), "{}", stderr(&o));
+
+    // `demo` writes a folder: a file name there is refused, naming it, and nothing made.
+    let o = ragdoll(dir, &["demo", "-o", "out.glb", "--seconds", "0.1"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("out.glb"), "{}", stderr(&o));
+    assert!(!dir.join("out.glb").exists());
 }
 
 /// A spec whose first mass is made negative: non-zero exit, the key named, no output.
