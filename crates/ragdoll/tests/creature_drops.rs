@@ -13,24 +13,10 @@ mod common;
 use glam::Vec3;
 use ragdoll::backend::BackendKind;
 use ragdoll::math::Transform;
-use ragdoll::skeleton::{Character, Joint};
+use ragdoll::skeleton::Character;
 use ragdoll::spec::{BuildOptions, RagdollSpec, Shape, build_spec};
 use ragdoll::track::Metrics;
 use ragdoll::world::{World, WorldSettings};
-
-/// A skeleton from rows of (name, parent row, world position at rest).
-fn character(name: &str, rows: &[(String, Option<usize>, Vec3)]) -> Character {
-    let joints = rows
-        .iter()
-        .map(|(name, parent, p)| Joint {
-            name: name.clone(),
-            parent: *parent,
-            rest: Transform::from_translation(*p - parent.map_or(Vec3::ZERO, |q| rows[q].2)),
-            tip: None,
-        })
-        .collect();
-    common::skeleton_character(name, joints)
-}
 
 /// Adds a chain of joints from `parent` through `points`, named `{name}{i}`; returns the
 /// rows of its joints.
@@ -76,7 +62,7 @@ fn spider() -> Character {
             chain(&mut rows, at, &format!("leg{k}{s}_"), &[knee, foot]);
         }
     }
-    character("spider", &rows)
+    common::character_from_rows("spider", &rows)
 }
 
 /// A goose-sized bird facing +Z, wings spread level (span 1.5 m), neck raised, legs bent
@@ -126,7 +112,7 @@ fn bird() -> Character {
             ],
         );
     }
-    character("bird", &rows)
+    common::character_from_rows("bird", &rows)
 }
 
 /// A fish 1 m long swimming along +Z, dorsal side up, half a metre above the floor: a
@@ -155,7 +141,7 @@ fn fish() -> Character {
         "dorsal",
         &[Vec3::new(0.0, 0.6, 0.15), Vec3::new(0.0, 0.7, 0.02)],
     );
-    character("fish", &rows)
+    common::character_from_rows("fish", &rows)
 }
 
 /// The creatures, each dropped on every backend.

@@ -7,7 +7,7 @@ mod common;
 
 use glam::{Quat, Vec3};
 use ragdoll::math::Transform;
-use ragdoll::skeleton::{Character, Joint, Skeleton};
+use ragdoll::skeleton::{Character, Skeleton};
 use ragdoll::spec::{BuildOptions, JointKind, RagdollSpec, build_spec};
 use ragdoll::world::{World, WorldSettings};
 
@@ -15,19 +15,6 @@ use ragdoll::world::{World, WorldSettings};
 const CHAIN_TOTAL_BEND_DEG: f32 = 360.0;
 /// How far a creature's knee bends past straight (`CREATURE_LIMB_FLEXION_DEG[0]`).
 const HYPEREXTENSION_DEG: f32 = 10.0;
-
-fn character(name: &str, rows: &[(&str, Option<usize>, Vec3)]) -> Character {
-    let joints = rows
-        .iter()
-        .map(|(name, parent, p)| Joint {
-            name: (*name).into(),
-            parent: *parent,
-            rest: Transform::from_translation(*p - parent.map_or(Vec3::ZERO, |q| rows[q].2)),
-            tip: None,
-        })
-        .collect();
-    common::skeleton_character(name, joints)
-}
 
 /// A dog-like quadruped facing +Z: hind legs with the stifle bent forward and the hock
 /// back, front legs with the elbow bent back, a tail.
@@ -58,7 +45,7 @@ fn quadruped() -> Character {
         rows.push(("", Some(n + 2), Vec3::new(x, 0.0, -0.32)));
         rows[paw_end].0 = if side == "l" { "toe_l" } else { "toe_r" };
     }
-    character("quadruped", &rows)
+    common::character_from_rows("quadruped", &rows)
 }
 
 fn hinge(spec: &RagdollSpec, name: &str) -> (Quat, f32, f32) {
@@ -135,7 +122,7 @@ fn snake(links: usize) -> Character {
             )
         })
         .collect();
-    character("snake", &rows)
+    common::character_from_rows("snake", &rows)
 }
 
 #[test]

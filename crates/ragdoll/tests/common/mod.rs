@@ -68,6 +68,25 @@ pub fn skeleton_character(
     }
 }
 
+/// A skeleton-only character from rows of (joint name, parent row, world position at rest).
+pub fn character_from_rows<S: AsRef<str>>(
+    name: &str,
+    rows: &[(S, Option<usize>, glam::Vec3)],
+) -> ragdoll::skeleton::Character {
+    let joints = rows
+        .iter()
+        .map(|(joint, parent, p)| ragdoll::skeleton::Joint {
+            name: joint.as_ref().into(),
+            parent: *parent,
+            rest: ragdoll::math::Transform::from_translation(
+                *p - parent.map_or(glam::Vec3::ZERO, |q| rows[q].2),
+            ),
+            tip: None,
+        })
+        .collect();
+    skeleton_character(name, joints)
+}
+
 /// A one-joint character "bar" 1 m up with a single capsule body "bar" (long axis vertical):
 /// the simplest rigid body to check a load or a field against a closed form.
 pub fn one_capsule(
