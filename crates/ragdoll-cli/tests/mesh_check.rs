@@ -2,7 +2,8 @@
 //! baked glTF independently of our exporter ([`mesh_metrics`]), and hold the mesh to the
 //! issue's targets: no vertex deeper than 4 % of the character's height below the floor,
 //! 99th-percentile edge stretch at most 1.6; for the automatically rigged dragons also no
-//! edge over 4× and resting within 3 % of its height of the floor.
+//! edge over 4× and resting within 3 % of its height of the floor. A character file's own
+//! clips are measured the same way, as a reference the simulation has no part in.
 //!
 //! Run `cargo test --release -p ragdoll-cli --test mesh_check -- --ignored --nocapture`
 //! to print the table of every data file.
@@ -13,7 +14,7 @@ mod mesh_metrics;
 use std::path::{Path, PathBuf};
 
 use common::{data_dir, ragdoll, stderr};
-use mesh_metrics::{Metrics, measure};
+use mesh_metrics::{Metrics, clip_count, measure, measure_clip};
 
 /// Seconds of the drop each file is baked for (the issue's 3 s).
 const SECONDS: &str = "3";
@@ -40,18 +41,20 @@ const PASSING: &[&str] = &[
 ];
 
 /// The data files that do not meet the targets yet, with what is wrong (issue 11's next
-/// steps). They are measured and printed, not asserted; a file in neither list fails the
-/// test so that a new data file cannot go unmeasured.
+/// steps). They are measured and printed, not asserted, except those whose own clips
+/// already stretch their skin past the target: those are held to every other target and
+/// to no more stretch than their own clips (`past_own_clips`). A file in neither list
+/// fails the test so that a new data file cannot go unmeasured.
 const FAILING: &[&str] = &[
     // Humanoids whose bodies hold their skin (none sinks): edges across a joint crease
     // stretch as the joint bends to its limit.
-    "gltf/CesiumMan.glb",            // p99 1.75
-    "rigs/godot_robi_ik.glb",        // p99 1.95
+    "gltf/CesiumMan.glb",            // p99 1.75 (its walk: 1.09)
     "rigs/threevrm_sphere_vrm0.vrm", // p99 2.10 (a 1 m sphere skinned to a humanoid)
-    // A creature whose bodies hold their skin: it no longer sinks (lowest -0.1 %), but its
-    // weights stretch edges at the hips, spine and neck as it lands (its hind legs are
-    // hinges: with cones there it landed otherwise and read 2.05).
-    "gltf/Fox.glb", // p99 2.53 (centimetres in a metres format)
+    // Skins that stretch past the target under their own clips too: Robi's seams between
+    // rigid parts open as its joints turn (its `run` 2.69, `walk` 1.83), and the Fox's
+    // weights stretch at the hips, spine and neck (its `Walk` 2.44, `Run` 2.59).
+    "rigs/godot_robi_ik.glb", // p99 1.95
+    "gltf/Fox.glb",           // p99 2.53 (centimetres in a metres format)
     // Rigged automatically (bone heat weights); bodies hold the skin whose weight is
     // mostly theirs, but skin spread over three or four bones is held by none.
     "mesh/stanford_dragon_13k.obj", // sinks 8.0 % while landing (rests 0.1 %), p99 1.41
@@ -102,6 +105,9 @@ fn bake(source: &Source, dir: &Path) -> Result<PathBuf, String> {
     }
 }
 
+/// The issue's bound on the 99th-percentile edge stretch.
+const TARGET_P99: f32 = 1.6;
+
 /// What of the issue's targets `m` misses (empty when it meets them all). `rigged` adds
 /// the automatically rigged meshes' targets.
 fn misses(m: &Metrics, rigged: bool) -> Vec<String> {
@@ -112,8 +118,8 @@ fn misses(m: &Metrics, rigged: bool) -> Vec<String> {
             -100.0 * m.lowest_frac()
         ));
     }
-    if m.stretch_p99 > 1.6 {
-        out.push(format!("p99 stretch {:.2} > 1.6", m.stretch_p99));
+    if m.stretch_p99 > TARGET_P99 {
+        out.push(format!("p99 stretch {:.2} > {TARGET_P99}", m.stretch_p99));
     }
     if rigged && m.stretch_max > 4.0 {
         out.push(format!("an edge stretches {:.1}× > 4×", m.stretch_max));
@@ -128,9 +134,10 @@ fn misses(m: &Metrics, rigged: bool) -> Vec<String> {
 }
 
 /// One row of the printed table.
-fn row(name: &str, m: &Metrics, misses: &[String]) -> String {
+fn row(name: &str, m: &Metrics, own_p99: Option<f32>, misses: &[String]) -> String {
+    let own = own_p99.map_or("-".to_string(), |p| format!("{p:.2}"));
     format!(
-        "{name:<40} {:>5} {:>6} {:>6.2} {:>7.1} {:>6.1} {:>5.0} {:>6.2} {:>6.2}  {}",
+        "{name:<40} {:>5} {:>6} {:>6.2} {:>7.1} {:>6.1} {:>5.0} {:>6.2} {:>6.2} {own:>6}  {}",
         m.frames,
         m.vertices,
         m.height,
@@ -149,26 +156,83 @@ fn row(name: &str, m: &Metrics, misses: &[String]) -> String {
 
 /// The table's columns: height in metres (frame 0's vertical extent); lowest (over all
 /// frames), rest (the last frame's lowest vertex) and top (its highest) in % of the height;
-/// each edge's largest stretch over the drop, its 99th percentile and maximum.
-const HEADER: &str = "file                                     frames  verts height lowest%  rest%  top%    p99    max  verdict";
+/// each edge's largest stretch over the drop, its 99th percentile and maximum; `own`, the
+/// worst 99th percentile of the character's own clips (see [`own_clips_p99`]).
+const HEADER: &str = "file                                     frames  verts height lowest%  rest%  top%    p99    max    own  verdict";
+
+/// The worst 99th-percentile stretch of a character file's own animations, each played
+/// from its own first frame: how far the skin stretches under the motion its author made
+/// for it, a reference that shares nothing with our simulation. `None` for a file without
+/// clips, or one the independent reader cannot take (it reads embedded buffers only).
+fn own_clips_p99(path: &Path) -> Option<f32> {
+    let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+    if !matches!(ext.as_str(), "glb" | "vrm") {
+        return None;
+    }
+    (0..clip_count(path))
+        .map(|c| measure_clip(path, Some(c)).stretch_p99)
+        .reduce(f32::max)
+}
+
+/// One measured case: the baked mesh's metrics, the targets it misses, and its own clips'
+/// stretch for a character file.
+struct Case {
+    metrics: Metrics,
+    misses: Vec<String>,
+    own_p99: Option<f32>,
+}
 
 /// Bakes and measures one case; prints its row. `Err` says why it could not be measured.
-fn check(name: &str, source: &Source, rigged: bool) -> Result<(Metrics, Vec<String>), String> {
+fn check(name: &str, source: &Source, rigged: bool) -> Result<Case, String> {
     let dir = tempfile::tempdir().unwrap();
     let glb = bake(source, dir.path()).map_err(|e| {
         println!("{name:<40} not baked: {e}");
         e
     })?;
-    let m = measure(&glb);
-    let miss = misses(&m, rigged);
-    println!("{}", row(name, &m, &miss));
-    Ok((m, miss))
+    let metrics = measure(&glb);
+    let misses = misses(&metrics, rigged);
+    let own_p99 = match source {
+        Source::File(p) => own_clips_p99(p),
+        _ => None,
+    };
+    println!("{}", row(name, &metrics, own_p99, &misses));
+    Ok(Case {
+        metrics,
+        misses,
+        own_p99,
+    })
+}
+
+/// Why a file whose own clips already stretch its skin past the target no longer holds
+/// the weaker bound it is kept to instead: every other target met, and no more stretch
+/// than its author's own animation. `None` when it holds.
+fn past_own_clips(case: &Case, rigged: bool) -> Option<String> {
+    let own = case.own_p99?;
+    let m = &case.metrics;
+    let mut out = misses(
+        &Metrics {
+            stretch_p99: 1.0,
+            ..*m
+        },
+        rigged,
+    );
+    if m.stretch_p99 > own {
+        out.push(format!(
+            "p99 stretch {:.2} > its own clips' {own:.2}",
+            m.stretch_p99
+        ));
+    }
+    (!out.is_empty()).then(|| out.join("; "))
 }
 
 #[test]
 fn the_built_in_humanoid_keeps_its_shape() {
     println!("{HEADER}");
-    let (m, miss) = check("built-in humanoid", &Source::Demo, false).expect("the demo bakes");
+    let Case {
+        metrics: m,
+        misses: miss,
+        ..
+    } = check("built-in humanoid", &Source::Demo, false).expect("the demo bakes");
     assert!(
         miss.is_empty(),
         "the built-in humanoid: {}",
@@ -223,12 +287,17 @@ fn every_data_file_is_measured_and_the_passing_ones_keep_their_shape() {
             unlisted.push(name.clone());
         }
         match result {
-            Ok((_, miss)) if passing && !miss.is_empty() => {
-                regressed.push(format!("{name}: {}", miss.join("; ")))
+            Ok(case) if passing && !case.misses.is_empty() => {
+                regressed.push(format!("{name}: {}", case.misses.join("; ")))
             }
             Err(e) if passing => regressed.push(format!("{name}: not baked: {e}")),
-            Ok((_, miss)) if !passing && miss.is_empty() => {
+            Ok(case) if !passing && case.misses.is_empty() => {
                 println!("  (note: {name} now meets the targets: move it to PASSING)")
+            }
+            Ok(case) if case.own_p99.is_some_and(|p| p > TARGET_P99) => {
+                if let Some(why) = past_own_clips(&case, rigged) {
+                    regressed.push(format!("{name}: {why}"));
+                }
             }
             _ => {}
         }

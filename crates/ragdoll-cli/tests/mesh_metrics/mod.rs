@@ -102,6 +102,19 @@ struct Primitive {
 /// (else its first), and measures every frame. Panics with the reason on a file it cannot
 /// read: this is test code.
 pub fn measure(path: &Path) -> Metrics {
+    measure_clip(path, None)
+}
+
+/// How many animations the binary glTF `path` holds.
+pub fn clip_count(path: &Path) -> usize {
+    let gltf = gltf::Gltf::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    gltf.document.animations().count()
+}
+
+/// As [`measure`], playing the animation at index `clip` (`None`: the `ragdoll` one, else
+/// the first): a character file's own clips, measured from their own first frames, say
+/// how far its skin stretches under the motion its author made for it.
+pub fn measure_clip(path: &Path, clip: Option<usize>) -> Metrics {
     let gltf = gltf::Gltf::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let blob = gltf.blob.as_deref();
     let buffers = bin(blob);
@@ -114,10 +127,13 @@ pub fn measure(path: &Path) -> Metrics {
             [[t[0], t[1], t[2], 0.0], r, [s[0], s[1], s[2], 0.0]]
         })
         .collect();
-    let anim = doc
-        .animations()
-        .find(|a| a.name() == Some("ragdoll"))
-        .or_else(|| doc.animations().next());
+    let anim = match clip {
+        Some(i) => doc.animations().nth(i),
+        None => doc
+            .animations()
+            .find(|a| a.name() == Some("ragdoll"))
+            .or_else(|| doc.animations().next()),
+    };
     let channels = anim
         .map(|a| read_channels(&a, &buffers))
         .unwrap_or_default();
