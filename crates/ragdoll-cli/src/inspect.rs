@@ -126,7 +126,9 @@ pub fn inspect(a: &InspectArgs) -> Result<()> {
         for j in &spec.joints {
             let kind = match j.kind {
                 ragdoll::spec::JointKind::Hinge { min_deg, max_deg } => {
-                    format!("hinge {min_deg:.0}..{max_deg:.0}°")
+                    // Rounded first, so -0.3 reads 0, not -0.
+                    let (lo, hi) = (min_deg.round() + 0.0, max_deg.round() + 0.0);
+                    format!("hinge {lo:.0}..{hi:.0}°")
                 }
                 ragdoll::spec::JointKind::SwingTwist {
                     swing_deg,

@@ -6,7 +6,7 @@
 
 mod common;
 
-use glam::Vec3;
+use glam::{Quat, Vec3};
 use ragdoll::import::{ImportOptions, load};
 use ragdoll::skeleton::{Character, Joint, Skeleton, humanoid};
 use ragdoll::spec::{BuildOptions, Role, build_spec, recognise_roles};
@@ -274,6 +274,41 @@ fn every_humanoid_file_has_its_roles_on_the_right_joints() {
     assert!(bad.is_empty(), "{}", bad.join("\n"));
 }
 
+/// Knees and elbows hinge by the facing, and the builder widens a hinge that the first
+/// animation frame lies outside of. A facing turned the wrong way shows as a knee bent the
+/// anatomical way in that frame read as bent backwards, and widened to hold it (Robi's
+/// left knee was widened to bend 117° backwards when its mirrored names set the facing).
+/// So on every humanoid file, each hinge spans no more than its anatomical range (0-140°
+/// for knees, 0-145° for elbows, shifted by the rest pose's bend) plus 10° of slack for a
+/// rest pose a little past straight.
+#[test]
+#[ignore = "needs ../shared/data"]
+fn knees_and_elbows_of_real_rigs_need_no_widening_to_hold_their_first_frame() {
+    const ANATOMICAL_SPAN_DEG: [(&str, f32); 2] = [("shin", 140.0), ("forearm", 145.0)];
+    let mut bad = Vec::new();
+    for (rel, _) in &HUMANOIDS {
+        let spec = build_spec(&load_data(rel), &BuildOptions::default()).unwrap();
+        for j in &spec.joints {
+            let ragdoll::spec::JointKind::Hinge { min_deg, max_deg } = j.kind else {
+                continue;
+            };
+            let Some(&(_, span)) = ANATOMICAL_SPAN_DEG
+                .iter()
+                .find(|(part, _)| j.name.starts_with(part))
+            else {
+                continue;
+            };
+            if max_deg - min_deg > span + 10.0 {
+                bad.push(format!(
+                    "{rel}: {} hinge {min_deg:.0}..{max_deg:.0}°",
+                    j.name
+                ));
+            }
+        }
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
+
 #[test]
 #[ignore = "needs ../shared/data"]
 fn other_files_are_not_humanoids() {
@@ -407,10 +442,37 @@ fn a_humanoid_bone_table_gives_the_roles() {
     );
 }
 
+/// Whether flexing each knee of the ragdoll built from `c` (a positive hinge angle) swings
+/// the shin away from where its toes point, as a knee bends; read from the built joints'
+/// frames and the skeleton, not from the roles' facing.
+fn knees_bend_back(c: &Character) -> bool {
+    let roles = recognise_roles(c);
+    let spec = build_spec(c, &BuildOptions::default()).unwrap();
+    let world = c.skeleton.rest_world();
+    [(Role::ShinL, Role::FootL), (Role::ShinR, Role::FootR)]
+        .iter()
+        .all(|&(shin, foot)| {
+            let (k, f) = (roles.joint(shin).unwrap(), roles.joint(foot).unwrap());
+            let joint = spec
+                .joints
+                .iter()
+                .find(|j| j.name == shin.as_str())
+                .unwrap();
+            let axis = world[k].rotation * Quat::from_array(joint.frame) * Vec3::X;
+            let shin_dir = (world[f].translation - world[k].translation).normalize();
+            let tip = c.skeleton.joints()[f]
+                .tip
+                .expect("the humanoid's feet have toes");
+            let toes = world[f].transform_point(tip) - world[f].translation;
+            axis.cross(shin_dir).dot(Vec3::new(toes.x, 0.0, toes.z)) < 0.0
+        })
+}
+
 #[test]
-fn a_table_that_swaps_the_sides_still_puts_left_on_the_left_of_the_facing() {
-    // A table calling the +X leg and arm "right" says the character faces -Z: the roles
-    // follow the table and the facing turns with it, so left is never on the right.
+fn a_table_that_swaps_the_sides_keeps_its_sides_and_the_knees_bend_back() {
+    // A table calling the +X leg and arm "right" on a body whose toes point +Z: the roles
+    // follow the table, the facing follows the body (knees and elbows hinge by it), and
+    // the user is told the sides look mirrored.
     let swapped: Vec<(&str, &str)> = VRM_TABLE
         .iter()
         .map(|&(vrm, ours)| {
@@ -433,13 +495,14 @@ fn a_table_that_swaps_the_sides_still_puts_left_on_the_left_of_the_facing() {
         Some(Role::ThighR)
     );
     assert!(
-        (roles.forward + Vec3::Z).length() < 1e-4,
+        (roles.forward - Vec3::Z).length() < 1e-4,
         "{:?}",
         roles.forward
     );
-    let world = c.skeleton.rest_world();
-    let x = |r: Role| world[roles.joint(r).unwrap()].translation;
-    assert!((x(Role::ThighL) - x(Role::Pelvis)).dot(roles.left()) > 0.0);
+    let warning = roles.warning.as_deref().unwrap_or("");
+    assert!(warning.contains("mirrored"), "{warning:?}");
+    assert!(knees_bend_back(&c));
+    assert!(knees_bend_back(&with_table(&VRM_TABLE)));
 }
 
 #[test]
@@ -690,10 +753,12 @@ fn every_naming_style_gets_its_roles() {
     }
 }
 
-/// A mech whose feet and knees point backward (every geometric facing cue says it faces
-/// -Z) but whose names say `.L` on +X: the names decide, so left stays left.
+/// A skeleton whose feet point to -Z but whose names say `.L` on +X (the built-in humanoid
+/// mirrored front to back, as a rig named from the viewer's side is): the names decide
+/// the sides, so `.L` joints stay left; the body decides the facing, so its knees bend
+/// away from its toes, not forward.
 #[test]
-fn names_decide_the_sides_when_the_feet_point_back() {
+fn names_decide_the_sides_and_the_body_the_facing_when_the_feet_point_back() {
     let plain = humanoid();
     let blender = renamed(&plain, |n| match split_side(n) {
         (base, Some(true)) => format!("{base}.L"),
@@ -710,17 +775,20 @@ fn names_decide_the_sides_when_the_feet_point_back() {
     }
     let mech = Character {
         skeleton: Skeleton::new(joints).unwrap(),
-        ..blender
+        ..blender.clone()
     };
     let roles = recognise_roles(&mech);
     for (i, j) in plain.skeleton.joints().iter().enumerate() {
         assert_eq!(roles.per_joint[i].map(Role::as_str), Some(j.name.as_str()));
     }
     assert!(
-        (roles.forward - Vec3::Z).length() < 1e-4,
+        (roles.forward + Vec3::Z).length() < 1e-4,
         "{:?}",
         roles.forward
     );
+    assert!(roles.warning.is_some_and(|w| w.contains("mirrored")));
+    assert!(knees_bend_back(&mech));
+    assert!(knees_bend_back(&blender));
 }
 
 /// Hostile names: a chain as deep as a skeleton may be (65,536 joints), every joint named

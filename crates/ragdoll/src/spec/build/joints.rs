@@ -13,6 +13,9 @@ use crate::spec::{JointKind, Role};
 const REST_MARGIN_DEG: f32 = 5.0;
 /// Below this |sin| two directions count as parallel when building frames.
 const PARALLEL_SIN: f32 = 0.3;
+/// A shoulder at least this far (in standing heights) to one side of the chest's joint
+/// is on that side, whatever its role's name says.
+const MIN_SHOULDER_OFFSET_H: f32 = 0.02;
 
 /// The cone centre of a [`JointKind::SwingTwist`] in its joint frame: X of the frame
 /// turned about its Y by `cone_tilt_deg[0]`, then about its (turned) Z by
@@ -46,11 +49,17 @@ impl Builder<'_> {
                 swing_twist(d, &[f, up], Some(c), swing, HIP_TWIST_DEG)
             }
             UpperArmL | UpperArmR => {
-                let out = if child.role == UpperArmL {
-                    self.left
+                // Outward is the side the shoulder is on: a rig's names can be mirrored
+                // (its `l-` arm on the right), and a cone tilted the named way would open
+                // across the chest.
+                let named = if child.role == UpperArmL { 1.0 } else { -1.0 };
+                let lateral = (child.start - parent.start).dot(self.left);
+                let side = if lateral.abs() >= MIN_SHOULDER_OFFSET_H * self.h {
+                    lateral.signum()
                 } else {
-                    -self.left
+                    named
                 };
+                let out = self.left * side;
                 let side = rotate_toward(-up, out, SHOULDER_CONE_ABDUCTION_DEG);
                 let c = rotate_toward(side, f, SHOULDER_CONE_FLEXION_DEG);
                 swing_twist(d, &[f, up], Some(c), SHOULDER_SWING_DEG, SHOULDER_TWIST_DEG)

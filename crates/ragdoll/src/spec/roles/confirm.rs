@@ -9,7 +9,7 @@ use glam::Vec3;
 use super::LEG_GROUND_TOLERANCE_H;
 use super::names::{NameHint, Part, without_numbers};
 use super::rig::Rig;
-use super::side::forward_from_sides;
+use super::side::{body_cue, forward_from_sides};
 use super::structure::{Humanoid, Limb};
 
 /// A thigh joint stands at least this far above its shin joint, and an upper arm above
@@ -238,8 +238,17 @@ pub(super) fn confirm(rig: &Rig, c: &Claims) -> Result<Humanoid, String> {
         }
     }
     let side_joints = |s: usize| [legs[s].upper, legs[s].lower, arms[s].upper, arms[s].lower];
-    let forward = forward_from_sides(rig, &side_joints(0), &side_joints(1))
+    let mut forward = forward_from_sides(rig, &side_joints(0), &side_joints(1))
         .ok_or("the left and right limbs do not stand apart")?;
+    // The names (or the table) give the sides; the facing is the body's where its feet or
+    // knees clearly say, since knees and elbows hinge by it. Where the two disagree the
+    // names were given from the viewer's side (Godot's Robi: `l-` limbs on its right, its
+    // toes, knees and knee poles toward +Z): the roles keep the names, and the builder
+    // reads which side a limb is on from where it is, not from its role.
+    let mirrored = body_cue(rig, &[&legs[0], &legs[1]], forward) == Some(-1.0);
+    if mirrored {
+        forward = -forward;
+    }
     Ok(Humanoid {
         pelvis,
         spine: c.spine.filter(|&s| s != chest && s != pelvis),
@@ -249,6 +258,7 @@ pub(super) fn confirm(rig: &Rig, c: &Claims) -> Result<Humanoid, String> {
         legs,
         arms,
         forward,
+        mirrored,
     })
 }
 

@@ -427,6 +427,7 @@ fn check(
         legs,
         arms,
         forward,
+        mirrored: false,
     };
     let mut seen: HashMap<usize, Role> = HashMap::new();
     for (j, r) in h.assignments() {

@@ -29,7 +29,10 @@
 //! 3. **Structure** (`structure.rs`): where names say nothing (CesiumMan's joints have
 //!    none) or fail the check, the skeleton's shape alone: two legs to the ground and a
 //!    rising spine from one joint, two mirror-image arms off the spine.
-//! 4. **Side** (`side.rs`): which way the character faces, so left limbs are on its left.
+//! 4. **Side** (`side.rs`): which way the character faces, which knees and elbows hinge
+//!    by: the body's own cues (feet, else knees) where they are clear. Names or a table
+//!    give the sides; where the body faces the other way than they imply, the names were
+//!    given from the viewer's side and are kept, with a warning.
 //!
 //! Each is tried on the rest pose and then on the first animation frame, since some
 //! exporters' rest pose is not upright (Rokoko's bone-local BVH offsets lie along +X).
@@ -251,15 +254,39 @@ fn humanoid_roles(rig: &Rig, h: &structure::Humanoid, how: String) -> Roles {
     for (j, role) in h.assignments() {
         per_joint[j] = Some(role);
     }
+    let mirrored = h.mirrored.then(|| {
+        format!(
+            "The sides in its joint names are mirrored: the body faces {} by its feet (or knees), so the limbs named as left ({}, ...) are on the character's right; the roles keep the names, and knees and elbows bend the way the body faces.",
+            facing_words(h.forward),
+            rig.skeleton.joint_label(h.legs[0].upper)
+        )
+    });
+    let why = match &mirrored {
+        Some(m) => format!("Humanoid: roles {how}. {m}"),
+        None => format!("Humanoid: roles {how}."),
+    };
     Roles {
         per_joint,
         humanoid: true,
         forward: h.forward,
         height_m: rig.height,
-        why: format!("Humanoid: roles {how}."),
-        warning: None,
+        why,
+        warning: mirrored,
         from_file: vec![false; rig.len()],
     }
+}
+
+/// A horizontal direction as a user reads it: `+Z` when it lies along an axis, else its
+/// components.
+fn facing_words(forward: Vec3) -> String {
+    let axes = [(Vec3::X, "X"), (Vec3::Z, "Z")];
+    for (axis, name) in axes {
+        let d = forward.dot(axis);
+        if d.abs() > 0.99 {
+            return format!("{}{name}", if d > 0.0 { "+" } else { "-" });
+        }
+    }
+    format!("({:.2}, {:.2}, {:.2})", forward.x, forward.y, forward.z)
 }
 
 /// World transforms of the first frame of the first clip, when there is one that differs

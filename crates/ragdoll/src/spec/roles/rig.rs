@@ -227,6 +227,28 @@ impl<'a> Rig<'a> {
         out
     }
 
+    /// The mean position of the skin that the joints of `i`'s subtree carry most of (at
+    /// least half its weight); `None` without such skin. A leaf foot bone has no toe
+    /// joint, but its skin still shows which way the toes point.
+    pub fn skin_centroid(&self, i: usize) -> Option<Vec3> {
+        let mut mark = vec![false; self.len()];
+        for j in self.subtree(i) {
+            mark[j] = true;
+        }
+        let (mut sum, mut n) = (Vec3::ZERO, 0usize);
+        for (p, js, ws) in &self.verts {
+            let w: f32 = (0..4)
+                .filter(|&c| mark.get(js[c] as usize).copied().unwrap_or(false))
+                .map(|c| ws[c].max(0.0))
+                .sum();
+            if w >= 0.5 {
+                sum += *p;
+                n += 1;
+            }
+        }
+        (n > 0).then(|| sum / n as f32)
+    }
+
     /// Joint positions and end sites of the subtree of `i`.
     pub fn subtree_points(&self, i: usize) -> Vec<Vec3> {
         self.subtree(i)

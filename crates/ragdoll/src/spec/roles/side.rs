@@ -7,7 +7,15 @@ use super::rig::{Rig, horizontal};
 use super::structure::Limb;
 use super::*;
 
-/// Sign of `across` that the feet point to (ankle → toes), if they clearly do.
+/// Sign of `across` the body faces: its feet's, else its knees' (see [`feet_cue`] and
+/// [`knee_cue`]); `None` when neither clearly says.
+pub(super) fn body_cue(rig: &Rig, legs: &[&Limb; 2], across: Vec3) -> Option<f32> {
+    feet_cue(rig, legs, across).or_else(|| knee_cue(rig, legs, across))
+}
+
+/// Sign of `across` that the feet point to (ankle → toes), if they clearly do. A foot
+/// without joints or end sites past the ankle is read from its skin, which lies mostly
+/// toward the toes.
 pub(super) fn feet_cue(rig: &Rig, legs: &[&Limb; 2], across: Vec3) -> Option<f32> {
     let mut sum = Vec3::ZERO;
     for leg in legs {
@@ -16,7 +24,9 @@ pub(super) fn feet_cue(rig: &Rig, legs: &[&Limb; 2], across: Vec3) -> Option<f32
         let toe = rig
             .subtree_points(foot)
             .into_iter()
-            .max_by(|a, b| a.distance(ankle).total_cmp(&b.distance(ankle)));
+            .max_by(|a, b| a.distance(ankle).total_cmp(&b.distance(ankle)))
+            .filter(|t| horizontal(*t - ankle).length() > 1e-6 * rig.height)
+            .or_else(|| rig.skin_centroid(foot));
         if let Some(toe) = toe {
             sum += horizontal(toe - ankle);
         }

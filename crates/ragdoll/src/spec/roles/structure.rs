@@ -8,7 +8,7 @@ use glam::Vec3;
 
 use super::names::has_token;
 use super::rig::{Rig, centroid, horizontal};
-use super::side::{default_facing, feet_cue, knee_cue, name_cue};
+use super::side::{body_cue, default_facing, name_cue};
 use super::*;
 
 /// One leg or arm: its chain of joints from the trunk outward and which of them carry the
@@ -99,6 +99,10 @@ pub(super) struct Humanoid {
     /// Left, right.
     pub arms: [Limb; 2],
     pub forward: Vec3,
+    /// Whether the sides were given (by names or a bone table) mirrored: the body faces
+    /// the other way than they imply, so the limbs called left are on its right (see
+    /// `confirm::confirm`).
+    pub mirrored: bool,
 }
 
 impl Humanoid {
@@ -274,8 +278,7 @@ fn humanoid_at(rig: &Rig, pelvis: usize) -> Option<Humanoid> {
     // Facing. `lateral` points from leg b to leg a; forward is ± lateral × up.
     let across = lateral.cross(Vec3::Y).normalize();
     let legs_ab = [&leg_a, &leg_b];
-    let sign = feet_cue(rig, &legs_ab, across)
-        .or_else(|| knee_cue(rig, &legs_ab, across))
+    let sign = body_cue(rig, &legs_ab, across)
         .or_else(|| name_cue(rig, &legs_ab, &[&arm_pos, &arm_neg], lateral))
         .unwrap_or_else(|| default_facing(across));
     let forward = across * sign;
@@ -295,5 +298,6 @@ fn humanoid_at(rig: &Rig, pelvis: usize) -> Option<Humanoid> {
         legs,
         arms,
         forward,
+        mirrored: false,
     })
 }
