@@ -17,12 +17,16 @@ mod overlap;
 mod playback;
 mod projectile;
 mod record;
+mod settings;
 mod start;
 
 pub use crate::backend::BackendKind;
 pub use forces::DragId;
 pub use motors::Motors;
 pub use playback::Activation;
+pub use settings::{
+    DEFAULT_FAST_SUBSTEPS, DEFAULT_JOINT_DAMPING, MAX_JOINT_DAMPING, StartPose, WorldSettings,
+};
 pub use start::MAX_COORDINATE_M;
 use start::{beyond_world, within_world};
 
@@ -66,202 +70,6 @@ const HANDOVER_LIMIT_MARGIN_DEG: f32 = 5.0;
 /// With no ground, blasts are computed as if the ground were this far below the charge,
 /// metres: far enough that any charge counts as a free-air burst.
 const FREE_AIR_DEPTH_M: f32 = 1.0e4;
-
-/// Which pose a ragdoll starts in.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum StartPose {
-    /// The first frame of the character's first clip, or the rest pose when it has none.
-    #[default]
-    FirstFrame,
-    /// The rest (bind) pose.
-    Rest,
-}
-
-/// How a world steps and what surrounds the ragdolls.
-#[derive(Clone, Debug, PartialEq)]
-pub struct WorldSettings {
-    /// Fixed step, seconds (default 1/60): events and the metrics run at this rate.
-    pub dt: f32,
-    /// Physics steps per step, each with its own collision detection (default 4, so
-    /// contacts are found at 240 Hz: a body falling at 5 m/s moves 2 cm between two
-    /// detections instead of 8 cm, which is what kept penetrations under a centimetre or
-    /// so in our runs).
-    pub collision_substeps: usize,
-    /// Solver substeps per physics step (default 4).
-    pub substeps: usize,
-    /// Constraint iterations per solver substep (default 2): joints and contacts of a
-    /// 16-body chain converge better with two.
-    pub iterations: usize,
-    /// Output frames per second of the tracks (default 30).
-    pub fps: f32,
-    /// Gravity, m/s² (default −9.80665 along Y).
-    pub gravity: Vec3,
-    /// Height of the ground plane (default `Some(0.0)`: the file's floor); `None` for none.
-    pub ground: Option<f32>,
-    /// Starting pose (default: the first clip frame).
-    pub start: StartPose,
-    /// Whether joint limits are also enforced on positions after every step (default true).
-    ///
-    /// rapier enforces limits on velocities; a hard impact (a torso landing on an arm) can
-    /// still push a joint tens of degrees past its limit for a few frames. The projection
-    /// clamps each joint's swing and twist back into range, turning the child's whole
-    /// subtree about the joint anchor, parents first, as position-based solvers do.
-    pub project_limits: bool,
-    /// Which engine moves the bodies (default [`BackendKind::Rigid`]). The particle
-    /// backend keeps limits itself (`project_limits` is then not needed) and reads
-    /// `particle_substeps` and `particle_iterations` instead of `substeps` and
-    /// `iterations`; the fast backend reads `fast_substeps` alone.
-    pub backend: BackendKind,
-    /// Substeps per physics step of the particle backend (default 3: with the 4 collision
-    /// substeps, the particles move at 720 Hz). Two leave the built-in humanoid's bones
-    /// 1.4 % stretched after a fall; four cost a third more.
-    pub particle_substeps: usize,
-    /// Projection passes per particle substep (default 1): substeps converge better than
-    /// passes for the same cost (Macklin et al. 2019, "Small Steps in Physics Simulation").
-    pub particle_iterations: usize,
-    /// Substeps per step of the fast backend (default [`DEFAULT_FAST_SUBSTEPS`]). It
-    /// finds contact pairs once per step and ignores `collision_substeps`: its substeps
-    /// find the contact points themselves.
-    pub fast_substeps: usize,
-    /// Passive joint damping, per second (default [`DEFAULT_JOINT_DAMPING`], off): how
-    /// fast a limp limb swinging from a still body loses its speed relative to it, so its
-    /// swing's amplitude decays as `exp(-c t / 2)`. Rigid backend only for now.
-    pub joint_damping: f32,
-}
-
-/// Default of [`WorldSettings::fast_substeps`]: 32 substeps of 1/1920 s. Measured on six
-/// piles of 8 built-in humanoids dropped lying (means of each run's worst values): 16
-/// substeps left joints 31 mm apart, contacts 46 mm deep and limits 12° past; 24 left
-/// 16 mm, 27 mm, 8°; 32 left 14 mm, 23 mm, 5.5°, where the rigid backend leaves 16 mm,
-/// 38 mm, 8.5° (its solver's reading, before the world's clamp).
-pub const DEFAULT_FAST_SUBSTEPS: usize = 32;
-
-/// Default of [`WorldSettings::joint_damping`]: off, so runs match earlier releases.
-///
-/// Without damping a limp part hanging free swings as an undamped pendulum for the whole
-/// run: the rigged dragons' raised heads swung at 0.1-0.4 m/s for 14 s on the rigid
-/// backend. At 1.5 per second they lie still within a few seconds, but the default stays
-/// off until it is measured on every data file and the particle backend has it (see
-/// [`WorldSettings::validate`]).
-pub const DEFAULT_JOINT_DAMPING: f32 = 0.0;
-
-/// Largest [`WorldSettings::joint_damping`], per second: a limb stopping within a
-/// hundredth of a second is a weld, not a joint.
-pub const MAX_JOINT_DAMPING: f32 = 100.0;
-
-impl Default for WorldSettings {
-    fn default() -> Self {
-        WorldSettings {
-            dt: 1.0 / 60.0,
-            collision_substeps: 4,
-            substeps: 4,
-            iterations: 2,
-            fps: 30.0,
-            gravity: Vec3::new(0.0, -STANDARD_GRAVITY, 0.0),
-            ground: Some(0.0),
-            start: StartPose::FirstFrame,
-            project_limits: true,
-            backend: BackendKind::Rigid,
-            particle_substeps: 3,
-            particle_iterations: 1,
-            fast_substeps: DEFAULT_FAST_SUBSTEPS,
-            joint_damping: DEFAULT_JOINT_DAMPING,
-        }
-    }
-}
-
-impl WorldSettings {
-    /// Checks the settings a user can set: the step within [`STEP_RANGE_S`], the frame
-    /// rate within 1..[`MAX_FPS`], substeps within 1..[`MAX_SUBSTEPS`], gravity within
-    /// [`MAX_GRAVITY_MPS2`] and the ground within [`MAX_COORDINATE_M`].
-    pub fn validate(&self) -> Result<()> {
-        use crate::spec::{check_length, check_within};
-        let mut checks = vec![
-            (
-                "dt",
-                check_within(self.dt, STEP_RANGE_S[0], STEP_RANGE_S[1], " s"),
-            ),
-            (
-                "fps",
-                check_within(self.fps, 1.0, MAX_FPS, " frames per second"),
-            ),
-            (
-                "gravity",
-                check_length(self.gravity.to_array(), MAX_GRAVITY_MPS2, " m/s²"),
-            ),
-            (
-                "ground",
-                self.ground.map_or(Ok(()), |h| {
-                    check_within(h, -MAX_COORDINATE_M, MAX_COORDINATE_M, " m")
-                }),
-            ),
-            (
-                "joint_damping",
-                check_within(self.joint_damping, 0.0, MAX_JOINT_DAMPING, " per second"),
-            ),
-        ];
-        for (name, v) in [
-            ("collision_substeps", self.collision_substeps),
-            ("substeps", self.substeps),
-            ("iterations", self.iterations),
-            ("particle_substeps", self.particle_substeps),
-            ("particle_iterations", self.particle_iterations),
-            ("fast_substeps", self.fast_substeps),
-        ] {
-            if !(1..=MAX_SUBSTEPS).contains(&v) {
-                checks.push((
-                    name,
-                    Err(format!("must be between 1 and {MAX_SUBSTEPS}, not {v}")),
-                ));
-            }
-        }
-        if self.joint_damping > 0.0 && self.backend == BackendKind::Particle {
-            // Applied as torque impulses on velocities the particle backend reads off its
-            // last substep's motion, a substep late: on the viewer's largest bodies that
-            // fed energy in (a 29 J fall came to 148 J of motion).
-            checks.push((
-                "joint_damping",
-                Err(
-                    "works on the rigid backend only for now; use 0 with the particle backend"
-                        .to_string(),
-                ),
-            ));
-        }
-        match checks.into_iter().find(|(_, r)| r.is_err()) {
-            Some((setting, Err(message))) => Err(Error::Setting {
-                setting: setting.into(),
-                message,
-            }),
-            _ => Ok(()),
-        }
-    }
-
-    /// Checks a run of `seconds` recording `joints` skeleton joints (over every
-    /// character) at these settings: at most [`MAX_SECONDS`], and at most
-    /// [`MAX_TRACK_SAMPLES`] joint transforms recorded.
-    pub fn validate_run(&self, seconds: f32, joints: usize) -> Result<()> {
-        let bad = |message: String| {
-            Err(Error::Setting {
-                setting: "seconds".into(),
-                message,
-            })
-        };
-        if let Err(m) = crate::spec::check_within(seconds, 0.0, MAX_SECONDS, " s") {
-            return bad(m);
-        }
-        let frames = (seconds as f64 * self.fps as f64).floor() as u64 + 1;
-        let samples = frames.saturating_mul(joints as u64);
-        if samples > MAX_TRACK_SAMPLES {
-            return bad(format!(
-                "{seconds} s at {} fps records {frames} frames of {joints} joints, more than \
-                 the {MAX_TRACK_SAMPLES} joint transforms a run keeps in memory; shorten the \
-                 run, lower the frame rate or use fewer characters",
-                self.fps
-            ));
-        }
-        Ok(())
-    }
-}
 
 /// Handle of a ragdoll inside a [`World`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -463,34 +271,11 @@ impl World {
         let mut body_start = resolved.body_poses(&start);
         let bone_of_body = &resolved.bone_of_body;
         // 2. Lift onto the ground where any body would start below it.
-        let mut lift = Vec3::ZERO;
-        if let Some(ground) = self.settings.ground {
-            let lowest = body_start
-                .iter()
-                .zip(&spec.bodies)
-                .map(|(p, b)| b.shape.lowest_y(p))
-                .fold(f32::INFINITY, f32::min);
-            if lowest < ground {
-                lift = Vec3::new(0.0, ground - lowest, 0.0);
-                for p in &mut body_start {
-                    p.translation += lift;
-                }
-                for t in &mut start {
-                    t.translation += lift;
-                }
-            }
+        let lift = self.lift_onto_ground(spec, &body_start);
+        for t in body_start.iter_mut().chain(&mut start) {
+            t.translation += lift;
         }
-        let joint_descs: Vec<JointDesc> = resolved
-            .joints
-            .iter()
-            .map(|j| JointDesc {
-                parent: j.parent,
-                child: j.child,
-                frame_parent: j.frame_parent,
-                frame_child: j.frame_child,
-                kind: j.kind,
-            })
-            .collect();
+        let joint_descs: Vec<JointDesc> = resolved.joints.iter().map(joint_desc).collect();
         let mut disabled: Vec<(usize, usize)> = spec
             .collision
             .disabled_pairs
@@ -503,31 +288,7 @@ impl World {
         disabled.extend(start::overlapping_parts(spec, &solids)?);
         // 3. Skeleton joints ride on their own or their nearest ancestor's body, with the
         //    offset they have at the start (so the hand-over pose is kept exactly).
-        let root_body = (0..spec.bodies.len())
-            .min_by_key(|&i| bone_of_body[i])
-            .expect("a spec has bodies");
-        let riders: Vec<Rider> = start
-            .iter()
-            .enumerate()
-            .map(|(j, joint_start)| {
-                let mut k = Some(j);
-                let body = loop {
-                    match k {
-                        Some(k2) => {
-                            if let Some(b) = bone_of_body.iter().position(|&bj| bj == k2) {
-                                break b;
-                            }
-                            k = skeleton.parent(k2);
-                        }
-                        None => break root_body,
-                    }
-                };
-                Rider {
-                    body,
-                    offset: body_start[body].inverse().mul(joint_start),
-                }
-            })
-            .collect();
+        let riders = riders(character, bone_of_body, &start, &body_start);
         let bodies: Vec<BodyDesc> = spec
             .bodies
             .iter()
@@ -542,22 +303,10 @@ impl World {
             .collect();
         let first_body = self.backend.add_ragdoll(&bodies, &joint_descs, &disabled);
         self.start_index.insert(&solids);
+        let playback = playback_of(character, &resolved, placement, lift);
         let joints = resolved.joints;
         let links: Vec<(usize, usize)> = joints.iter().map(|j| (j.parent, j.child)).collect();
         let tree = JointTree::new(spec.bodies.len(), &links);
-        let playback = character
-            .clips
-            .first()
-            .filter(|c| !c.frames.is_empty() && c.frames.iter().all(|f| f.len() == skeleton.len()))
-            .map(|clip| playback::Playback {
-                skeleton: skeleton.clone(),
-                clip: clip.clone(),
-                placement,
-                lift,
-                offset_s: 0.0,
-                bone_of_body: resolved.bone_of_body.clone(),
-                body_local: resolved.body_local.clone(),
-            });
         let first_joint = self.instances.iter().map(|i| i.joints.len()).sum();
         self.instances.push(Instance {
             joint_labels: (0..skeleton.len())
@@ -806,6 +555,92 @@ impl World {
     pub fn into_tracks(self) -> Vec<Track> {
         self.instances.into_iter().map(|i| i.track).collect()
     }
+}
+
+impl World {
+    /// How far up a ragdoll whose bodies start at `body_start` must move so that none
+    /// starts below the ground.
+    fn lift_onto_ground(&self, spec: &RagdollSpec, body_start: &[Transform]) -> Vec3 {
+        let Some(ground) = self.settings.ground else {
+            return Vec3::ZERO;
+        };
+        let lowest = body_start
+            .iter()
+            .zip(&spec.bodies)
+            .map(|(p, b)| b.shape.lowest_y(p))
+            .fold(f32::INFINITY, f32::min);
+        Vec3::Y * (ground - lowest).max(0.0)
+    }
+}
+
+/// The backend's description of a resolved joint.
+fn joint_desc(j: &ResolvedJoint) -> JointDesc {
+    JointDesc {
+        parent: j.parent,
+        child: j.child,
+        frame_parent: j.frame_parent,
+        frame_child: j.frame_child,
+        kind: j.kind,
+    }
+}
+
+/// The character's first clip, ready to play until the hand-over, when it has frames for
+/// every joint.
+fn playback_of(
+    character: &Character,
+    resolved: &Resolved,
+    placement: Transform,
+    lift: Vec3,
+) -> Option<playback::Playback> {
+    let skeleton = &character.skeleton;
+    character
+        .clips
+        .first()
+        .filter(|c| !c.frames.is_empty() && c.frames.iter().all(|f| f.len() == skeleton.len()))
+        .map(|clip| playback::Playback {
+            skeleton: skeleton.clone(),
+            clip: clip.clone(),
+            placement,
+            lift,
+            offset_s: 0.0,
+            bone_of_body: resolved.bone_of_body.clone(),
+            body_local: resolved.body_local.clone(),
+        })
+}
+
+/// Each skeleton joint on the body of its own bone or of its nearest ancestor's (the root
+/// body for joints above every body), with the offset it has from that body at the start.
+/// Parents come before their children in a skeleton, so one pass finds every joint's body.
+fn riders(
+    character: &Character,
+    bone_of_body: &[usize],
+    start: &[Transform],
+    body_start: &[Transform],
+) -> Vec<Rider> {
+    let skeleton = &character.skeleton;
+    let root_body = (0..bone_of_body.len())
+        .min_by_key(|&i| bone_of_body[i])
+        .expect("a spec has bodies");
+    let mut body_of_joint: Vec<Option<usize>> = vec![None; skeleton.len()];
+    for (b, &j) in bone_of_body.iter().enumerate() {
+        if body_of_joint[j].is_none() {
+            body_of_joint[j] = Some(b);
+        }
+    }
+    let mut body = vec![root_body; skeleton.len()];
+    for j in 0..skeleton.len() {
+        body[j] = body_of_joint[j]
+            .or_else(|| skeleton.parent(j).map(|p| body[p]))
+            .unwrap_or(root_body);
+    }
+    start
+        .iter()
+        .zip(&body)
+        .map(|(joint_start, &body)| Rider {
+            body,
+            offset: body_start[body].inverse().mul(joint_start),
+        })
+        .collect()
 }
 
 fn setting_error(setting: &str, message: &str) -> Error {
