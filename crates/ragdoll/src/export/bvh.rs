@@ -37,7 +37,7 @@ use glam::{DQuat, DVec3, Vec3};
 
 use crate::error::{Error, Result};
 use crate::import::bvh::{
-    Axis, BvhLayout, Channel, decompose_rotation, sanitise_names, up_rotation,
+    Axis, BvhJoint, BvhLayout, Channel, decompose_rotation, sanitise_names, up_rotation,
 };
 use crate::math::Transform;
 use crate::skeleton::{Character, Skeleton, Source};
@@ -62,6 +62,23 @@ pub fn to_bvh_with_layout(
     layout: &BvhLayout,
     track: &Track,
 ) -> Result<String> {
+    check_layout(skeleton, layout)?;
+    check_track(skeleton, track)?;
+
+    let n = skeleton.len();
+    let order = depth_first(skeleton);
+    let rest_world = skeleton.rest_world();
+    let space = FileSpace::new(skeleton, layout, &rest_world);
+    let rest = space.locals(&rest_world, true);
+
+    let mut out = String::with_capacity(64 * n + track.frames.len() * n * 30);
+    write_hierarchy(&mut out, skeleton, layout, &order, &rest);
+    write_motion(&mut out, layout, track, &order, &space);
+    Ok(out)
+}
+
+/// Rejects a layout that cannot describe this skeleton, before any text is written.
+fn check_layout(skeleton: &Skeleton, layout: &BvhLayout) -> Result<()> {
     let n = skeleton.len();
     if layout.joints.len() != n {
         return Err(Error::Skeleton {
@@ -81,6 +98,13 @@ pub fn to_bvh_with_layout(
             ),
         });
     }
+    Ok(())
+}
+
+/// Rejects a track that would give a meaningless `Frame Time`, misaligned motion columns or
+/// non-numeric channel values.
+fn check_track(skeleton: &Skeleton, track: &Track) -> Result<()> {
+    let n = skeleton.len();
     if !(track.fps.is_finite() && track.fps > 0.0) {
         return Err(Error::Setting {
             setting: "fps".into(),
@@ -107,35 +131,54 @@ pub fn to_bvh_with_layout(
             });
         }
     }
+    Ok(())
+}
 
-    let names = sanitise_names(layout.joints.iter().map(|j| j.name.as_str()));
-    let order = depth_first(skeleton);
-    let units_per_metre = 1.0 / f64::from(layout.metres_per_unit);
-    let c_inv = up_rotation(layout.up).conjugate();
+/// The mapping from the track's world transforms to the file's joint-local channels (module
+/// docs), set up once per export because every frame goes through it.
+struct FileSpace<'a> {
+    skeleton: &'a Skeleton,
+    /// The up-axis rotation `C` and its inverse.
+    c: DQuat,
+    c_inv: DQuat,
+    units_per_metre: f64,
+    /// `Rrest_j⁻¹` of every joint.
+    rest_inv: Vec<DQuat>,
+}
 
-    let c = up_rotation(layout.up);
-    let rest_world = skeleton.rest_world();
-    let rest_inv: Vec<DQuat> = rest_world
-        .iter()
-        .map(|w| w.rotation.as_dquat().normalize().conjugate())
-        .collect();
-    // File-space local transform (translation, rotation) of every joint (module docs).
-    let to_file = |worlds: &[Transform], at_rest: bool| -> Vec<(DVec3, DQuat)> {
+impl<'a> FileSpace<'a> {
+    fn new(skeleton: &'a Skeleton, layout: &BvhLayout, rest_world: &[Transform]) -> Self {
+        let c = up_rotation(layout.up);
+        FileSpace {
+            skeleton,
+            c,
+            c_inv: c.conjugate(),
+            units_per_metre: 1.0 / f64::from(layout.metres_per_unit),
+            rest_inv: rest_world
+                .iter()
+                .map(|w| w.rotation.as_dquat().normalize().conjugate())
+                .collect(),
+        }
+    }
+
+    /// File-space local transform (translation, rotation) of every joint (module docs).
+    /// `at_rest` gives identity frames, because at rest all rotation channels are zero.
+    fn locals(&self, worlds: &[Transform], at_rest: bool) -> Vec<(DVec3, DQuat)> {
         let frames: Vec<(DVec3, DQuat)> = worlds
             .iter()
-            .zip(&rest_inv)
+            .zip(&self.rest_inv)
             .map(|(w, ri)| {
-                let p = c_inv * w.translation.as_dvec3() * units_per_metre;
+                let p = self.c_inv * w.translation.as_dvec3() * self.units_per_metre;
                 let f = if at_rest {
                     DQuat::IDENTITY
                 } else {
-                    (c_inv * w.rotation.as_dquat().normalize() * *ri * c).normalize()
+                    (self.c_inv * w.rotation.as_dquat().normalize() * *ri * self.c).normalize()
                 };
                 (p, f)
             })
             .collect();
-        (0..n)
-            .map(|i| match skeleton.parent(i) {
+        (0..self.skeleton.len())
+            .map(|i| match self.skeleton.parent(i) {
                 None => frames[i],
                 Some(p) => {
                     let inv = frames[p].1.conjugate();
@@ -146,64 +189,104 @@ pub fn to_bvh_with_layout(
                 }
             })
             .collect()
-    };
+    }
+}
 
-    let mut out = String::with_capacity(64 * n + track.frames.len() * n * 30);
+/// Writes the `HIERARCHY` section in `order`, the same depth-first order as the motion
+/// columns; `rest` (the rest pose in file space) supplies the `OFFSET`s.
+fn write_hierarchy(
+    out: &mut String,
+    skeleton: &Skeleton,
+    layout: &BvhLayout,
+    order: &DepthFirst,
+    rest: &[(DVec3, DQuat)],
+) {
     out.push_str("HIERARCHY\n");
-    let rest = to_file(&rest_world, true);
+    let names = sanitise_names(layout.joints.iter().map(|j| j.name.as_str()));
+    // (joint, opening): each joint is visited once to open its block and once to close it
+    // after its children.
     let mut stack: Vec<(usize, bool)> = order.roots.iter().rev().map(|&r| (r, true)).collect();
-    let mut depth = vec![0usize; n];
+    let mut depth = vec![0usize; skeleton.len()];
     while let Some((j, opening)) = stack.pop() {
         let d = depth[j];
         let pad = "\t".repeat(d);
         let joint = &layout.joints[j];
         if opening {
-            let kw = if skeleton.parent(j).is_none() {
-                "ROOT"
-            } else {
-                "JOINT"
-            };
-            let _ = writeln!(out, "{pad}{kw} {}", names[j]);
-            let _ = writeln!(out, "{pad}{{");
-            let o = rest[j].0;
-            let _ = writeln!(out, "{pad}\tOFFSET {} {} {}", num(o.x), num(o.y), num(o.z));
-            let _ = write!(out, "{pad}\tCHANNELS {}", joint.channels.len());
-            for c in &joint.channels {
-                let _ = write!(out, " {}", c.name());
-            }
-            out.push('\n');
+            let is_root = skeleton.parent(j).is_none();
+            write_joint_open(out, &pad, is_root, &names[j], rest[j].0, joint);
             stack.push((j, false));
             for &c in order.children[j].iter().rev() {
                 depth[c] = d + 1;
                 stack.push((c, true));
             }
         } else {
-            let end = joint.end_site.or_else(|| {
-                // Readers expect every leaf to end in an End Site; zero says "unknown".
-                order.children[j].is_empty().then_some(Vec3::ZERO)
-            });
-            if let Some(e) = end {
-                let e = e.as_dvec3();
-                let _ = writeln!(out, "{pad}\tEnd Site");
-                let _ = writeln!(out, "{pad}\t{{");
-                let _ = writeln!(
-                    out,
-                    "{pad}\t\tOFFSET {} {} {}",
-                    num(e.x),
-                    num(e.y),
-                    num(e.z)
-                );
-                let _ = writeln!(out, "{pad}\t}}");
-            }
-            let _ = writeln!(out, "{pad}}}");
+            write_joint_close(out, &pad, joint, order.children[j].is_empty());
         }
     }
+}
 
+/// Writes a joint's header, `OFFSET` and `CHANNELS` lines, leaving its block open for its
+/// children.
+fn write_joint_open(
+    out: &mut String,
+    pad: &str,
+    is_root: bool,
+    name: &str,
+    offset: DVec3,
+    joint: &BvhJoint,
+) {
+    let kw = if is_root { "ROOT" } else { "JOINT" };
+    let _ = writeln!(out, "{pad}{kw} {name}");
+    let _ = writeln!(out, "{pad}{{");
+    write_offset(out, &format!("{pad}\t"), offset);
+    let _ = write!(out, "{pad}\tCHANNELS {}", joint.channels.len());
+    for c in &joint.channels {
+        let _ = write!(out, " {}", c.name());
+    }
+    out.push('\n');
+}
+
+/// Closes a joint's block, after its `End Site` where it has one.
+fn write_joint_close(out: &mut String, pad: &str, joint: &BvhJoint, is_leaf: bool) {
+    let end = joint.end_site.or_else(|| {
+        // Readers expect every leaf to end in an End Site; zero says "unknown".
+        is_leaf.then_some(Vec3::ZERO)
+    });
+    if let Some(e) = end {
+        let _ = writeln!(out, "{pad}\tEnd Site");
+        let _ = writeln!(out, "{pad}\t{{");
+        write_offset(out, &format!("{pad}\t\t"), e.as_dvec3());
+        let _ = writeln!(out, "{pad}\t}}");
+    }
+    let _ = writeln!(out, "{pad}}}");
+}
+
+fn write_offset(out: &mut String, indent: &str, o: DVec3) {
+    let _ = writeln!(out, "{indent}OFFSET {} {} {}", num(o.x), num(o.y), num(o.z));
+}
+
+/// Writes the `MOTION` section: the frame count and time, then one line per track frame.
+fn write_motion(
+    out: &mut String,
+    layout: &BvhLayout,
+    track: &Track,
+    order: &DepthFirst,
+    space: &FileSpace,
+) {
     let _ = writeln!(out, "MOTION");
     let _ = writeln!(out, "Frames: {}", track.frames.len());
     let frame_time = 1.0 / f64::from(track.fps);
     let _ = writeln!(out, "Frame Time: {}", trim(format!("{frame_time:.9}")));
-    let axes: Vec<Vec<Axis>> = layout
+    let axes = rotation_axes(layout);
+    for frame in &track.frames {
+        write_frame(out, layout, order, &axes, &space.locals(frame, false));
+    }
+}
+
+/// Each joint's rotation axes in channel order, worked out once rather than per frame, as
+/// [`decompose_rotation`] needs them.
+fn rotation_axes(layout: &BvhLayout) -> Vec<Vec<Axis>> {
+    layout
         .joints
         .iter()
         .map(|j| {
@@ -215,33 +298,49 @@ pub fn to_bvh_with_layout(
                 })
                 .collect()
         })
-        .collect();
-    for frame in &track.frames {
-        let locals = to_file(frame, false);
-        let mut first = true;
-        for &j in &order.preorder {
-            let (t, r) = locals[j];
-            let angles = decompose_rotation(r, &axes[j]);
-            let mut k = 0;
-            for c in &layout.joints[j].channels {
-                let v = match c {
-                    Channel::Position(a) => t[a.index()],
-                    Channel::Rotation(_) => {
-                        let v = angles.get(k).copied().unwrap_or(0.0).to_degrees();
-                        k += 1;
-                        v
-                    }
-                };
-                if !first {
-                    out.push(' ');
-                }
-                first = false;
-                out.push_str(&num(v));
+        .collect()
+}
+
+/// Writes one motion line: joints in depth-first order to match the hierarchy, each
+/// joint's channels in its own declared order.
+fn write_frame(
+    out: &mut String,
+    layout: &BvhLayout,
+    order: &DepthFirst,
+    axes: &[Vec<Axis>],
+    locals: &[(DVec3, DQuat)],
+) {
+    let mut first = true;
+    for &j in &order.preorder {
+        for v in channel_values(&layout.joints[j], &axes[j], locals[j]) {
+            if !first {
+                out.push(' ');
             }
+            first = false;
+            out.push_str(&num(v));
         }
-        out.push('\n');
     }
-    Ok(out)
+    out.push('\n');
+}
+
+/// A joint's channel values from its file-space local transform: positions in file units,
+/// rotations in degrees. A rotation channel without an angle (fewer decomposed angles than
+/// rotation channels) reads zero.
+fn channel_values(joint: &BvhJoint, axes: &[Axis], (t, r): (DVec3, DQuat)) -> Vec<f64> {
+    let angles = decompose_rotation(r, axes);
+    let mut k = 0;
+    joint
+        .channels
+        .iter()
+        .map(|c| match c {
+            Channel::Position(a) => t[a.index()],
+            Channel::Rotation(_) => {
+                let v = angles.get(k).copied().unwrap_or(0.0).to_degrees();
+                k += 1;
+                v
+            }
+        })
+        .collect()
 }
 
 /// The hierarchy as BVH writes it: depth-first, children in index order. For a skeleton
