@@ -148,11 +148,39 @@ pub(super) fn find_humanoid(rig: &Rig) -> Option<Humanoid> {
 
 /// Tries joint `pelvis` as the branch point of the legs.
 fn humanoid_at(rig: &Rig, pelvis: usize) -> Option<Humanoid> {
+    let legs = leg_roots(rig, pelvis)?;
+    let spine_start = spine_start(rig, pelvis, &legs)?;
+    let (leg_a, leg_b, lateral) = leg_pair(rig, &legs)?;
+    let path = spine_path(rig, spine_start);
+    let arms = arm_candidates(rig, pelvis, &path, lateral);
+    let (chest_at, arm_pos, arm_neg) = arm_pair(&arms)?;
+    let chest = path[chest_at];
+    if !chest_upright(rig, pelvis, chest) {
+        return None;
+    }
+    let spine = path[..chest_at].first().copied();
+    let (neck, head) = neck_and_head(rig, &path[chest_at + 1..]);
+    let (forward, legs, arms) = facing(rig, lateral, [leg_a, leg_b], [arm_pos, arm_neg]);
+    Some(Humanoid {
+        pelvis,
+        spine,
+        chest,
+        neck,
+        head,
+        legs,
+        arms,
+        forward,
+        mirrored: false,
+    })
+}
+
+/// The children of `pelvis` whose subtrees look like legs; `None` unless there are at
+/// least two.
+fn leg_roots(rig: &Rig, pelvis: usize) -> Option<Vec<usize>> {
     let h = rig.height;
     let py = rig.pos[pelvis].y;
-    let stats = |c: usize| rig.subtree_stats(c);
     let leg_like = |c: usize| {
-        let (lo, hi, count) = stats(c);
+        let (lo, hi, count) = rig.subtree_stats(c);
         count >= 2
             && lo <= rig.ground + LEG_GROUND_TOLERANCE_H * h
             && py - lo >= LEG_MIN_DROP_H * h
@@ -166,10 +194,19 @@ fn humanoid_at(rig: &Rig, pelvis: usize) -> Option<Humanoid> {
     if legs.len() < 2 {
         return None;
     }
-    // The spine rises from the pelvis, or (rigs whose legs hang off a separate pelvis
-    // joint) from one of its ancestors, beside the branch holding the pelvis: the child
-    // reaching highest, if it reaches high enough. Above the pelvis that child is the
-    // highest sibling of the branch we came up, known without looking at the others.
+    Some(legs)
+}
+
+/// The first joint of the spine.
+///
+/// The spine rises from the pelvis, or (rigs whose legs hang off a separate pelvis
+/// joint) from one of its ancestors, beside the branch holding the pelvis: the child
+/// reaching highest, if it reaches high enough. Above the pelvis that child is the
+/// highest sibling of the branch we came up, known without looking at the others.
+fn spine_start(rig: &Rig, pelvis: usize, legs: &[usize]) -> Option<usize> {
+    let h = rig.height;
+    let py = rig.pos[pelvis].y;
+    let stats = |c: usize| rig.subtree_stats(c);
     let leg_set: HashSet<usize> = legs.iter().copied().collect();
     let rises = |c: usize| stats(c).1 >= py + SPINE_MIN_RISE_H * h && !leg_set.contains(&c);
     let mut spine_start = rig.children[pelvis]
@@ -183,9 +220,12 @@ fn humanoid_at(rig: &Rig, pelvis: usize) -> Option<Humanoid> {
         spine_start = rig.highest_sibling[below].filter(|&c| rises(c));
         below = up;
     }
-    let spine_start = spine_start?;
+    spine_start
+}
 
-    // Legs: the most symmetric pair of leg-like chains.
+/// Legs: the most symmetric pair of leg-like chains, far enough apart. Returns the two
+/// legs and the unit horizontal direction `lateral` from the second leg to the first.
+fn leg_pair(rig: &Rig, legs: &[usize]) -> Option<(Limb, Limb, Vec3)> {
     let leg_limbs: Vec<Limb> = legs
         .iter()
         .filter_map(|&c| Limb::from_root(rig, c))
@@ -206,13 +246,15 @@ fn humanoid_at(rig: &Rig, pelvis: usize) -> Option<Humanoid> {
     let (_, a, b) = best?;
     let (leg_a, leg_b) = (leg_limbs[a].clone(), leg_limbs[b].clone());
     let lateral = horizontal(centroid(&leg_a.points(rig)) - centroid(&leg_b.points(rig)));
-    if lateral.length() < MIN_LEG_SEPARATION_H * h {
+    if lateral.length() < MIN_LEG_SEPARATION_H * rig.height {
         return None;
     }
-    let lateral = lateral.normalize();
+    Some((leg_a, leg_b, lateral.normalize()))
+}
 
-    // Spine path: from its first joint, always toward the highest point.
-    let top = |c: usize| stats(c).1;
+/// Spine path: from its first joint, always toward the highest point.
+fn spine_path(rig: &Rig, spine_start: usize) -> Vec<usize> {
+    let top = |c: usize| rig.subtree_stats(c).1;
     let mut path = vec![spine_start];
     while let Some(next) = rig.children[*path.last().unwrap_or(&spine_start)]
         .iter()
@@ -221,14 +263,24 @@ fn humanoid_at(rig: &Rig, pelvis: usize) -> Option<Humanoid> {
     {
         path.push(next);
     }
+    path
+}
 
-    // Arms: lateral chains branching off the spine path, mirror images of each other.
+/// Arms: lateral chains branching off the spine path, as (path index, limb, side), the
+/// side being the signed offset along `lateral` from the pelvis.
+fn arm_candidates(
+    rig: &Rig,
+    pelvis: usize,
+    path: &[usize],
+    lateral: Vec3,
+) -> Vec<(usize, Limb, f32)> {
+    let h = rig.height;
     let mid = rig.pos[pelvis];
     let on_path: HashSet<usize> = path.iter().copied().collect();
     let mut arms: Vec<(usize, Limb, f32)> = Vec::new(); // (path index, limb, side)
     for (m, &k) in path.iter().enumerate() {
         for &c in &rig.children[k] {
-            if on_path.contains(&c) || stats(c).2 < 2 {
+            if on_path.contains(&c) || rig.subtree_stats(c).2 < 2 {
                 continue;
             }
             let pts = rig.subtree_points(c);
@@ -244,9 +296,16 @@ fn humanoid_at(rig: &Rig, pelvis: usize) -> Option<Humanoid> {
             }
         }
     }
+    arms
+}
+
+/// The arms, mirror images of each other: of the pairs on opposite sides with similar
+/// lengths, the one whose higher branch point (the chest) is lowest on the spine path.
+/// Returns (chest path index, +side arm, -side arm).
+fn arm_pair(arms: &[(usize, Limb, f32)]) -> Option<(usize, Limb, Limb)> {
     let mut arm_pair: Option<(usize, Limb, Limb)> = None; // (chest path index, +side, -side)
-    for (ma, la, sa) in &arms {
-        for (mb, lb, sb) in &arms {
+    for (ma, la, sa) in arms {
+        for (mb, lb, sb) in arms {
             if *sa > 0.0 && *sb < 0.0 && la.similar_length(lb) {
                 let m = (*ma).max(*mb);
                 if arm_pair.as_ref().is_none_or(|(best, _, _)| m < *best) {
@@ -255,27 +314,38 @@ fn humanoid_at(rig: &Rig, pelvis: usize) -> Option<Humanoid> {
             }
         }
     }
-    let (chest_at, arm_pos, arm_neg) = arm_pair?;
-    let chest = path[chest_at];
-    let rise = rig.pos[chest] - rig.pos[pelvis];
-    if rise.length() < 1e-6 || rise.normalize().y < SPINE_MAX_TILT_DEG.to_radians().cos() {
-        return None;
-    }
+    arm_pair
+}
 
-    let spine = path[..chest_at].first().copied();
-    let above = &path[chest_at + 1..];
+/// Whether the trunk from the pelvis to the chest stands up within `SPINE_MAX_TILT_DEG`.
+fn chest_upright(rig: &Rig, pelvis: usize, chest: usize) -> bool {
+    let rise = rig.pos[chest] - rig.pos[pelvis];
+    !(rise.length() < 1e-6 || rise.normalize().y < SPINE_MAX_TILT_DEG.to_radians().cos())
+}
+
+/// Neck and head among the spine path's joints `above` the chest: up to a joint named
+/// "head" if there is one, else the first two.
+fn neck_and_head(rig: &Rig, above: &[usize]) -> (Option<usize>, Option<usize>) {
     let named_head = above
         .iter()
         .position(|&j| has_token(&rig.skeleton.joints()[j].name, "head"));
-    let (neck, head) = match (named_head, above.len()) {
+    match (named_head, above.len()) {
         (Some(0), _) => (None, Some(above[0])),
         (Some(i), _) => (Some(above[0]), Some(above[i])),
         (None, 0) => (None, None),
         (None, 1) => (None, Some(above[0])),
         (None, _) => (Some(above[0]), Some(above[1])),
-    };
+    }
+}
 
-    // Facing. `lateral` points from leg b to leg a; forward is ± lateral × up.
+/// Facing, and the legs and arms put in (left, right) order. `lateral` points from leg b
+/// to leg a; forward is ± lateral × up.
+fn facing(
+    rig: &Rig,
+    lateral: Vec3,
+    [leg_a, leg_b]: [Limb; 2],
+    [arm_pos, arm_neg]: [Limb; 2],
+) -> (Vec3, [Limb; 2], [Limb; 2]) {
     let across = lateral.cross(Vec3::Y).normalize();
     let legs_ab = [&leg_a, &leg_b];
     let sign = body_cue(rig, &legs_ab, across)
@@ -289,15 +359,5 @@ fn humanoid_at(rig: &Rig, pelvis: usize) -> Option<Humanoid> {
     } else {
         ([leg_b, leg_a], [arm_neg, arm_pos])
     };
-    Some(Humanoid {
-        pelvis,
-        spine,
-        chest,
-        neck,
-        head,
-        legs,
-        arms,
-        forward,
-        mirrored: false,
-    })
+    (forward, legs, arms)
 }
