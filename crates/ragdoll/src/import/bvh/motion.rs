@@ -55,6 +55,38 @@ pub(super) fn read_motion(
 ) -> Result<Motion> {
     let channels: usize = joints.iter().map(|j| j.channels.len()).sum();
     let mut rest = lines.filter(|(_, l)| !l.trim().is_empty());
+    let announced = read_frame_count(path, &mut rest, motion_line)?;
+    check_clip_size(path, announced, joints.len())?;
+    let (time_line, frame_time) = read_frame_time(path, &mut rest, announced.line)?;
+    let (frames, frame_lines) = read_frames(path, rest, announced, joints, convert, channels)?;
+    let last_line = frame_lines.last().copied().unwrap_or(time_line);
+    // Without channels every frame is the rest pose: there are no frame lines to miss.
+    if channels > 0 {
+        check_no_missing_frames(path, announced, frame_lines.len(), last_line)?;
+    }
+    Ok(Motion {
+        count: announced.count,
+        frame_time,
+        frames: (channels > 0).then_some(frames),
+        frame_lines,
+    })
+}
+
+/// The `Frames:` count, kept with its 1-based line so that the errors about too many or
+/// too few frame lines can point back at it.
+#[derive(Clone, Copy)]
+struct Announced {
+    count: usize,
+    line: usize,
+}
+
+/// `Frames:` must be the first line with anything on it after `MOTION`. The count is only
+/// parsed here, not trusted: [`check_clip_size`] bounds it.
+fn read_frame_count<'a>(
+    path: &Path,
+    rest: &mut impl Iterator<Item = (usize, &'a str)>,
+    motion_line: usize,
+) -> Result<Announced> {
     let Some((frames_line, line)) = rest.next() else {
         return Err(parse_error(
             path,
@@ -78,19 +110,36 @@ pub(super) fn read_motion(
                 format!("the frame count is not a whole number: \"{}\"", line.trim()),
             )
         })?;
-    // The clip holds frames × joints transforms; refuse sizes that would exhaust memory
-    // (a crash, not an error) rather than trust the count or a pathological hierarchy.
-    if count.saturating_mul(joints.len()) > MAX_CLIP_POSES {
+    Ok(Announced {
+        count,
+        line: frames_line,
+    })
+}
+
+/// The clip holds frames × joints transforms; refuse sizes that would exhaust memory
+/// (a crash, not an error) rather than trust the count or a pathological hierarchy.
+fn check_clip_size(path: &Path, announced: Announced, joints: usize) -> Result<()> {
+    let count = announced.count;
+    if count.saturating_mul(joints) > MAX_CLIP_POSES {
         return Err(parse_error(
             path,
-            frames_line,
+            announced.line,
             format!(
-                "{count} frames of {} joints exceed the {MAX_CLIP_POSES} joint poses this importer holds in memory",
-                joints.len()
+                "{count} frames of {joints} joints exceed the {MAX_CLIP_POSES} joint poses this importer holds in memory"
             ),
         ));
     }
+    Ok(())
+}
 
+/// Also returns the `Frame Time:` line, which a short motion section cites when it has no
+/// frame lines. A file that ends before it is reported at `Frames:`, as it has no line of
+/// its own to cite.
+fn read_frame_time<'a>(
+    path: &Path,
+    rest: &mut impl Iterator<Item = (usize, &'a str)>,
+    frames_line: usize,
+) -> Result<(usize, f64)> {
     let Some((time_line, line)) = rest.next() else {
         return Err(parse_error(
             path,
@@ -130,10 +179,25 @@ pub(super) fn read_motion(
             ),
         ));
     }
-    let mut last_line = time_line;
+    Ok((time_line, frame_time))
+}
 
+/// Each frame is converted as soon as its line is read, so memory grows with the lines
+/// actually present, never with the announced count; one value buffer serves every line.
+fn read_frames<'a>(
+    path: &Path,
+    rest: impl Iterator<Item = (usize, &'a str)>,
+    announced: Announced,
+    joints: &[PJoint],
+    convert: &Convert,
+    channels: usize,
+) -> Result<(Vec<Vec<Transform>>, Vec<usize>)> {
     let mut frames = Vec::new();
     let mut frame_lines = Vec::new();
+    let Announced {
+        count,
+        line: frames_line,
+    } = announced;
     let mut row = Vec::with_capacity(channels);
     for (line_no, line) in rest {
         let f = frame_lines.len();
@@ -146,49 +210,71 @@ pub(super) fn read_motion(
                 ),
             ));
         }
-        let n = line.split_whitespace().count();
-        if n != channels {
-            return Err(parse_error(
-                path,
-                line_no,
-                format!(
-                    "frame {} has {n} values, but the hierarchy has {channels} channels",
-                    f + 1
-                ),
-            ));
-        }
-        row.clear();
-        for (k, word) in line.split_whitespace().enumerate() {
-            let what = || format!("value {} of frame {}", k + 1, f + 1);
-            let v = parse_number(word)
-                .ok_or_else(|| {
-                    parse_error(
-                        path,
-                        line_no,
-                        format!("{} is not a finite number: \"{word}\"", what()),
-                    )
-                })
-                .and_then(|v| check_range(v, &what()).map_err(|m| parse_error(path, line_no, m)))?;
-            row.push(v);
-        }
+        read_frame_values(path, line_no, line, f, channels, &mut row)?;
         frames.push(convert.frame(joints, &row));
         frame_lines.push(line_no);
-        last_line = line_no;
     }
-    if frame_lines.len() < count && channels > 0 {
+    Ok((frames, frame_lines))
+}
+
+/// Fills `row` with frame `f`'s values (`f` 0-based). The values are counted before any
+/// is parsed, so a short or long line is reported as such, not as its first bad value.
+fn read_frame_values(
+    path: &Path,
+    line_no: usize,
+    line: &str,
+    f: usize,
+    channels: usize,
+    row: &mut Vec<f64>,
+) -> Result<()> {
+    let n = line.split_whitespace().count();
+    if n != channels {
+        return Err(parse_error(
+            path,
+            line_no,
+            format!(
+                "frame {} has {n} values, but the hierarchy has {channels} channels",
+                f + 1
+            ),
+        ));
+    }
+    row.clear();
+    for (k, word) in line.split_whitespace().enumerate() {
+        let what = || format!("value {} of frame {}", k + 1, f + 1);
+        let v = parse_number(word)
+            .ok_or_else(|| {
+                parse_error(
+                    path,
+                    line_no,
+                    format!("{} is not a finite number: \"{word}\"", what()),
+                )
+            })
+            .and_then(|v| check_range(v, &what()).map_err(|m| parse_error(path, line_no, m)))?;
+        row.push(v);
+    }
+    Ok(())
+}
+
+/// A short motion section is reported at the line after the last frame read (or after
+/// `Frame Time:` when there is none): where the first missing frame was expected.
+fn check_no_missing_frames(
+    path: &Path,
+    announced: Announced,
+    read: usize,
+    last_line: usize,
+) -> Result<()> {
+    let Announced {
+        count,
+        line: frames_line,
+    } = announced;
+    if read < count {
         return Err(parse_error(
             path,
             last_line + 1,
             format!(
-                "the motion data ends after {} frames, but \"Frames:\" (line {frames_line}) announces {count}",
-                frame_lines.len()
+                "the motion data ends after {read} frames, but \"Frames:\" (line {frames_line}) announces {count}"
             ),
         ));
     }
-    Ok(Motion {
-        count,
-        frame_time,
-        frames: (channels > 0).then_some(frames),
-        frame_lines,
-    })
+    Ok(())
 }
