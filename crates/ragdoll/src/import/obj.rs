@@ -105,116 +105,202 @@ fn parse_err(path: &Path, line: usize, message: impl Into<String>) -> Error {
 /// This is the entry point for fuzzing (through `String::from_utf8_lossy` of the bytes):
 /// any text gives a mesh or an [`Error`] naming a line, never a panic.
 pub fn parse(text: &str, path: &Path, opts: &ImportOptions) -> Result<SkinnedMesh> {
-    let mut positions: Vec<Vec3> = Vec::new();
-    let mut file_normals: Vec<Vec3> = Vec::new();
-    let mut indices: Vec<u32> = Vec::new();
-    // Per position: sum of the file normals its corners name.
-    let mut normal_sum: Vec<Vec3> = Vec::new();
-    let mut corners: Vec<u32> = Vec::new();
+    let mut obj = Reader::default();
     for (n, raw) in text.lines().enumerate() {
-        let line_no = n + 1;
-        let line = raw.split('#').next().unwrap_or("").trim();
-        let mut words = line.split_whitespace();
-        let Some(keyword) = words.next() else {
-            continue;
-        };
-        match keyword {
-            "v" | "vn" => {
-                let mut xyz = [0.0f32; 3];
-                for (k, c) in xyz.iter_mut().enumerate() {
-                    let w = words.next().ok_or_else(|| {
-                        parse_err(
-                            path,
-                            line_no,
-                            format!("`{keyword}` needs three numbers, found {k}"),
-                        )
-                    })?;
-                    *c = w
-                        .parse::<f32>()
-                        .ok()
-                        .filter(|x| x.is_finite())
-                        .ok_or_else(|| {
-                            parse_err(
-                                path,
-                                line_no,
-                                format!("`{keyword}`: {w:?} is not a finite number"),
-                            )
-                        })?;
-                    if c.abs() > MAX_COORDINATE {
-                        return Err(parse_err(
-                            path,
-                            line_no,
-                            format!(
-                                "`{keyword}`: {w} is beyond the ±{MAX_COORDINATE} a coordinate may be"
-                            ),
-                        ));
-                    }
-                }
-                let count = if keyword == "v" {
-                    positions.len()
-                } else {
-                    file_normals.len()
-                };
-                if count >= MAX_VERTICES {
-                    return Err(parse_err(
-                        path,
-                        line_no,
-                        format!("`{keyword}`: more than the {MAX_VERTICES} an OBJ may have"),
-                    ));
-                }
-                if keyword == "v" {
-                    positions.push(Vec3::from_array(xyz));
-                    normal_sum.push(Vec3::ZERO);
-                } else {
-                    file_normals.push(Vec3::from_array(xyz));
-                }
-            }
-            "f" => {
-                corners.clear();
-                for w in words {
-                    let mut parts = w.split('/');
-                    let v = parts.next().unwrap_or("");
-                    let vi = resolve(v, positions.len(), "vertex", path, line_no)?;
-                    let _texture = parts.next();
-                    if let Some(vn) = parts.next().filter(|s| !s.is_empty()) {
-                        let ni = resolve(vn, file_normals.len(), "normal", path, line_no)?;
-                        normal_sum[vi] += file_normals[ni];
-                    }
-                    corners.push(vi as u32);
-                }
-                if corners.len() < 3 {
-                    return Err(parse_err(
-                        path,
-                        line_no,
-                        format!("a face needs at least 3 corners, found {}", corners.len()),
-                    ));
-                }
-                if indices.len() / 3 + (corners.len() - 2) > MAX_TRIANGLES {
-                    return Err(parse_err(
-                        path,
-                        line_no,
-                        format!(
-                            "the faces so far make more than the {MAX_TRIANGLES} triangles an OBJ may have"
-                        ),
-                    ));
-                }
-                for k in 1..corners.len() - 1 {
-                    indices.extend([corners[0], corners[k], corners[k + 1]]);
-                }
-            }
-            _ => {}
-        }
+        obj.read_line(raw, n + 1, path)?;
     }
-    if indices.is_empty() {
+    if obj.indices.is_empty() {
         return Err(Error::Format {
             path: path.to_path_buf(),
             place: "faces".into(),
             message: format!(
                 "the file has {} vertices but no faces (`f` lines): nothing to rig",
-                positions.len()
+                obj.positions.len()
             ),
         });
     }
+    let normals = vertex_normals(&obj.positions, &obj.indices, &obj.normal_sum);
+    let (positions, normals) = to_metres_y_up(&obj.positions, &normals, opts);
+    Ok(SkinnedMesh {
+        name: path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default(),
+        positions,
+        normals,
+        indices: obj.indices,
+        joints: Vec::new(),
+        weights: Vec::new(),
+    })
+}
+
+/// What [`parse`] has read so far, in file units and axes: faces refer back to it, and
+/// negative indices count from its current end.
+#[derive(Default)]
+struct Reader {
+    positions: Vec<Vec3>,
+    file_normals: Vec<Vec3>,
+    indices: Vec<u32>,
+    /// Per position: sum of the file normals its corners name.
+    normal_sum: Vec<Vec3>,
+    /// The current face's positions; kept between faces to reuse its allocation.
+    corners: Vec<u32>,
+}
+
+impl Reader {
+    /// One line, numbered from 1 for errors. Comments are cut first, so `#` after a
+    /// statement is ignored too; unknown keywords are skipped, as the module says.
+    fn read_line(&mut self, raw: &str, line_no: usize, path: &Path) -> Result<()> {
+        let line = raw.split('#').next().unwrap_or("").trim();
+        let mut words = line.split_whitespace();
+        let Some(keyword) = words.next() else {
+            return Ok(());
+        };
+        match keyword {
+            "v" | "vn" => {
+                let xyz = read_xyz(keyword, &mut words, path, line_no)?;
+                self.push_vector(keyword, xyz, path, line_no)
+            }
+            "f" => self.read_face(words, path, line_no),
+            _ => Ok(()),
+        }
+    }
+
+    /// Stores a `v` or `vn` once its coordinates are known good; the count is checked
+    /// before the push so that no file grows the lists past [`MAX_VERTICES`].
+    fn push_vector(&mut self, keyword: &str, xyz: Vec3, path: &Path, line_no: usize) -> Result<()> {
+        let count = if keyword == "v" {
+            self.positions.len()
+        } else {
+            self.file_normals.len()
+        };
+        if count >= MAX_VERTICES {
+            return Err(parse_err(
+                path,
+                line_no,
+                format!("`{keyword}`: more than the {MAX_VERTICES} an OBJ may have"),
+            ));
+        }
+        if keyword == "v" {
+            self.positions.push(xyz);
+            self.normal_sum.push(Vec3::ZERO);
+        } else {
+            self.file_normals.push(xyz);
+        }
+        Ok(())
+    }
+
+    /// An `f` line: every corner is resolved (and its file normal added to its position)
+    /// before the face is judged, so a bad index is reported ahead of a short face.
+    fn read_face<'a>(
+        &mut self,
+        words: impl Iterator<Item = &'a str>,
+        path: &Path,
+        line_no: usize,
+    ) -> Result<()> {
+        self.corners.clear();
+        for w in words {
+            let vi = self.read_corner(w, path, line_no)?;
+            self.corners.push(vi as u32);
+        }
+        if self.corners.len() < 3 {
+            return Err(parse_err(
+                path,
+                line_no,
+                format!(
+                    "a face needs at least 3 corners, found {}",
+                    self.corners.len()
+                ),
+            ));
+        }
+        self.fan_triangulate(path, line_no)
+    }
+
+    /// One `v`, `v/vt`, `v//vn` or `v/vt/vn` corner, as its 0-based position. The texture
+    /// index is not even parsed: the mesh has no use for it.
+    fn read_corner(&mut self, word: &str, path: &Path, line_no: usize) -> Result<usize> {
+        let mut parts = word.split('/');
+        let v = parts.next().unwrap_or("");
+        let vi = resolve(v, self.positions.len(), "vertex", path, line_no)?;
+        let _texture = parts.next();
+        if let Some(vn) = parts.next().filter(|s| !s.is_empty()) {
+            let ni = resolve(vn, self.file_normals.len(), "normal", path, line_no)?;
+            self.normal_sum[vi] += self.file_normals[ni];
+        }
+        Ok(vi)
+    }
+
+    /// Fans the current face from its first corner; the triangle count is checked before
+    /// the indices grow, so that no file makes more than [`MAX_TRIANGLES`].
+    fn fan_triangulate(&mut self, path: &Path, line_no: usize) -> Result<()> {
+        let corners = &self.corners;
+        if self.indices.len() / 3 + (corners.len() - 2) > MAX_TRIANGLES {
+            return Err(parse_err(
+                path,
+                line_no,
+                format!(
+                    "the faces so far make more than the {MAX_TRIANGLES} triangles an OBJ may have"
+                ),
+            ));
+        }
+        for k in 1..corners.len() - 1 {
+            self.indices
+                .extend([corners[0], corners[k], corners[k + 1]]);
+        }
+        Ok(())
+    }
+}
+
+/// The three numbers after `v` or `vn`, each checked as it is read so the error names the
+/// first bad one; numbers after the third (a `w`, vertex colours) are ignored.
+fn read_xyz<'a>(
+    keyword: &str,
+    words: &mut impl Iterator<Item = &'a str>,
+    path: &Path,
+    line_no: usize,
+) -> Result<Vec3> {
+    let mut xyz = [0.0f32; 3];
+    for (k, c) in xyz.iter_mut().enumerate() {
+        let w = words.next().ok_or_else(|| {
+            parse_err(
+                path,
+                line_no,
+                format!("`{keyword}` needs three numbers, found {k}"),
+            )
+        })?;
+        *c = read_coordinate(keyword, w, path, line_no)?;
+    }
+    Ok(Vec3::from_array(xyz))
+}
+
+/// One coordinate: finite and within ±[`MAX_COORDINATE`], since a larger one would only
+/// blow up later, in the rig or the physics.
+fn read_coordinate(keyword: &str, w: &str, path: &Path, line_no: usize) -> Result<f32> {
+    let c = w
+        .parse::<f32>()
+        .ok()
+        .filter(|x| x.is_finite())
+        .ok_or_else(|| {
+            parse_err(
+                path,
+                line_no,
+                format!("`{keyword}`: {w:?} is not a finite number"),
+            )
+        })?;
+    if c.abs() > MAX_COORDINATE {
+        return Err(parse_err(
+            path,
+            line_no,
+            format!("`{keyword}`: {w} is beyond the ±{MAX_COORDINATE} a coordinate may be"),
+        ));
+    }
+    Ok(c)
+}
+
+/// One unit normal per position: the file's normals averaged, else the area-weighted
+/// normal of the faces around it (so scans without `vn` still light), else +Y for a
+/// position no face uses or whose faces are degenerate.
+fn vertex_normals(positions: &[Vec3], indices: &[u32], normal_sum: &[Vec3]) -> Vec<Vec3> {
     // Area-weighted face normals for positions the file gave none.
     let mut face_sum = vec![Vec3::ZERO; positions.len()];
     for t in indices.chunks_exact(3) {
@@ -228,27 +314,29 @@ pub fn parse(text: &str, path: &Path, opts: &ImportOptions) -> Result<SkinnedMes
             face_sum[i as usize] += n;
         }
     }
-    let normals_file: Vec<Vec3> = normal_sum
+    normal_sum
         .iter()
         .zip(&face_sum)
         .map(|(f, a)| f.try_normalize().or(a.try_normalize()).unwrap_or(Vec3::Y))
-        .collect();
+        .collect()
+}
+
+/// Positions and normals in metres with Y up: OBJ states neither its unit nor its up
+/// axis, so the caller's [`ImportOptions`] decide, metres and Y up by default.
+fn to_metres_y_up(
+    positions: &[Vec3],
+    normals: &[Vec3],
+    opts: &ImportOptions,
+) -> (Vec<Vec3>, Vec<Vec3>) {
     let scale = opts.units.map_or(1.0, |u| u.to_metres());
     let turn = match opts.up {
         Some(UpAxis::Z) => Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2),
         _ => Quat::IDENTITY,
     };
-    Ok(SkinnedMesh {
-        name: path
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default(),
-        positions: positions.iter().map(|p| turn * (*p * scale)).collect(),
-        normals: normals_file.iter().map(|n| turn * *n).collect(),
-        indices,
-        joints: Vec::new(),
-        weights: Vec::new(),
-    })
+    (
+        positions.iter().map(|p| turn * (*p * scale)).collect(),
+        normals.iter().map(|n| turn * *n).collect(),
+    )
 }
 
 /// A 1-based or negative (relative) OBJ index into a list of `count` elements read so far,
