@@ -43,6 +43,7 @@ mod ground;
 mod markers;
 mod mesh;
 mod raster;
+mod setup;
 mod shadow;
 
 use std::borrow::Cow;
@@ -57,9 +58,9 @@ use ragdoll::{Error, Result};
 
 use camera::{Camera, NEAR};
 use ground::Ground;
-use markers::fireball_radius;
 use mesh::{cube, draw_lit, icosphere, vertex_normals};
 use raster::Target;
+use setup::{Ball, actor_view, frame_range, framed_box, grid_spacing, marker_balls, shared_fps};
 use shadow::ShadowMask;
 
 /// What to draw and how big.
@@ -369,135 +370,23 @@ impl<'a> Preview<'a> {
         options: &PreviewOptions,
     ) -> Result<Preview<'a>> {
         options.validate()?;
-        let err = |message: String| Error::Setting {
-            setting: "preview".into(),
-            message,
-        };
-        if actors.is_empty() {
-            return Err(err("there is no character to draw".into()));
-        }
-        let fps = actors[0].2.fps;
-        if !(fps.is_finite() && fps > 0.0) {
-            return Err(err(format!("the frame rate {fps} is not positive")));
-        }
+        let fps = shared_fps(actors)?;
         let mut views = Vec::with_capacity(actors.len());
         // What the camera must keep in the picture: balls around every joint in (a sample
         // of) every frame, and the markers.
-        let mut points: Vec<(Vec3, f32)> = Vec::new();
-        for (k, &(character, spec, track)) in actors.iter().enumerate() {
-            let name = &character.name;
-            if track.frames.is_empty() {
-                return Err(err(format!("{name}: the track has no frames")));
-            }
-            if (track.fps - fps).abs() > 1e-3 * fps {
-                return Err(err(format!(
-                    "{name}: the track runs at {} fps, the first at {fps}",
-                    track.fps
-                )));
-            }
-            for (f, frame) in track.frames.iter().enumerate() {
-                if frame.len() != character.skeleton.len() {
-                    return Err(err(format!(
-                        "{name}: frame {f} has {} joints, the skeleton {}",
-                        frame.len(),
-                        character.skeleton.len()
-                    )));
-                }
-                if frame.iter().any(|t| !t.is_finite()) {
-                    return Err(err(format!("{name}: frame {f} is not finite")));
-                }
-            }
-            let meshes: Vec<Cow<'a, SkinnedMesh>> = if character.meshes.is_empty() {
-                vec![Cow::Owned(ragdoll::spec::bodies_mesh(
-                    &character.skeleton,
-                    spec,
-                )?)]
-            } else {
-                character.meshes.iter().map(Cow::Borrowed).collect()
-            };
-            let rest = character.skeleton.rest_world();
-            // Joints alone underestimate the body: pad by how far the mesh reaches from
-            // the joints that carry it.
-            let pad = meshes
-                .iter()
-                .flat_map(|m| m.positions.iter().zip(&m.joints).zip(&m.weights))
-                .map(|((p, j), w)| {
-                    let a = w.to_array();
-                    let main = (0..4).max_by(|&x, &y| a[x].total_cmp(&a[y])).unwrap_or(0);
-                    rest.get(j[main] as usize)
-                        .map_or(0.0, |r| (*p - r.translation).length())
-                })
-                .fold(0.0f32, f32::max)
-                .min(2.0 * character.skeleton.rest_height().max(0.1));
-            let stride = track.frames.len().div_ceil(600).max(1);
-            for frame in track.frames.iter().step_by(stride) {
-                points.extend(frame.iter().map(|t| (t.translation, pad)));
-            }
-            views.push(ActorView {
-                track,
-                rest,
-                meshes: meshes
-                    .into_iter()
-                    .map(|mesh| MeshView {
-                        mesh,
-                        positions: Vec::new(),
-                        normals: Vec::new(),
-                    })
-                    .collect(),
-                albedo: ALBEDO[k % ALBEDO.len()],
-            });
+        let mut points: Vec<Ball> = Vec::new();
+        for (k, &actor) in actors.iter().enumerate() {
+            views.push(actor_view(k, actor, fps, &mut points)?);
         }
-        for m in markers {
-            let marks = match *m {
-                Marker::Blast {
-                    position, tnt_kg, ..
-                } => [(position, 1.4 * fireball_radius(tnt_kg)); 2],
-                Marker::Shot {
-                    origin, end, hit, ..
-                } => [(origin, 0.05), (if hit { end } else { origin }, 0.05)],
-            };
-            if marks.iter().any(|(p, _)| !p.is_finite()) {
-                return Err(err("a marker's position is not finite".into()));
-            }
-            points.extend(marks);
-        }
-        let (mut lo, mut hi) = points.iter().fold(
-            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-            |(lo, hi), &(p, r)| (lo.min(p - r), hi.max(p + r)),
-        );
-        lo.y = lo.y.min(0.0);
-        // Never frame less than a small room, so a still character is not blown up.
-        let centre = (lo + hi) * 0.5;
-        let half = ((hi - lo) * 0.5).max(Vec3::splat(0.4));
-        points.push((centre - Vec3::splat(0.4), 0.0));
-        points.push((centre + Vec3::splat(0.4), 0.0));
-        (lo, hi) = (centre - half, centre + half);
-
-        let frames = views
-            .iter()
-            .map(|v| v.track.frames.len())
-            .max()
-            .unwrap_or(1);
-        let range = options.frames.unwrap_or((0, frames - 1));
-        if range.1 >= frames {
-            return Err(err(format!(
-                "the frame range ends at {} but the last frame is {}",
-                range.1,
-                frames - 1
-            )));
-        }
+        marker_balls(markers, &mut points)?;
+        let (lo, hi) = framed_box(&mut points);
+        let (frames, range) = frame_range(&views, options.frames)?;
         let (width, height) = (options.width as usize, options.height as usize);
         let ss = options.supersample as usize;
         let camera = Camera::framing(&points, options.view_from, width as f32, height as f32)
             .scaled(ss as f32);
         let light = SUN.normalize();
-        let size = actors
-            .iter()
-            .map(|a| a.0.skeleton.rest_height())
-            .fold(0.0f32, f32::max);
-        // 1 m for anything from about half to five times a person's height.
-        let ratio = size.max(0.01) / ragdoll::skeleton::DEFAULT_HEIGHT_M;
-        let grid = 10f32.powf((ratio.log10() + 0.3).floor());
+        let grid = grid_spacing(actors);
         let mut preview = Preview {
             actors: views,
             markers: markers.to_vec(),
