@@ -4,10 +4,12 @@
 //! pelvis, the two sides stand apart. Where the hierarchy detaches a bone from its anatomy
 //! (IK feet under the root), the bone is taken if it lies where that anatomy ends.
 
+use std::cmp::Reverse;
+
 use glam::Vec3;
 
 use super::LEG_GROUND_TOLERANCE_H;
-use super::names::{NameHint, Part, without_numbers};
+use super::names::{NameHint, Part, name_hint, without_numbers};
 use super::rig::Rig;
 use super::side::{body_cue, forward_from_sides};
 use super::structure::{Humanoid, Limb};
@@ -22,6 +24,11 @@ const HEAD_ABOVE_PELVIS_H: f32 = 0.15;
 /// this distance of where the limb's lower segment ends (its length, or this fraction of
 /// H when the segment's end is unknown).
 const DETACHED_END_H: f32 = 0.12;
+
+/// A leaf this far above the joint before it, at the top of the chain over the chest, is
+/// the top of the skull (Mixamo's `HeadTop_End`), not the head joint: a neck's bones are
+/// shorter (~0.05 H each), a head 0.13 H tall.
+const SKULL_H: f32 = 0.08;
 
 /// The joints claimed for each part, before they are checked.
 #[derive(Clone, Debug, Default)]
@@ -73,7 +80,9 @@ pub(super) fn claims_from_table(rig: &Rig, table: &[(String, usize)]) -> Claims 
 /// Claims from the joint names: for each side the lower segment (shin, forearm) first,
 /// then the nearest upper segment above it (so Mixamo's `LeftShoulder`, a collar, loses to
 /// `LeftArm`, while CMU's `LeftShoulder` above `LeftElbow` wins), then the first extremity
-/// below it, else one the hierarchy detached that lies where the segment ends.
+/// below it, else one the hierarchy detached that lies where the segment ends. Of two
+/// such joints equally deep, the one carrying more of the skeleton: Valve's helper bones
+/// `Bip01_L_Elbow` and `Bip01_L_Wrist` are leaves beside the forearm and the hand.
 pub(super) fn claims_from_names(rig: &Rig, hints: &[NameHint]) -> Claims {
     let is = |j: usize, part: Part, side: i32| {
         let h = &hints[j];
@@ -90,21 +99,31 @@ pub(super) fn claims_from_names(rig: &Rig, hints: &[NameHint]) -> Claims {
     }
     let trunk = |part: Part| (0..rig.len()).filter(move |&j| is(j, part, 0));
     let arms: Vec<usize> = c.arms.iter().filter_map(|a| a[0]).collect();
-    c.chest = match arms[..] {
+    // Where the arms meet; a neck there (3ds Max Biped hangs its clavicles from
+    // `Bip01 Neck`) hands the chest to the first joint below it that is not a neck.
+    let mut chest = match arms[..] {
         [a, b] => common_ancestor(rig, a, b),
         _ => None,
     };
+    while let Some(j) = chest.filter(|&j| is(j, Part::Neck, 0)) {
+        chest = rig.parent(j);
+    }
+    c.chest = chest;
     let thighs: Vec<usize> = c.legs.iter().filter_map(|l| l[0]).collect();
     let legs_meet = match thighs[..] {
         [a, b] => common_ancestor(rig, a, b),
         _ => None,
     };
     if let Some(chest) = c.chest {
-        // The named pelvis on the way up to the chest; else where the legs meet.
+        // The named pelvis on the way up to the chest; else the named one where the legs'
+        // and the spine's ways part (Daz's `hip`, over its `pelvis` that holds the
+        // thighs); else where the legs meet.
+        let parting = legs_meet.and_then(|m| common_ancestor(rig, m, chest));
         c.pelvis = trunk(Part::Pelvis)
             .filter(|&p| p != chest && is_ancestor(rig, p, chest))
             .filter(|&p| legs_meet.is_some_and(|m| is_ancestor(rig, m, p) || m == p))
             .max_by_key(|&p| depth(rig, p))
+            .or_else(|| trunk(Part::Pelvis).find(|&p| Some(p) == parting && p != chest))
             .or(legs_meet.filter(|&m| m != chest && is_ancestor(rig, m, chest)));
         c.head = trunk(Part::Head)
             .filter(|&h| is_ancestor(rig, chest, h))
@@ -125,9 +144,13 @@ pub(super) fn claims_from_names(rig: &Rig, hints: &[NameHint]) -> Claims {
     c
 }
 
-/// Where no joint is named a head (Rigify's `spine.006`): the chain rising highest from
-/// the chest, beside the arms; its second joint is the head when it has two or more (the
-/// first being the neck), as the structure pass reads it.
+/// Where no joint is named a head (Rigify's `spine.006`): the chain rising from the chest
+/// beside the arms, each step to the child reaching highest and only while it rises (a
+/// jaw hangs forward and down), less the end markers and eyes its names call helpers and
+/// a last leaf as far above the one before it as the top of a skull is above its base.
+/// What is left is neck joints and the head, the last of them: the head of
+/// `neck, head`, and of Rigify's `spine.004, spine.005, spine.006` or Daz's `neckLower,
+/// neckUpper, head`, whose necks have two bones.
 pub(super) fn unnamed_head(rig: &Rig, chest: usize, arms: &[usize]) -> Option<usize> {
     let top = |c: usize| rig.subtree_stats(c).1;
     let beside_arms = |c: &usize| !arms.iter().any(|&a| a == *c || is_ancestor(rig, *c, a));
@@ -137,12 +160,24 @@ pub(super) fn unnamed_head(rig: &Rig, chest: usize, arms: &[usize]) -> Option<us
         .iter()
         .copied()
         .filter(|c| !path.is_empty() || beside_arms(c))
+        .filter(|&c| rig.pos[c].y > rig.pos[at].y)
         .max_by(|&a, &b| top(a).total_cmp(&top(b)))
     {
         path.push(next);
         at = next;
     }
-    path.get(1).or(path.first()).copied()
+    let helper = |j: usize| name_hint(&rig.skeleton.joints()[j].name).helper;
+    while path.last().is_some_and(|&j| helper(j)) {
+        path.pop();
+    }
+    if let [.., a, b] = path[..]
+        && path.len() >= 3
+        && rig.children[b].is_empty()
+        && rig.pos[a].distance(rig.pos[b]) >= SKULL_H * rig.height
+    {
+        path.pop();
+    }
+    path.last().copied()
 }
 
 /// Upper, lower and end joints of one limb, as [`claims_from_names`] picks them.
@@ -163,7 +198,7 @@ fn limb_claims(
     let lowers = (0..rig.len()).filter(|&j| is(j, lower_part));
     let Some((lower, upper)) = lowers
         .filter_map(|l| Some((l, above[l]?)))
-        .min_by_key(|&(l, _)| depth(rig, l))
+        .min_by_key(|&(l, _)| (depth(rig, l), Reverse(rig.subtree_stats(l).2)))
     else {
         return [None; 3];
     };
@@ -173,7 +208,7 @@ fn limb_claims(
         .iter()
         .copied()
         .filter(|&e| is_ancestor(rig, lower, e))
-        .min_by_key(|&e| depth(rig, e))
+        .min_by_key(|&e| (depth(rig, e), Reverse(rig.subtree_stats(e).2)))
         .or_else(|| detached_end(rig, upper, lower, &ends));
     [Some(upper), Some(lower), end]
 }

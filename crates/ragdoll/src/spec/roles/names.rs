@@ -39,7 +39,7 @@ pub(crate) enum Part {
 /// The name-hints pass's verdict on one joint.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub(crate) struct NameHint {
-    /// The body part the name says, if any.
+    /// The body part the name says, if any; none for a helper.
     pub part: Option<Part>,
     /// +1 left, −1 right, 0 unsided.
     pub side: i32,
@@ -85,6 +85,30 @@ const FINGER_WORDS: [&str; 10] = [
     "digit",
     "metacarpal",
 ];
+
+/// Words before or after a part's name that leave the part as it is: Daz Genesis splits a
+/// limb into `lThighBend` and `lThighTwist` and its trunk into `abdomenLower`,
+/// `chestUpper`, `neckLower`. Read only where the whole stem names nothing, so
+/// `upperarm` stays an upper arm and `lowerleg` a shin.
+const QUALIFIER_WORDS: [&str; 4] = ["bend", "upper", "lower", "mid"];
+
+/// The part a stem names, or else the part it names without one qualifier word before or
+/// after ([`QUALIFIER_WORDS`]).
+fn part_of_qualified_stem(stem: &str, sided: bool) -> Option<Part> {
+    part_of_stem(stem, sided).or_else(|| {
+        QUALIFIER_WORDS.iter().find_map(|q| {
+            let bare = stem.strip_suffix(q).or_else(|| stem.strip_prefix(q))?;
+            part_of_stem(bare, sided)
+        })
+    })
+}
+
+/// The part `words` name: all of them, else all but the first few, which are then a
+/// prefix the exporter put before every name (`CC_Base_L_Thigh`, `Character1_LeftUpLeg`,
+/// `ValveBiped.Bip01_L_Calf`). The last word alone is tried last.
+fn part_of_words(words: &[&str], sided: bool) -> Option<Part> {
+    (0..words.len()).find_map(|k| part_of_qualified_stem(&words[k..].concat(), sided))
+}
 
 /// The part a stem names; `sided` tells `LeftHip` (a thigh) from `Hip` (the pelvis) and
 /// CMU's `LeftShoulder` (an upper arm) from an unsided shoulder.
@@ -151,16 +175,20 @@ pub(crate) fn name_hint(name: &str) -> NameHint {
     let finger = words
         .iter()
         .any(|w| FINGER_WORDS.iter().any(|f| w.starts_with(f)));
-    let stem: String = words
+    let kept: Vec<&str> = words
         .iter()
         .filter(|w| !NOISE_WORDS.contains(&w.as_str()))
         .filter(|w| !w.chars().all(|c| c.is_ascii_digit()))
         .map(String::as_str)
         .collect();
-    let part = if finger {
+    let stem = kept.concat();
+    // A helper names no part, whatever words it borrows (`ik_foot_l`).
+    let part = if helper {
+        None
+    } else if finger {
         Some(Part::Finger)
     } else {
-        part_of_stem(&stem, side != 0)
+        part_of_words(&kept, side != 0)
     };
     NameHint {
         part,
@@ -267,6 +295,20 @@ mod tests {
             ("Head", Some(Head), 0, false),
             ("rib", None, 0, false),
             ("b_LeftLeg01_015", Some(Shin), 1, false),
+            ("lThighBend", Some(Thigh), 1, false),
+            ("rShldrBend", Some(UpperArm), -1, false),
+            ("lForearmTwist", None, 1, true),
+            ("chestUpper", Some(Chest), 0, false),
+            ("abdomenLower", Some(Spine), 0, false),
+            ("neckLower", Some(Neck), 0, false),
+            ("upperFaceRig", None, 0, false),
+            ("CC_Base_L_Calf", Some(Shin), 1, false),
+            ("CC_Base_Pelvis", Some(Pelvis), 0, false),
+            ("CC_Base_L_KneeShareBone", None, 1, false),
+            ("Character1_LeftUpLeg", Some(Thigh), 1, false),
+            ("Character1_Hips", Some(Pelvis), 0, false),
+            ("Bip01 L UpperArm", Some(UpperArm), 1, false),
+            ("ValveBiped.Bip01_L_Forearm", Some(Forearm), 1, false),
         ];
         for &(name, part, side, helper) in cases {
             let h = name_hint(name);
