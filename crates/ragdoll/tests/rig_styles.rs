@@ -5,7 +5,9 @@
 //! Genesis 8, Character Creator 3/4, 3ds Max Biped (its thighs hang from the spine), Valve's
 //! Biped (helper bones named after the wrist and elbow), Unreal 5's mannequin (IK feet and
 //! hands under the root, twist and corrective bones), Rigify's deform bones (each limb bone
-//! split in two) and Maya HumanIK (roll bones). Each names, for every main role, the joint
+//! split in two), Maya HumanIK (roll bones), Mixamo (collars named `LeftShoulder`, end
+//! bones) and MakeHuman (legs under side `pelvis.L` bones, every limb bone numbered in two,
+//! the hand called `wrist.L`). Each names, for every main role, the joint
 //! a rigger would give it, and the helper bones that must carry no body.
 
 mod common;
@@ -764,6 +766,150 @@ fn human_ik() -> (Character, Expect) {
     (r.character("humanik"), want)
 }
 
+/// Mixamo as its auto-rigger writes it (glTF from its FBX): a `mixamorig:` prefix, a
+/// collar named `LeftShoulder`, three spine joints, end bones (`HeadTop_End`,
+/// `LeftToe_End`), four-joint fingers.
+fn mixamo() -> (Character, Expect) {
+    let s = ["Left", "Right"];
+    let m = |n: &str| format!("mixamorig:{n}");
+    let mut r = Rig::new(&m("Hips"), "hips", 0.0);
+    r.add(&m("Spine"), &m("Hips"), "spine1")
+        .add(&m("Spine1"), &m("Spine"), "spine3")
+        .add(&m("Spine2"), &m("Spine1"), "chest")
+        .add(&m("Neck"), &m("Spine2"), "neck")
+        .add(&m("Head"), &m("Neck"), "head")
+        .add(&m("HeadTop_End"), &m("Head"), "head_top")
+        .both(s, &m("{s}Eye"), &m("Head"), "eye")
+        .chain(
+            s,
+            &m("Hips"),
+            &[
+                (&m("{s}UpLeg"), "hip"),
+                (&m("{s}Leg"), "knee"),
+                (&m("{s}Foot"), "ankle"),
+                (&m("{s}ToeBase"), "ball"),
+                (&m("{s}Toe_End"), "toe_end"),
+            ],
+        )
+        .chain(
+            s,
+            &m("Spine2"),
+            &[
+                (&m("{s}Shoulder"), "clavicle"),
+                (&m("{s}Arm"), "shoulder"),
+                (&m("{s}ForeArm"), "elbow"),
+                (&m("{s}Hand"), "wrist"),
+                (&m("{s}HandMiddle1"), "finger"),
+                (&m("{s}HandMiddle4"), "finger_end"),
+            ],
+        )
+        .chain(
+            s,
+            &m("{s}Hand"),
+            &[
+                (&m("{s}HandThumb1"), "thumb"),
+                (&m("{s}HandThumb4"), "thumb_end"),
+            ],
+        );
+    let want = expect(
+        s,
+        &[
+            (Role::Pelvis, &[m("Hips").as_str()]),
+            (Role::Chest, &[m("Spine2").as_str()]),
+            (Role::Head, &[m("Head").as_str()]),
+        ],
+        &[
+            (Role::ThighL, &m("{s}UpLeg")),
+            (Role::ShinL, &m("{s}Leg")),
+            (Role::FootL, &m("{s}Foot")),
+            (Role::UpperArmL, &m("{s}Arm")),
+            (Role::ForearmL, &m("{s}ForeArm")),
+            (Role::HandL, &m("{s}Hand")),
+        ],
+        &[
+            &m("HeadTop_End"),
+            &m("{s}Toe_End"),
+            &m("{s}Eye"),
+            &m("{s}Shoulder"),
+        ],
+    );
+    (r.character("mixamo"), want)
+}
+
+/// MakeHuman's default skeleton: the pelvis is `root`, the legs hang from side bones
+/// `pelvis.L`, each limb bone is split in two numbered bones (`upperleg01.L`,
+/// `upperleg02.L`), the spine is numbered from the top (`spine05` lowest), a sided
+/// `shoulder01.L` lies between the clavicle and the upper arm, and the hand is `wrist.L`.
+fn makehuman() -> (Character, Expect) {
+    let s = ["L", "R"];
+    let mut r = Rig::new("root", "hips", 30.0);
+    r.add("spine05", "root", "spine1")
+        .add("spine04", "spine05", "spine2")
+        .add("spine03", "spine04", "spine3")
+        .add("spine02", "spine03", "chest")
+        .add("spine01", "spine02", "chest")
+        .add("neck01", "spine01", "neck")
+        .add("neck02", "neck01", "neck2")
+        .add("head", "neck02", "head")
+        .add("jaw", "head", "jaw")
+        .both(s, "eye.{s}", "head", "eye")
+        .chain(
+            s,
+            "root",
+            &[
+                ("pelvis.{s}", "hips"),
+                ("upperleg01.{s}", "hip"),
+                ("upperleg02.{s}", "thigh_mid"),
+                ("lowerleg01.{s}", "knee"),
+                ("lowerleg02.{s}", "shin_mid"),
+                ("foot.{s}", "ankle"),
+                ("toe1-1.{s}", "ball"),
+            ],
+        )
+        .chain(
+            s,
+            "spine01",
+            &[
+                ("clavicle.{s}", "clavicle"),
+                ("shoulder01.{s}", "shoulder"),
+                ("upperarm01.{s}", "shoulder"),
+                ("upperarm02.{s}", "upper_arm_mid"),
+                ("lowerarm01.{s}", "elbow"),
+                ("lowerarm02.{s}", "forearm_mid"),
+                ("wrist.{s}", "wrist"),
+                ("finger3-1.{s}", "finger"),
+                ("finger3-2.{s}", "finger_end"),
+            ],
+        )
+        .both(s, "finger1-1.{s}", "wrist.{s}", "thumb");
+    let want = expect(
+        s,
+        &[
+            (Role::Pelvis, &["root"]),
+            (Role::Chest, &["spine01", "spine02"]),
+            (Role::Head, &["head"]),
+        ],
+        &[
+            (Role::ThighL, "upperleg01.{s}"),
+            (Role::ShinL, "lowerleg01.{s}"),
+            (Role::FootL, "foot.{s}"),
+            (Role::UpperArmL, "upperarm01.{s}"),
+            (Role::ForearmL, "lowerarm01.{s}"),
+            (Role::HandL, "wrist.{s}"),
+        ],
+        &[
+            "pelvis.{s}",
+            "upperleg02.{s}",
+            "lowerleg02.{s}",
+            "upperarm02.{s}",
+            "lowerarm02.{s}",
+            "shoulder01.{s}",
+            "eye.{s}",
+        ],
+    );
+    (r.character("makehuman"), want)
+}
+
 /// A rig in one style with what it must come out as.
 type Style = fn() -> (Character, Expect);
 
@@ -771,7 +917,9 @@ type Style = fn() -> (Character, Expect);
 /// face (+X, -Z, 135°): its roles on the joints its rigger meant, its helpers bodiless.
 #[test]
 fn rigs_in_styles_the_data_files_do_not_have_get_their_roles() {
-    let styles: [(&str, Style); 7] = [
+    let styles: [(&str, Style); 9] = [
+        ("Mixamo", mixamo),
+        ("MakeHuman", makehuman),
         ("Daz Genesis 8", daz_genesis8),
         ("Character Creator", character_creator),
         ("3ds Max Biped", max_biped),
