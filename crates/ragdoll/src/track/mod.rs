@@ -50,7 +50,9 @@ pub struct Metrics {
     pub energy_drift: f32,
     /// Largest relative change of any bone's length (skeleton joint to its parent, in the
     /// recorded track) over the run, from the first frame physics drove; about 0 for the
-    /// rigid backend, whose bones only move apart as far as its joints separate.
+    /// rigid backend, whose bones only move apart as far as its joints separate. Links the
+    /// ragdoll does not hold (an IK foot hung from the root joins its shin instead) are
+    /// left out: their length is free.
     #[serde(default)]
     pub max_bone_stretch: f32,
     /// Whether any non-finite value appeared.

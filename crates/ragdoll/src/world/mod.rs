@@ -107,8 +107,11 @@ struct Instance {
     activated_at: Option<f64>,
     /// Joint motors tracking the clip (powered mode), if any.
     motors: Option<motors::MotorState>,
-    /// Each skeleton joint's parent joint.
-    joint_parents: Vec<Option<usize>>,
+    /// Each skeleton joint's parent joint where physics holds the bone between them: both
+    /// ride on one body, or on two bodies a ragdoll joint links. A foot the hierarchy hangs
+    /// from the root (an IK rig) is held at its shin, not at the root, so the root-to-foot
+    /// link is free to change and says nothing about the solver (`None`).
+    held_bones: Vec<Option<usize>>,
     /// Each bone's length (joint to parent joint) in the first frame physics recorded,
     /// metres; empty until then.
     bone_lengths: Vec<f32>,
@@ -313,7 +316,7 @@ impl World {
                 .map(|i| skeleton.joint_label(i))
                 .collect(),
             first_joint,
-            joint_parents: (0..skeleton.len()).map(|j| skeleton.parent(j)).collect(),
+            held_bones: held_bones(character, &riders, &links),
             bone_lengths: Vec::new(),
             playback,
             activation: Activation::Immediately,
@@ -639,6 +642,24 @@ fn riders(
         .map(|(joint_start, &body)| Rider {
             body,
             offset: body_start[body].inverse().mul(joint_start),
+        })
+        .collect()
+}
+
+/// Each skeleton joint's parent where the two ride on one body or on two jointed bodies
+/// (`links`: parent and child body of each ragdoll joint); see `Instance::held_bones`.
+fn held_bones(
+    character: &Character,
+    riders: &[Rider],
+    links: &[(usize, usize)],
+) -> Vec<Option<usize>> {
+    let skeleton = &character.skeleton;
+    let linked = |a: usize, b: usize| a == b || links.contains(&(a, b)) || links.contains(&(b, a));
+    (0..skeleton.len())
+        .map(|j| {
+            skeleton
+                .parent(j)
+                .filter(|&p| linked(riders[p].body, riders[j].body))
         })
         .collect()
 }

@@ -54,7 +54,7 @@ impl super::World {
                     })
                     .collect();
                 stretch = stretch.max(bone_stretch(
-                    &inst.joint_parents,
+                    &inst.held_bones,
                     &mut inst.bone_lengths,
                     &frame,
                 ));
