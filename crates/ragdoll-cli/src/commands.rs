@@ -335,7 +335,7 @@ fn simulate_character(
     check_finite(&character.name, metrics.nan, &track)?;
     let mut report = Report::new(
         input,
-        character.skeleton.rest_height(),
+        ragdoll::import::character_height(character),
         spec,
         &track,
         metrics,

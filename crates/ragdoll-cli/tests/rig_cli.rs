@@ -89,6 +89,25 @@ fn rig_writes_a_skinned_glb_that_reads_back_and_simulates() {
     }
 }
 
+/// The report's `height_m` is the character's size: its skin's height where it has a
+/// skin. The bar's spine runs level along it, so its skeleton alone read 0.1 m; the bar
+/// is 0.4 m.
+#[test]
+fn the_report_gives_the_height_of_the_skin() {
+    let dir = tempfile::tempdir().unwrap();
+    write_bar(&dir.path().join("bar.obj"));
+    for args in [
+        &["rig", "bar.obj", "-o", "bar.glb"][..],
+        &["simulate", "bar.glb", "--seconds", "0.2", "-o", "out.glb"][..],
+    ] {
+        let o = ragdoll(dir.path(), args);
+        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+    }
+    let report = common::read_json(&dir.path().join("out.report.json"));
+    let height = report["height_m"].as_f64().unwrap();
+    assert!((height - 0.4).abs() < 0.01, "height_m {height}");
+}
+
 #[test]
 fn rig_refuses_bad_input_with_a_clear_message_and_no_output() {
     let tmp = tempfile::tempdir().unwrap();
