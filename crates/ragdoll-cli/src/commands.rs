@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Result, bail};
+use ragdoll::backend::BackendKind;
 use ragdoll::events::{Blast, Projectile};
 use ragdoll::export;
 use ragdoll::import::{self, ClipChoice, ImportOptions, Units, UpAxis};
@@ -332,7 +333,7 @@ fn simulate_character(
     let blast_reports = world.blast_reports();
     let world_projectiles = world.projectile_reports();
     let track = world.into_track();
-    check_finite(&character.name, metrics.nan, &track)?;
+    check_finite(&character.name, metrics.nan, &track, settings.backend)?;
     let mut report = Report::new(
         input,
         ragdoll::import::character_height(character),
@@ -353,7 +354,12 @@ fn simulate_character(
 /// No output is written, not even the report: the error sentence carries what the report
 /// would have said that matters (when it happened), and the rest of a NaN run's report is
 /// NaN too.
-pub(crate) fn check_finite(name: &str, nan_seen: bool, track: &Track) -> Result<()> {
+pub(crate) fn check_finite(
+    name: &str,
+    nan_seen: bool,
+    track: &Track,
+    backend: BackendKind,
+) -> Result<()> {
     let first_bad = track
         .frames
         .iter()
@@ -365,8 +371,21 @@ pub(crate) fn check_finite(name: &str, nan_seen: bool, track: &Track) -> Result<
         Some(f) => format!(" from frame {f} ({:.3} s)", f as f32 / track.fps),
         None => String::new(),
     };
+    // The particle backend also fails on plausible characters: the Fox at its true size
+    // (centimetres) goes non-finite within ten steps there and runs on the others.
+    let why = match backend {
+        BackendKind::Particle => {
+            "the particle backend cannot hold this character together (it is unstable where \
+             small, light parts bear heavy ones: `--backend fast` or `rigid` may run it), or \
+             the spec or the events ask for more than the physics can honour"
+        }
+        _ => {
+            "the spec or the events ask for more than the physics can honour (absurd sizes, \
+             masses, forces or speeds)"
+        }
+    };
     bail!(
-        "{name}: the simulation produced non-finite numbers (NaN or infinity){when}, so nothing was written; the spec or the events ask for more than the physics can honour (absurd sizes, masses, forces or speeds)"
+        "{name}: the simulation produced non-finite numbers (NaN or infinity){when}, so nothing was written; {why}"
     )
 }
 

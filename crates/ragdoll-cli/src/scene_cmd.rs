@@ -120,13 +120,19 @@ pub fn run(a: &SimulateArgs, matches: &ArgMatches) -> Result<()> {
     // The character whose track went bad, else the scene's metrics.
     let in_scene = |e: anyhow::Error| e.context(a.file.display().to_string());
     for (c, track) in scene.characters.iter().zip(&result.tracks) {
-        check_finite(&c.name, false, track).map_err(in_scene)?;
+        check_finite(&c.name, false, track, scene.settings.backend).map_err(in_scene)?;
     }
     let no_track = ragdoll::track::Track {
         fps: scene.settings.fps,
         frames: Vec::new(),
     };
-    check_finite("a character", result.report.metrics.nan, &no_track).map_err(in_scene)?;
+    check_finite(
+        "a character",
+        result.report.metrics.nan,
+        &no_track,
+        scene.settings.backend,
+    )
+    .map_err(in_scene)?;
     progress.stage(0, "writing");
     let mut staging = Staging::new();
     for (name, bytes) in scene.encode(&result)? {
