@@ -938,3 +938,57 @@ fn rigs_in_styles_the_data_files_do_not_have_get_their_roles() {
     }
     assert!(bad.is_empty(), "{}", bad.join("\n"));
 }
+
+/// A dog rigged with Rigify's quadruped names (`DEF-thigh.L`, `DEF-upper_arm.L`), facing
+/// +Z with its back level: names that promise a humanoid, on a body that stands on all
+/// four. It is taken for the quadruped it is, without the warning a humanoid the skeleton
+/// denies gets, and the leg joints it stands bent are hinges.
+#[test]
+fn a_quadruped_with_a_persons_limb_names_is_a_quadruped_without_a_warning() {
+    let mut rows: Vec<(String, Option<usize>, Vec3)> = vec![
+        ("DEF-spine".into(), None, Vec3::new(0.0, 0.5, -0.3)),
+        ("DEF-spine.001".into(), Some(0), Vec3::new(0.0, 0.52, -0.1)),
+        ("DEF-spine.002".into(), Some(1), Vec3::new(0.0, 0.53, 0.1)),
+        ("DEF-spine.003".into(), Some(2), Vec3::new(0.0, 0.52, 0.25)),
+        ("DEF-spine.004".into(), Some(3), Vec3::new(0.0, 0.6, 0.35)),
+        ("DEF-spine.005".into(), Some(4), Vec3::new(0.0, 0.68, 0.42)),
+        ("DEF-tail".into(), Some(0), Vec3::new(0.0, 0.52, -0.4)),
+    ];
+    for (s, x) in [("L", 0.08f32), ("R", -0.08)] {
+        let n = rows.len();
+        let mut leg = |name: &str, parent: usize, p: Vec3| {
+            rows.push((format!("DEF-{name}.{s}"), Some(parent), p));
+        };
+        // Hind leg: the knee forward, the hock back.
+        leg("thigh", 0, Vec3::new(x, 0.48, -0.3));
+        leg("shin", n, Vec3::new(x, 0.28, -0.25));
+        leg("foot", n + 1, Vec3::new(x, 0.1, -0.32));
+        leg("toe", n + 2, Vec3::new(x, 0.0, -0.28));
+        // Foreleg from the withers.
+        leg("shoulder", 3, Vec3::new(x * 0.5, 0.5, 0.25));
+        leg("upper_arm", n + 4, Vec3::new(x, 0.42, 0.27));
+        leg("forearm", n + 5, Vec3::new(x, 0.25, 0.24));
+        leg("hand", n + 6, Vec3::new(x, 0.08, 0.25));
+        leg("f_toe", n + 7, Vec3::new(x, 0.0, 0.3));
+    }
+    let c = common::character_from_rows("dog", &rows);
+    let roles = recognise_roles(&c);
+    assert!(!roles.humanoid, "{}", roles.why);
+    assert!(roles.why.contains("quadruped"), "{}", roles.why);
+    assert_eq!(roles.warning, None);
+    let spec = build_spec(&c, &BuildOptions::default()).unwrap();
+    for s in ["L", "R"] {
+        for child in [
+            format!("DEF-shin.{s}"),
+            format!("DEF-foot.{s}"),
+            format!("DEF-hand.{s}"),
+        ] {
+            let j = spec.joints.iter().find(|j| j.child == child).unwrap();
+            assert!(
+                matches!(j.kind, ragdoll::spec::JointKind::Hinge { .. }),
+                "{child}: {:?}",
+                j.kind
+            );
+        }
+    }
+}

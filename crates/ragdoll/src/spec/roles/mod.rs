@@ -220,7 +220,9 @@ fn recognise_with_helpers(character: &Character, helpers: &[bool]) -> Roles {
         }
     }
     let promised = looks_humanoid(&hints);
+    let quadruped = promised && on_all_fours(&rest, &hints);
     let why = match doubts.first() {
+        _ if quadruped => "Not a humanoid: a quadruped, standing on the four limbs its names call legs and arms; its bones are chain links, and the leg joints it stands bent are hinges.".to_string(),
         Some(d) if promised => format!("Not a humanoid: {d}, and no joint has two legs reaching the ground, a rising spine and two arms."),
         _ => "Not a humanoid: no joint has two legs reaching the ground, a rising spine and two arms, and the names do not say thigh, shin, upper arm and forearm on both sides.".to_string(),
     };
@@ -229,10 +231,30 @@ fn recognise_with_helpers(character: &Character, helpers: &[bool]) -> Roles {
         humanoid: false,
         forward: chain::creature_forward(&rest),
         height_m: rest.height,
-        warning: promised.then(|| why.clone()),
+        // Names of a quadruped's legs borrow a person's (Rigify's dog: `thigh.L`,
+        // `upper_arm.L`): standing on all four, it is what it looks like, not a humanoid
+        // gone wrong.
+        warning: (promised && !quadruped).then(|| why.clone()),
         why,
         from_file: vec![false; rest.len()],
     }
+}
+
+/// Whether the limbs the names call legs and arms, all four, hang from well above the
+/// ground down to it in the rest pose: a quadruped whose rig borrows a person's names
+/// (not a person lying flat, whose limbs do not hang).
+fn on_all_fours(rig: &Rig, hints: &[NameHint]) -> bool {
+    let claims = confirm::claims_from_names(rig, hints);
+    let reach = LEG_GROUND_TOLERANCE_H * rig.height;
+    let stands = |j: usize| {
+        rig.subtree_stats(j).0 <= rig.ground + reach
+            && rig.pos[j].y >= rig.ground + LEG_MIN_DROP_H * rig.height
+    };
+    claims
+        .legs
+        .iter()
+        .chain(&claims.arms)
+        .all(|limb| limb[0].is_some_and(stands))
 }
 
 /// Whether the names alone promise a humanoid: both thighs, shins, upper arms and
