@@ -108,6 +108,35 @@ fn the_report_gives_the_height_of_the_skin() {
     assert!((height - 0.4).abs() < 0.01, "height_m {height}");
 }
 
+/// A mesh standing on end is rigged as it lies (a spine along it), but the user is told
+/// that a standing figure gets a spine only; the bar lying down, as a creature lies, is not
+/// warned about.
+#[test]
+fn rigging_an_upright_mesh_warns_that_it_gets_a_spine_only() {
+    let dir = tempfile::tempdir().unwrap();
+    write_bar(&dir.path().join("bar.obj"));
+    // The same bar stood on its end: x and y swapped (and z flipped, to keep the faces
+    // turned outward), 2 m tall.
+    let text = std::fs::read_to_string(dir.path().join("bar.obj")).unwrap();
+    let stood: String = text
+        .lines()
+        .map(|l| match l.strip_prefix("v ") {
+            Some(v) => {
+                let c: Vec<f32> = v.split(' ').map(|x| x.parse().unwrap()).collect();
+                format!("v {} {} {}\n", c[1], c[0] + 1.0, -c[2])
+            }
+            None => format!("{l}\n"),
+        })
+        .collect();
+    std::fs::write(dir.path().join("post.obj"), stood).unwrap();
+    let o = ragdoll(dir.path(), &["rig", "post.obj", "-o", "post.glb"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("stands upright"), "{}", stderr(&o));
+    let o = ragdoll(dir.path(), &["rig", "bar.obj", "-o", "bar.glb"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("warning"), "{}", stderr(&o));
+}
+
 #[test]
 fn rig_refuses_bad_input_with_a_clear_message_and_no_output() {
     let tmp = tempfile::tempdir().unwrap();

@@ -72,15 +72,21 @@ pub(crate) fn rigged_character(
         },
         other => other,
     })?;
-    let warnings = fallback
-        .map(|why| {
-            format!(
-                "{}: skin weights follow straight-line distance, not the body (bone heat): {why}",
-                path.display()
-            )
-        })
-        .into_iter()
-        .collect();
+    let fallback = fallback.map(|why| {
+        format!(
+            "{}: skin weights follow straight-line distance, not the body (bone heat): {why}",
+            path.display()
+        )
+    });
+    let upright = (rig_opts.branches.is_empty() && stands_upright(&skeleton)).then(|| {
+        format!(
+            "{}: the mesh stands upright, and the automatic rig gives it a spine only: a \
+             standing figure (a person) becomes a pole that folds; give its legs and arms as \
+             branches (`ragdoll rig --branch NAME=P/P/...`) or rig it in a 3D tool",
+            path.display()
+        )
+    });
+    let warnings = fallback.into_iter().chain(upright).collect();
     Ok(Character {
         humanoid_bones: Vec::new(),
         warnings,
@@ -91,6 +97,20 @@ pub(crate) fn rigged_character(
         source: Source::Mesh(path.to_path_buf()),
     })
 }
+
+/// Whether a rigged spine runs from its tail to its head within [`UPRIGHT_COS`] of
+/// vertical: a figure standing on its own axis, which a spine alone cannot hold up.
+fn stands_upright(skeleton: &crate::skeleton::Skeleton) -> bool {
+    let world = skeleton.rest_world();
+    let (Some(first), Some(last)) = (world.first(), world.last()) else {
+        return false;
+    };
+    let axis = (last.translation - first.translation).normalize_or_zero();
+    axis.y.abs() >= UPRIGHT_COS
+}
+
+/// A spine whose axis is this close to vertical (|cos|) belongs to a figure standing up.
+const UPRIGHT_COS: f32 = 0.9;
 
 fn parse_err(path: &Path, line: usize, message: impl Into<String>) -> Error {
     Error::Parse {
