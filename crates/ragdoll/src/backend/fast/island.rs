@@ -30,8 +30,16 @@ impl FastBackend {
         while subs.len() < count {
             subs.push(FastBackend::new(self.settings));
         }
-        for sub in &mut subs[..count] {
+        // Each island takes the substeps its most demanding ragdoll needs.
+        let mut factor = vec![1.0f32; count];
+        for (r, ragdoll) in self.ragdolls.iter().enumerate() {
+            if let Some(f) = factor.get_mut(self.island_of[r] as usize) {
+                *f = f.max(ragdoll.substep_factor);
+            }
+        }
+        for (sub, f) in subs[..count].iter_mut().zip(&factor) {
             sub.settings = self.settings;
+            sub.settings.substeps = (self.settings.substeps as f32 * f).ceil() as usize;
             sub.clear_bodies();
         }
         self.gather(&mut subs[..count]);
