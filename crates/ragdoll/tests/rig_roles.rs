@@ -530,23 +530,9 @@ fn a_table_the_skeleton_contradicts_is_overruled() {
     );
 }
 
-/// The built-in humanoid with `foot_l` re-hung from the pelvis (as IK rigs hang feet from
-/// the root), at the same place.
-fn detached_foot() -> Character {
-    let mut c = humanoid();
-    let world = c.skeleton.rest_world();
-    let pelvis = c.skeleton.find("pelvis").unwrap();
-    let foot = c.skeleton.find("foot_l").unwrap();
-    let mut joints = c.skeleton.joints().to_vec();
-    joints[foot].parent = Some(pelvis);
-    joints[foot].rest = world[pelvis].inverse().mul(&world[foot]);
-    c.skeleton = Skeleton::new(joints).unwrap();
-    c
-}
-
 #[test]
 fn a_foot_hung_from_the_pelvis_is_still_the_foot_and_joins_the_shin() {
-    let c = detached_foot();
+    let c = common::humanoid_with_detached_foot();
     let roles = recognise_roles(&c);
     assert!(roles.humanoid, "{}", roles.why);
     let foot = c.skeleton.find("foot_l").unwrap();

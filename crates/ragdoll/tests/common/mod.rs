@@ -240,3 +240,17 @@ pub fn capsule_pendulum_period(radius: f32, length: f32, mass: f32) -> f64 {
     let g = ragdoll::world::STANDARD_GRAVITY as f64;
     std::f64::consts::TAU * ((i_centre + m * d * d) / (m * g * d)).sqrt()
 }
+
+/// The built-in humanoid with `foot_l` re-hung from the pelvis (as IK rigs hang feet from
+/// the root), at the same place.
+pub fn humanoid_with_detached_foot() -> ragdoll::skeleton::Character {
+    let mut c = ragdoll::skeleton::humanoid();
+    let world = c.skeleton.rest_world();
+    let pelvis = c.skeleton.find("pelvis").unwrap();
+    let foot = c.skeleton.find("foot_l").unwrap();
+    let mut joints = c.skeleton.joints().to_vec();
+    joints[foot].parent = Some(pelvis);
+    joints[foot].rest = world[pelvis].inverse().mul(&world[foot]);
+    c.skeleton = ragdoll::skeleton::Skeleton::new(joints).unwrap();
+    c
+}
