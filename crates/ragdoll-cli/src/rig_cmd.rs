@@ -38,6 +38,11 @@ pub struct RigArgs {
     /// Do not give branches a mirrored twin.
     #[arg(long, requires = "branch")]
     no_mirror: bool,
+    /// Fit a person's skeleton (pelvis, spine, chest, neck, head, legs, arms) to a figure
+    /// standing in a T- or A-pose, arms away from the body, feet on the floor, Y up,
+    /// instead of a spine along its centre line.
+    #[arg(long, conflicts_with_all = ["spine", "head", "branch"])]
+    humanoid: bool,
     /// The rigged file to write (.glb).
     #[arg(short, long, value_name = "OUT.glb")]
     output: PathBuf,
@@ -131,6 +136,7 @@ pub fn run(a: &RigArgs) -> Result<()> {
                 ..b.clone()
             })
             .collect(),
+        humanoid: a.humanoid,
     };
     let progress = Progress::new(0, &format!("rigging {}", a.file.display()));
     let character = import::load_rigged(

@@ -27,6 +27,7 @@ fn check(rows: Vec<Case>) {
             "baked.report.json",
             "spec.toml",
             "bar.obj",
+            "person.obj",
         ] {
             std::fs::copy(fx.path(name), dir.path().join(name)).unwrap();
         }

@@ -132,6 +132,15 @@ fn rigging_an_upright_mesh_warns_that_it_gets_a_spine_only() {
     let o = ragdoll(dir.path(), &["rig", "post.obj", "-o", "post.glb"]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("stands upright"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--humanoid"), "{}", stderr(&o));
+    // A post has no arms to fit a person's skeleton to: refused, nothing written.
+    let o = ragdoll(
+        dir.path(),
+        &["rig", "post.obj", "--humanoid", "-o", "person.glb"],
+    );
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("T-pose or an A-pose"), "{}", stderr(&o));
+    assert!(!dir.path().join("person.glb").exists());
     let o = ragdoll(dir.path(), &["rig", "bar.obj", "-o", "bar.glb"]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(!stderr(&o).contains("warning"), "{}", stderr(&o));

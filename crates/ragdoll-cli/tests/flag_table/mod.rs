@@ -171,6 +171,10 @@ fn seven_joints(_: &Path, o: &Output) {
 fn head_at_minus_x(_: &Path, o: &Output) {
     assert!(out(o).contains("head joint at (-0.8"), "{}", out(o));
 }
+// A person's skeleton: pelvis, spine, chest, neck, head and three joints a limb.
+fn person_joints(_: &Path, o: &Output) {
+    assert!(out(o).contains(": 17 joints"), "{}", out(o));
+}
 fn rig_written(dir: &Path, _: &Output) {
     assert_eq!(&std::fs::read(dir.join("rig.glb")).unwrap()[..4], b"glTF");
 }
@@ -403,6 +407,7 @@ fn rig() -> Vec<Case> {
         case("rig", "--branch", base, &["--branch", leg], Some(mirrored_leg), &["--branch", "leg"], "--branch"),
         case("rig", "--no-mirror", base, &["--branch", leg, "--no-mirror"], Some(single_leg), &["--no-mirror"], "--branch"),
         case("rig", "--output", &["rig", "bar.obj"], &["--output", "rig.glb"], Some(rig_written), &["--output", "rig.obj"], "rig.obj"),
+        case("rig", "--humanoid", &["rig", "person.obj", "-o", "rig.glb"], &["--humanoid"], Some(person_joints), &["--humanoid", "--joints", "7", "--spine", "v0/v8"], "--humanoid"),
     ];
     t.extend(import_rows("rig", base));
     t

@@ -78,11 +78,13 @@ pub(crate) fn rigged_character(
             path.display()
         )
     });
-    let upright = (rig_opts.branches.is_empty() && stands_upright(&skeleton)).then(|| {
+    let spine_only = rig_opts.branches.is_empty() && !rig_opts.humanoid;
+    let upright = (spine_only && stands_upright(&skeleton)).then(|| {
         format!(
             "{}: the mesh stands upright, and the automatic rig gives it a spine only: a \
-             standing figure (a person) becomes a pole that folds; give its legs and arms as \
-             branches (`ragdoll rig --branch NAME=P/P/...`) or rig it in a 3D tool",
+             standing figure (a person) becomes a pole that folds; `ragdoll rig --humanoid` \
+             fits a person's skeleton to one standing in a T- or A-pose, and `--branch` \
+             adds limbs to anything else",
             path.display()
         )
     });

@@ -28,6 +28,9 @@
 //! 5. **Rest rotations**: each joint's Y axis runs along its bone (to the next joint, or
 //!    to its tip), X toward the body's left, as in glTF and Blender rigs.
 //!
+//! With [`RigOptions::humanoid`] the skeleton is a person's instead, fitted to a figure
+//! standing in a T- or A-pose (`humanoid.rs`).
+//!
 //! Skin weights come from [`heat_weights`] (bone heat: they follow the body's volume),
 //! which falls back to [`auto_weights`] (straight-line distance) where heat cannot be
 //! solved.
@@ -35,6 +38,7 @@
 mod centre_line;
 mod cg;
 mod heat;
+mod humanoid;
 mod skeleton;
 mod visibility;
 mod weights;
@@ -120,6 +124,10 @@ pub struct RigOptions {
     pub head: Option<Landmark>,
     /// Limbs, fins, whiskers.
     pub branches: Vec<Branch>,
+    /// Fit a person's skeleton instead (pelvis, spine, chest, neck, head, legs and arms,
+    /// named by role) to a figure standing in a T- or A-pose, feet on the floor, Y up:
+    /// the spine, head and branch settings do not apply.
+    pub humanoid: bool,
 }
 
 impl Default for RigOptions {
@@ -129,6 +137,7 @@ impl Default for RigOptions {
             centre_line: Vec::new(),
             head: None,
             branches: Vec::new(),
+            humanoid: false,
         }
     }
 }
@@ -227,6 +236,14 @@ pub fn check_options(opts: &RigOptions) -> Result<()> {
         return Err(setting(
             "rig.branch",
             format!("{} branches, more than {MAX_BRANCHES}", opts.branches.len()),
+        ));
+    }
+    if opts.humanoid
+        && (!opts.centre_line.is_empty() || opts.head.is_some() || !opts.branches.is_empty())
+    {
+        return Err(setting(
+            "rig.humanoid",
+            "a humanoid fit places its own spine, head and limbs: give no spine, head or branches with it",
         ));
     }
     let mut total = opts.joints;

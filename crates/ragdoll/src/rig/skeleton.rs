@@ -7,6 +7,9 @@ use super::*;
 /// The skeleton [`rig`] would bind `meshes` to, without touching them.
 pub fn build_skeleton(meshes: &[SkinnedMesh], opts: &RigOptions) -> Result<Skeleton> {
     check_options(opts)?;
+    if opts.humanoid {
+        return super::humanoid::humanoid_skeleton(meshes);
+    }
     let body = Body::new(meshes)?;
     // 1–2. Centre line, tail first.
     let line = centre_line(&body, opts)?;
@@ -368,7 +371,7 @@ fn nearest_bone(spine: &[Vec3], tip: Vec3, p: Vec3) -> usize {
 }
 
 /// The rotation whose Y axis is `y` and whose X axis is as close to `left` as possible.
-fn bone_frame(y: Vec3, left: Vec3) -> Quat {
+pub(super) fn bone_frame(y: Vec3, left: Vec3) -> Quat {
     let mut x = left - y * left.dot(y);
     if x.length_squared() < 1e-8 {
         x = y.any_orthonormal_vector();
