@@ -93,30 +93,23 @@ fn bake(source: &Source, dir: &Path) -> Result<PathBuf, String> {
             run(&["simulate", &file(p), "--seconds", SECONDS, "-o", "out.glb"])?;
             Ok(dir.join("out.glb"))
         }
-        Source::FittedPerson => {
-            run(&["demo", "-o", "demo", "--seconds", "0.1"])?;
-            write_obj(&dir.join("demo/demo.glb"), &dir.join("person.obj"));
-            run(&["rig", "person.obj", "--humanoid", "-o", "rigged.glb"])?;
-            run(&[
+        Source::FittedPerson | Source::Rigged(_) => {
+            if let Source::Rigged(p) = source {
+                run(&["rig", &file(p), "-o", "rigged.glb"])?;
+            } else {
+                run(&["demo", "-o", "demo", "--seconds", "0.1"])?;
+                write_obj(&dir.join("demo/demo.glb"), &dir.join("person.obj"));
+                run(&["rig", "person.obj", "--humanoid", "-o", "rigged.glb"])?;
+            }
+            let args = [
                 "simulate",
                 "rigged.glb",
                 "--seconds",
                 SECONDS,
                 "-o",
                 "out.glb",
-            ])?;
-            Ok(dir.join("out.glb"))
-        }
-        Source::Rigged(p) => {
-            run(&["rig", &file(p), "-o", "rigged.glb"])?;
-            run(&[
-                "simulate",
-                "rigged.glb",
-                "--seconds",
-                SECONDS,
-                "-o",
-                "out.glb",
-            ])?;
+            ];
+            run(&args)?;
             Ok(dir.join("out.glb"))
         }
     }
