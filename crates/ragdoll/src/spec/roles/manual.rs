@@ -29,7 +29,7 @@ use super::confirm::{self, Claims};
 use super::rig::{Rig, horizontal};
 use super::role_file::{Entry, RoleFile};
 use super::side::forward_from_sides;
-use super::structure::Humanoid;
+use super::structure::{Humanoid, Limb};
 use super::{HUMANOID_ROLES, MIN_LEG_SEPARATION_H, Role, Roles, first_frame};
 use crate::error::Result;
 use crate::skeleton::Character;
@@ -313,67 +313,27 @@ fn claims(rig: &Rig, base: &Roles, manual: &[(Role, usize, &Entry)], ignored: &[
     c
 }
 
-/// What cannot be built, as (the role to blame, one clause); else the humanoid.
+/// What cannot be built: the role to blame, and one clause saying why.
+type Blame = (Option<Role>, String);
+
+const LEGS: [[Role; 3]; 2] = [
+    [Role::ThighL, Role::ShinL, Role::FootL],
+    [Role::ThighR, Role::ShinR, Role::FootR],
+];
+const ARMS: [[Role; 3]; 2] = [
+    [Role::UpperArmL, Role::ForearmL, Role::HandL],
+    [Role::UpperArmR, Role::ForearmR, Role::HandR],
+];
+
+/// What cannot be built, as (the role to blame, one clause); else the humanoid: its
+/// limbs, its trunk, its sides, and no joint given two roles or ignored while needed.
 fn check(
     rig: &Rig,
     c: &Claims,
     ignored: &[bool],
     pose: &str,
-) -> std::result::Result<Humanoid, (Option<Role>, String)> {
-    let name = |j: usize| format!("\"{}\"", rig.skeleton.joint_label(j));
-    let need = |j: Option<usize>, r: Role| {
-        j.ok_or_else(|| {
-            (
-                Some(r),
-                format!(
-                    "names no joint for {0} and none was recognised; add {0} = \"...\" under [roles]",
-                    r.as_str()
-                ),
-            )
-        })
-    };
-    const LEGS: [[Role; 3]; 2] = [
-        [Role::ThighL, Role::ShinL, Role::FootL],
-        [Role::ThighR, Role::ShinR, Role::FootR],
-    ];
-    const ARMS: [[Role; 3]; 2] = [
-        [Role::UpperArmL, Role::ForearmL, Role::HandL],
-        [Role::UpperArmR, Role::ForearmR, Role::HandR],
-    ];
-    let mut legs = Vec::new();
-    let mut arms = Vec::new();
-    for s in 0..2 {
-        for (limbs, claimed, roles) in [
-            (&mut legs, c.legs[s], LEGS[s]),
-            (&mut arms, c.arms[s], ARMS[s]),
-        ] {
-            let upper = need(claimed[0], roles[0])?;
-            let lower = need(claimed[1], roles[1])?;
-            if !rig.is_ancestor(upper, lower) {
-                return Err((
-                    Some(roles[1]),
-                    format!(
-                        "{} does not hang from {} ({}) in the skeleton, so no joint links them",
-                        name(lower),
-                        name(upper),
-                        roles[0].as_str()
-                    ),
-                ));
-            }
-            limbs.push(confirm::limb(rig, upper, lower, claimed[2]));
-        }
-        let (thigh, shin) = (legs[s].upper, legs[s].lower);
-        if rig.pos[shin].y >= rig.pos[thigh].y {
-            return Err((
-                Some(LEGS[s][1]),
-                format!(
-                    "the knee {} is not below the hip {} in the {pose}",
-                    name(shin),
-                    name(thigh)
-                ),
-            ));
-        }
-    }
+) -> std::result::Result<Humanoid, Blame> {
+    let (legs, arms) = limbs(rig, c, pose)?;
     let pelvis = need(c.pelvis, Role::Pelvis)?;
     let chest = need(c.chest, Role::Chest)?;
     if !rig.is_ancestor(pelvis, chest) {
@@ -381,22 +341,100 @@ fn check(
             Some(Role::Chest),
             format!(
                 "{} does not rise from the pelvis {} in the skeleton",
-                name(chest),
-                name(pelvis)
+                quoted(rig, chest),
+                quoted(rig, pelvis)
             ),
         ));
     }
-    let across = |a: [usize; 2], b: [usize; 2]| {
-        horizontal((rig.pos[a[0]] + rig.pos[a[1]] - rig.pos[b[0]] - rig.pos[b[1]]) * 0.5)
+    let forward = facing(rig, &legs, &arms, pose)?;
+    let h = Humanoid {
+        pelvis,
+        spine: c.spine.filter(|&s| s != chest && s != pelvis),
+        chest,
+        neck: c.neck.filter(|&n| Some(n) != c.head && n != chest),
+        head: c.head,
+        legs,
+        arms,
+        forward,
+        mirrored: false,
     };
-    let legs_across = across(
-        [legs[0].upper, legs[0].lower],
-        [legs[1].upper, legs[1].lower],
-    );
-    let arms_across = across(
-        [arms[0].upper, arms[0].lower],
-        [arms[1].upper, arms[1].lower],
-    );
+    one_role_each(rig, &h, ignored)?;
+    Ok(h)
+}
+
+/// A joint's name as a message quotes it.
+fn quoted(rig: &Rig, j: usize) -> String {
+    format!("\"{}\"", rig.skeleton.joint_label(j))
+}
+
+/// The joint claimed for role `r`, or why there is none.
+fn need(j: Option<usize>, r: Role) -> std::result::Result<usize, Blame> {
+    j.ok_or_else(|| {
+        (
+            Some(r),
+            format!(
+                "names no joint for {0} and none was recognised; add {0} = \"...\" under [roles]",
+                r.as_str()
+            ),
+        )
+    })
+}
+
+/// Both legs and both arms, left first: each lower joint hangs from its upper one, and
+/// each knee is below its hip in the `pose`.
+fn limbs(rig: &Rig, c: &Claims, pose: &str) -> std::result::Result<([Limb; 2], [Limb; 2]), Blame> {
+    let limb = |claimed: [Option<usize>; 3], roles: [Role; 3]| {
+        let upper = need(claimed[0], roles[0])?;
+        let lower = need(claimed[1], roles[1])?;
+        if !rig.is_ancestor(upper, lower) {
+            return Err((
+                Some(roles[1]),
+                format!(
+                    "{} does not hang from {} ({}) in the skeleton, so no joint links them",
+                    quoted(rig, lower),
+                    quoted(rig, upper),
+                    roles[0].as_str()
+                ),
+            ));
+        }
+        Ok(confirm::limb(rig, upper, lower, claimed[2]))
+    };
+    let mut legs = Vec::new();
+    let mut arms = Vec::new();
+    for s in 0..2 {
+        legs.push(limb(c.legs[s], LEGS[s])?);
+        arms.push(limb(c.arms[s], ARMS[s])?);
+        let (thigh, shin) = (legs[s].upper, legs[s].lower);
+        if rig.pos[shin].y >= rig.pos[thigh].y {
+            return Err((
+                Some(LEGS[s][1]),
+                format!(
+                    "the knee {} is not below the hip {} in the {pose}",
+                    quoted(rig, shin),
+                    quoted(rig, thigh)
+                ),
+            ));
+        }
+    }
+    match (<[_; 2]>::try_from(legs), <[_; 2]>::try_from(arms)) {
+        (Ok(legs), Ok(arms)) => Ok((legs, arms)),
+        _ => Err((None, "not two legs and two arms".into())),
+    }
+}
+
+/// Where the body faces, from its sides; refused when the legs stand in one place or
+/// the arms and legs disagree about which side is left.
+fn facing(
+    rig: &Rig,
+    legs: &[Limb; 2],
+    arms: &[Limb; 2],
+    pose: &str,
+) -> std::result::Result<Vec3, Blame> {
+    let across = |a: &[Limb; 2]| {
+        let mid = |l: &Limb| rig.pos[l.upper] + rig.pos[l.lower];
+        horizontal((mid(&a[0]) - mid(&a[1])) * 0.5)
+    };
+    let (legs_across, arms_across) = (across(legs), across(arms));
     let apart = MIN_LEG_SEPARATION_H * rig.height;
     if legs_across.length() < apart {
         return Err((
@@ -413,22 +451,12 @@ fn check(
         ));
     }
     let sides = |s: usize| [legs[s].upper, legs[s].lower, arms[s].upper, arms[s].lower];
-    let forward = forward_from_sides(rig, &sides(0), &sides(1))
-        .unwrap_or_else(|| legs_across.normalize_or(Vec3::X).cross(Vec3::Y));
-    let (Ok(legs), Ok(arms)) = (<[_; 2]>::try_from(legs), <[_; 2]>::try_from(arms)) else {
-        return Err((None, "not two legs and two arms".into()));
-    };
-    let h = Humanoid {
-        pelvis,
-        spine: c.spine.filter(|&s| s != chest && s != pelvis),
-        chest,
-        neck: c.neck.filter(|&n| Some(n) != c.head && n != chest),
-        head: c.head,
-        legs,
-        arms,
-        forward,
-        mirrored: false,
-    };
+    Ok(forward_from_sides(rig, &sides(0), &sides(1))
+        .unwrap_or_else(|| legs_across.normalize_or(Vec3::X).cross(Vec3::Y)))
+}
+
+/// Refuses a joint that would carry two roles, or one the file ignores.
+fn one_role_each(rig: &Rig, h: &Humanoid, ignored: &[bool]) -> std::result::Result<(), Blame> {
     let mut seen: HashMap<usize, Role> = HashMap::new();
     for (j, r) in h.assignments() {
         if ignored[j] {
@@ -436,7 +464,7 @@ fn check(
                 Some(r),
                 format!(
                     "{} is listed in ignore, but the {} needs it",
-                    name(j),
+                    quoted(rig, j),
                     r.as_str()
                 ),
             ));
@@ -446,12 +474,12 @@ fn check(
                 Some(r),
                 format!(
                     "{} would carry both {} and {}; name each of them under [roles]",
-                    name(j),
+                    quoted(rig, j),
                     other.as_str(),
                     r.as_str()
                 ),
             ));
         }
     }
-    Ok(h)
+    Ok(())
 }

@@ -32,7 +32,7 @@ pub(crate) struct Rig<'a> {
     /// Diagonal of the bounding box of joints, tips and skin, metres (never zero).
     pub extent: f32,
     /// Every skinned vertex of every mesh: position and its four influences.
-    pub verts: Vec<(Vec3, [u16; 4], Vec4)>,
+    pub verts: Vec<SkinVertex>,
     /// Total skin weight of each joint (all zeros without a mesh).
     pub skin_weight: Vec<f32>,
     /// Lowest height (Y) over each joint's subtree points (joints and end sites).
@@ -50,6 +50,9 @@ pub(crate) struct Rig<'a> {
     /// interval lies inside `a`'s, so the question costs nothing on a 65,536-deep chain.
     order: Vec<(usize, usize)>,
 }
+
+/// A skin vertex: its position and its four (joint, weight) influences.
+pub type SkinVertex = (Vec3, [u16; 4], Vec4);
 
 impl<'a> Rig<'a> {
     /// The rest pose, with the skin (bound in that pose).
@@ -80,24 +83,11 @@ impl<'a> Rig<'a> {
                 children[p].push(i);
             }
         }
-        let mut verts = Vec::new();
-        let mut skin_weight = vec![0.0f32; n];
-        for m in character.meshes.iter().filter(|_| skin) {
-            for (k, &p) in m.positions.iter().enumerate() {
-                let (Some(&js), Some(&ws)) = (m.joints.get(k), m.weights.get(k)) else {
-                    continue;
-                };
-                if !p.is_finite() {
-                    continue;
-                }
-                for c in 0..4 {
-                    if let Some(w) = skin_weight.get_mut(js[c] as usize) {
-                        *w += ws[c].max(0.0);
-                    }
-                }
-                verts.push((p, js, ws));
-            }
-        }
+        let (verts, skin_weight) = if skin {
+            skin_of(character)
+        } else {
+            (Vec::new(), vec![0.0; n])
+        };
         let mut lo = Vec3::splat(f32::MAX);
         let mut hi = Vec3::splat(f32::MIN);
         let points = pos
@@ -108,61 +98,15 @@ impl<'a> Rig<'a> {
             lo = lo.min(*p);
             hi = hi.max(*p);
         }
-        let height = (hi.y - lo.y).max(1e-3);
-        let extent = (hi - lo).length().max(1e-3);
-        // Children have higher indices than their parents: one backward pass sees every
-        // subtree complete before its root.
-        let mut sub_lo = vec![f32::MAX; n];
-        let mut sub_hi = vec![f32::MIN; n];
-        let mut sub_count = vec![1usize; n];
-        for i in (0..n).rev() {
-            for y in std::iter::once(pos[i].y).chain(tips[i].map(|t| t.y)) {
-                sub_lo[i] = sub_lo[i].min(y);
-                sub_hi[i] = sub_hi[i].max(y);
-            }
-            for &c in &children[i] {
-                sub_lo[i] = sub_lo[i].min(sub_lo[c]);
-                sub_hi[i] = sub_hi[i].max(sub_hi[c]);
-                sub_count[i] += sub_count[c];
-            }
-        }
-        let mut highest_sibling = vec![None; n];
-        for kids in &children {
-            let last_max = |skip: Option<usize>| {
-                kids.iter()
-                    .copied()
-                    .filter(|&c| Some(c) != skip)
-                    .max_by(|&a, &b| sub_hi[a].total_cmp(&sub_hi[b]))
-            };
-            let first = last_max(None);
-            let second = last_max(first);
-            for &c in kids {
-                highest_sibling[c] = if Some(c) == first { second } else { first };
-            }
-        }
+        let (sub_lo, sub_hi, sub_count) = subtree_stats(&pos, &tips, &children);
+        let highest_sibling = highest_siblings(&children, &sub_hi);
         let mut depth = vec![0usize; n];
         for i in 0..n {
             if let Some(p) = skeleton.parent(i) {
                 depth[i] = depth[p] + 1;
             }
         }
-        let mut order = vec![(0usize, 0usize); n];
-        let mut clock = 0;
-        let mut stack: Vec<(usize, bool)> = (0..n)
-            .rev()
-            .filter(|&i| skeleton.parent(i).is_none())
-            .map(|i| (i, false))
-            .collect();
-        while let Some((j, done)) = stack.pop() {
-            if done {
-                order[j].1 = clock;
-            } else {
-                order[j].0 = clock;
-                stack.push((j, true));
-                stack.extend(children[j].iter().rev().map(|&c| (c, false)));
-            }
-            clock += 1;
-        }
+        let order = depth_first_order(skeleton, &children);
         Rig {
             skeleton,
             world,
@@ -170,8 +114,8 @@ impl<'a> Rig<'a> {
             tips,
             children,
             ground: lo.y,
-            height,
-            extent,
+            height: (hi.y - lo.y).max(1e-3),
+            extent: (hi - lo).length().max(1e-3),
             verts,
             skin_weight,
             sub_lo,
@@ -303,6 +247,100 @@ pub(super) fn centroid(points: &[Vec3]) -> Vec3 {
     } else {
         points.iter().sum::<Vec3>() / points.len() as f32
     }
+}
+
+/// Every skinned vertex of the character's meshes with its four influences (finite
+/// positions only), and each joint's total skin weight.
+fn skin_of(character: &Character) -> (Vec<SkinVertex>, Vec<f32>) {
+    let mut verts = Vec::new();
+    let mut skin_weight = vec![0.0f32; character.skeleton.len()];
+    for m in &character.meshes {
+        for (k, &p) in m.positions.iter().enumerate() {
+            let (Some(&js), Some(&ws)) = (m.joints.get(k), m.weights.get(k)) else {
+                continue;
+            };
+            if !p.is_finite() {
+                continue;
+            }
+            for c in 0..4 {
+                if let Some(w) = skin_weight.get_mut(js[c] as usize) {
+                    *w += ws[c].max(0.0);
+                }
+            }
+            verts.push((p, js, ws));
+        }
+    }
+    (verts, skin_weight)
+}
+
+/// Each joint's subtree: its lowest and highest point (joints and end sites) and how many
+/// joints it holds. Children have higher indices than their parents, so one backward
+/// pass sees every subtree complete before its root.
+fn subtree_stats(
+    pos: &[Vec3],
+    tips: &[Option<Vec3>],
+    children: &[Vec<usize>],
+) -> (Vec<f32>, Vec<f32>, Vec<usize>) {
+    let n = pos.len();
+    let mut sub_lo = vec![f32::MAX; n];
+    let mut sub_hi = vec![f32::MIN; n];
+    let mut sub_count = vec![1usize; n];
+    for i in (0..n).rev() {
+        for y in std::iter::once(pos[i].y).chain(tips[i].map(|t| t.y)) {
+            sub_lo[i] = sub_lo[i].min(y);
+            sub_hi[i] = sub_hi[i].max(y);
+        }
+        for &c in &children[i] {
+            sub_lo[i] = sub_lo[i].min(sub_lo[c]);
+            sub_hi[i] = sub_hi[i].max(sub_hi[c]);
+            sub_count[i] += sub_count[c];
+        }
+    }
+    (sub_lo, sub_hi, sub_count)
+}
+
+/// For each joint, the sibling whose subtree reaches highest (`sub_hi`), the last of
+/// equals, as `max_by` picks it.
+fn highest_siblings(children: &[Vec<usize>], sub_hi: &[f32]) -> Vec<Option<usize>> {
+    let mut highest = vec![None; sub_hi.len()];
+    for kids in children {
+        let last_max = |skip: Option<usize>| {
+            kids.iter()
+                .copied()
+                .filter(|&c| Some(c) != skip)
+                .max_by(|&a, &b| sub_hi[a].total_cmp(&sub_hi[b]))
+        };
+        let first = last_max(None);
+        let second = last_max(first);
+        for &c in kids {
+            highest[c] = if Some(c) == first { second } else { first };
+        }
+    }
+    highest
+}
+
+/// Depth-first entry and exit numbers of every joint, without recursion (a chain may be
+/// 65,536 deep).
+fn depth_first_order(skeleton: &Skeleton, children: &[Vec<usize>]) -> Vec<(usize, usize)> {
+    let n = skeleton.len();
+    let mut order = vec![(0usize, 0usize); n];
+    let mut clock = 0;
+    let mut stack: Vec<(usize, bool)> = (0..n)
+        .rev()
+        .filter(|&i| skeleton.parent(i).is_none())
+        .map(|i| (i, false))
+        .collect();
+    while let Some((j, done)) = stack.pop() {
+        if done {
+            order[j].1 = clock;
+        } else {
+            order[j].0 = clock;
+            stack.push((j, true));
+            stack.extend(children[j].iter().rev().map(|&c| (c, false)));
+        }
+        clock += 1;
+    }
+    order
 }
 
 #[cfg(test)]
