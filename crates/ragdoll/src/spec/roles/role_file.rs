@@ -57,82 +57,26 @@ impl RoleFile {
     /// Reads a roles file from TOML text; `path` names it in errors, which give the line
     /// and the key.
     pub fn from_toml(text: &str, path: &Path) -> Result<RoleFile> {
-        let err = |pos: usize, message: String| Error::Parse {
-            path: path.to_path_buf(),
-            line: crate::spec::line_at(text, pos),
-            message,
+        let mut r = Reader {
+            text,
+            file: RoleFile {
+                path: path.to_path_buf(),
+                roles_line: 1,
+                entries: Vec::new(),
+            },
         };
         let doc = DeTable::parse(text).map_err(|e| {
             let pos = e.span().map_or(0, |s| s.start);
-            let mut message = e.message().trim().replace('\n', " ");
-            // toml names neither the key nor why a repeated one matters here.
-            if message == "duplicate key" {
-                let before = text.get(..pos).unwrap_or("");
-                let start = before.rfind('\n').map_or(0, |i| i + 1);
-                let key = text
-                    .get(start..)
-                    .unwrap_or("")
-                    .split(['=', '\n'])
-                    .next()
-                    .unwrap_or("")
-                    .trim();
-                message = format!("{key}: given twice; each role names one joint");
-            }
-            err(pos, message)
+            r.err(pos, parse_message(text, pos, e.message()))
         })?;
-        let mut file = RoleFile {
-            path: path.to_path_buf(),
-            roles_line: 1,
-            entries: Vec::new(),
-        };
-        // Every entry keeps the line of `pos`, where errors about it point.
-        let push = |file: &mut RoleFile, role: Option<Role>, joint: String, pos: usize| {
-            if file.entries.len() >= MAX_ROLE_FILE_ENTRIES {
-                return Err(err(
-                    pos,
-                    format!("a roles file holds at most {MAX_ROLE_FILE_ENTRIES} entries"),
-                ));
-            }
-            let line = crate::spec::line_at(text, pos);
-            file.entries.push(Entry { role, joint, line });
-            Ok(())
-        };
         for (k, v) in doc.get_ref() {
             match (k.get_ref().as_ref(), v.get_ref()) {
                 ("roles", DeValue::Table(t)) => {
-                    file.roles_line = crate::spec::line_at(text, k.span().start);
-                    for (rk, rv) in t {
-                        let key = rk.get_ref().as_ref();
-                        if key == "ignore" {
-                            for (joint, pos) in joint_list(rv, |m| err(rv.span().start, m))? {
-                                push(&mut file, None, joint, pos)?;
-                            }
-                            continue;
-                        }
-                        let role = HUMANOID_ROLES
-                            .iter()
-                            .copied()
-                            .find(|r| r.as_str() == key)
-                            .ok_or_else(|| {
-                                err(
-                                    rk.span().start,
-                                    format!("{key}: not a role; {}", role_names()),
-                                )
-                            })?;
-                        let DeValue::String(joint) = rv.get_ref() else {
-                            return Err(err(
-                                rv.span().start,
-                                format!(
-                                    "{key}: must be a joint name in quotes, not a {}",
-                                    rv.get_ref().type_str()
-                                ),
-                            ));
-                        };
-                        push(&mut file, Some(role), joint.to_string(), rk.span().start)?;
-                    }
+                    r.file.roles_line = crate::spec::line_at(text, k.span().start);
+                    r.roles_table(t)?;
                 }
                 ("roles", other) => {
-                    return Err(err(
+                    return Err(r.err(
                         k.span().start,
                         format!(
                             "roles: must be a table ([roles]), not a {}",
@@ -140,13 +84,9 @@ impl RoleFile {
                         ),
                     ));
                 }
-                ("ignore", _) => {
-                    for (joint, pos) in joint_list(v, |m| err(v.span().start, m))? {
-                        push(&mut file, None, joint, pos)?;
-                    }
-                }
+                ("ignore", _) => r.ignore_list(v)?,
                 (key, _) => {
-                    return Err(err(
+                    return Err(r.err(
                         k.span().start,
                         format!(
                             "{key}: unknown key; a roles file holds a [roles] table and an ignore list"
@@ -155,12 +95,15 @@ impl RoleFile {
                 }
             }
         }
+        let mut file = r.file;
         if file.entries.is_empty() {
-            return Err(err(
-                0,
-                "names no role and ignores no joint; write role = \"joint\" lines under [roles]"
-                    .into(),
-            ));
+            return Err(Error::Parse {
+                path: file.path,
+                line: crate::spec::line_at(text, 0),
+                message:
+                    "names no role and ignores no joint; write role = \"joint\" lines under [roles]"
+                        .into(),
+            });
         }
         file.entries.sort_by_key(|e| e.line);
         Ok(file)
@@ -178,6 +121,94 @@ impl RoleFile {
             message: format!("{key}: {message}"),
         }
     }
+}
+
+/// Reads a roles file's TOML into a [`RoleFile`]; errors name the file and the line.
+struct Reader<'t> {
+    text: &'t str,
+    file: RoleFile,
+}
+
+impl Reader<'_> {
+    fn err(&self, pos: usize, message: String) -> Error {
+        Error::Parse {
+            path: self.file.path.clone(),
+            line: crate::spec::line_at(self.text, pos),
+            message,
+        }
+    }
+
+    /// Adds an entry that keeps the line of `pos`, where errors about it point.
+    fn push(&mut self, role: Option<Role>, joint: String, pos: usize) -> Result<()> {
+        if self.file.entries.len() >= MAX_ROLE_FILE_ENTRIES {
+            return Err(self.err(
+                pos,
+                format!("a roles file holds at most {MAX_ROLE_FILE_ENTRIES} entries"),
+            ));
+        }
+        let line = crate::spec::line_at(self.text, pos);
+        self.file.entries.push(Entry { role, joint, line });
+        Ok(())
+    }
+
+    /// An `ignore` list, at the top level or under `[roles]`.
+    fn ignore_list(&mut self, v: &toml::Spanned<DeValue>) -> Result<()> {
+        for (joint, pos) in joint_list(v, |m| self.err(v.span().start, m))? {
+            self.push(None, joint, pos)?;
+        }
+        Ok(())
+    }
+
+    /// The `[roles]` table: `role = "joint"` lines and an `ignore` list.
+    fn roles_table(&mut self, t: &DeTable) -> Result<()> {
+        for (rk, rv) in t {
+            let key = rk.get_ref().as_ref();
+            if key == "ignore" {
+                self.ignore_list(rv)?;
+                continue;
+            }
+            let role = HUMANOID_ROLES
+                .iter()
+                .copied()
+                .find(|r| r.as_str() == key)
+                .ok_or_else(|| {
+                    self.err(
+                        rk.span().start,
+                        format!("{key}: not a role; {}", role_names()),
+                    )
+                })?;
+            let DeValue::String(joint) = rv.get_ref() else {
+                return Err(self.err(
+                    rv.span().start,
+                    format!(
+                        "{key}: must be a joint name in quotes, not a {}",
+                        rv.get_ref().type_str()
+                    ),
+                ));
+            };
+            self.push(Some(role), joint.to_string(), rk.span().start)?;
+        }
+        Ok(())
+    }
+}
+
+/// toml's message for a parse error at byte `pos`, on one line; a repeated key is named,
+/// with why it matters here (toml names neither).
+fn parse_message(text: &str, pos: usize, message: &str) -> String {
+    let message = message.trim().replace('\n', " ");
+    if message != "duplicate key" {
+        return message;
+    }
+    let before = text.get(..pos).unwrap_or("");
+    let start = before.rfind('\n').map_or(0, |i| i + 1);
+    let key = text
+        .get(start..)
+        .unwrap_or("")
+        .split(['=', '\n'])
+        .next()
+        .unwrap_or("")
+        .trim();
+    format!("{key}: given twice; each role names one joint")
 }
 
 /// `ignore = ["a", "b"]`: the names with their byte positions.
