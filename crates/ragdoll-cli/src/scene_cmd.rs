@@ -7,7 +7,7 @@ use std::path::Path;
 use anyhow::{Result, bail};
 use clap::ArgMatches;
 use clap::parser::ValueSource;
-use ragdoll::scene::{Scene, SceneReport};
+use ragdoll::scene::{Scene, SceneReport, SceneResult};
 use ragdoll::world::StartPose;
 
 use crate::SimulateArgs;
@@ -28,6 +28,60 @@ fn given(m: &ArgMatches, id: &str) -> bool {
 }
 
 pub fn run(a: &SimulateArgs, matches: &ArgMatches) -> Result<()> {
+    refuse_character_flags(a, matches)?;
+    output::check_output_folder(&a.output)?;
+    a.preview.check()?;
+    let progress = Progress::new(0, "reading the scene");
+    let mut scene = Scene::load(&a.file)?;
+    print_warnings(&scene);
+    apply_flags(a, matches, &mut scene)?;
+    progress.stage(0, "building the scene");
+    let mut started = false;
+    let result = scene.run_with_progress(|done, total| {
+        if !started {
+            progress.stage(total, "simulating");
+            started = true;
+        }
+        progress.set(done);
+    })?;
+    check_tracks(a, &scene, &result)?;
+    progress.stage(0, "writing");
+    let mut staging = Staging::new();
+    for (name, bytes) in scene.encode(&result)? {
+        staging.write(&a.output.join(name), &bytes)?;
+    }
+    let actors: Vec<_> = scene
+        .characters
+        .iter()
+        .zip(&result.tracks)
+        .map(|(c, t)| (&c.character, &c.spec, t))
+        .collect();
+    let blasts: Vec<_> = scene.blasts.iter().map(|b| b.event).collect();
+    let shots: Vec<_> = scene.projectiles.iter().map(|p| p.event).collect();
+    let markers = crate::preview_cmd::markers(&blasts, &shots, &result.report.projectiles);
+    let preview = a
+        .preview
+        .stage(&mut staging, &actors, &markers, &progress)?;
+    crate::fatal::debug_panic_point("staged");
+    let written = staging.commit()?;
+    progress.finish();
+    print_summary(&result.report);
+    for path in written
+        .iter()
+        .filter(|p| Some(p.as_path()) != preview.as_deref())
+    {
+        outln!("{}", path.display());
+    }
+    if let Some(p) = preview {
+        outln!("{}", p.display());
+    }
+    Ok(())
+}
+
+/// Refuses what belongs to a character file: a `.glb`/`.bvh` output (a scene writes a
+/// folder) and per-character flags, which live in the scene's tables, one per character:
+/// a flag would silently apply to nobody, or to every character of whatever file.
+fn refuse_character_flags(a: &SimulateArgs, matches: &ArgMatches) -> Result<()> {
     if a.output
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("glb") || e.eq_ignore_ascii_case("bvh"))
@@ -37,8 +91,6 @@ pub fn run(a: &SimulateArgs, matches: &ArgMatches) -> Result<()> {
             a.output.display()
         );
     }
-    // Per-character settings live in the scene's tables, one per character; a flag would
-    // silently apply to nobody, or to every character of whatever file.
     for (id, flag, key) in [
         ("mass", "--mass", "mass_kg"),
         ("female", "--female", "female"),
@@ -63,11 +115,12 @@ pub fn run(a: &SimulateArgs, matches: &ArgMatches) -> Result<()> {
     if a.obj_sequence.is_some() {
         bail!("--obj-sequence applies to a character file, not a scene file");
     }
-    output::check_output_folder(&a.output)?;
-    a.preview.check()?;
-    let progress = Progress::new(0, "reading the scene");
-    let mut scene = Scene::load(&a.file)?;
-    print_warnings(&scene);
+    Ok(())
+}
+
+/// The flags that override the scene's own settings, where the user typed them:
+/// `--seconds`, `--fps`, `--rest-pose`, `--split`, `--backend`.
+fn apply_flags(a: &SimulateArgs, matches: &ArgMatches, scene: &mut Scene) -> Result<()> {
     if given(matches, "seconds") {
         if !(a.sim.run.seconds.is_finite()
             && a.sim.run.seconds > 0.0
@@ -104,20 +157,15 @@ pub fn run(a: &SimulateArgs, matches: &ArgMatches) -> Result<()> {
             ),
         }
     }
-    // The flag overrides the scene's `backend` only when given.
     if given(matches, "backend") {
         scene.settings.backend = a.sim.run.backend.backend;
     }
-    progress.stage(0, "building the scene");
-    let mut started = false;
-    let result = scene.run_with_progress(|done, total| {
-        if !started {
-            progress.stage(total, "simulating");
-            started = true;
-        }
-        progress.set(done);
-    })?;
-    // The character whose track went bad, else the scene's metrics.
+    Ok(())
+}
+
+/// Refuses a run whose tracks went non-finite, naming the character whose track went
+/// bad, else saying a character did.
+fn check_tracks(a: &SimulateArgs, scene: &Scene, result: &SceneResult) -> Result<()> {
     let in_scene = |e: anyhow::Error| e.context(a.file.display().to_string());
     for (c, track) in scene.characters.iter().zip(&result.tracks) {
         check_finite(&c.name, false, track, scene.settings.backend).map_err(in_scene)?;
@@ -132,38 +180,7 @@ pub fn run(a: &SimulateArgs, matches: &ArgMatches) -> Result<()> {
         &no_track,
         scene.settings.backend,
     )
-    .map_err(in_scene)?;
-    progress.stage(0, "writing");
-    let mut staging = Staging::new();
-    for (name, bytes) in scene.encode(&result)? {
-        staging.write(&a.output.join(name), &bytes)?;
-    }
-    let actors: Vec<_> = scene
-        .characters
-        .iter()
-        .zip(&result.tracks)
-        .map(|(c, t)| (&c.character, &c.spec, t))
-        .collect();
-    let blasts: Vec<_> = scene.blasts.iter().map(|b| b.event).collect();
-    let shots: Vec<_> = scene.projectiles.iter().map(|p| p.event).collect();
-    let markers = crate::preview_cmd::markers(&blasts, &shots, &result.report.projectiles);
-    let preview = a
-        .preview
-        .stage(&mut staging, &actors, &markers, &progress)?;
-    crate::fatal::debug_panic_point("staged");
-    let written = staging.commit()?;
-    progress.finish();
-    print_summary(&result.report);
-    for path in written
-        .iter()
-        .filter(|p| Some(p.as_path()) != preview.as_deref())
-    {
-        outln!("{}", path.display());
-    }
-    if let Some(p) = preview {
-        outln!("{}", p.display());
-    }
-    Ok(())
+    .map_err(in_scene)
 }
 
 /// Each character file's warnings (repaired weights, missing images, a roles warning),
