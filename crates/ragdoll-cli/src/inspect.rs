@@ -2,7 +2,8 @@
 //! tree and ragdoll) and build (write its ragdoll spec for editing).
 
 use anyhow::{Context, Result};
-use ragdoll::spec;
+use ragdoll::skeleton::Character;
+use ragdoll::spec::{self, RagdollSpec, Roles};
 
 use crate::commands::{load, ragdoll, ragdoll_spec};
 use crate::{BuildArgs, ImportArgs, InspectArgs, clip_list, output};
@@ -41,114 +42,151 @@ pub fn inspect(a: &InspectArgs) -> Result<()> {
     let label = a.file.display().to_string();
     let (spec, roles) = ragdoll(&character, &label, &a.ragdoll)
         .with_context(|| format!("{label}: building the ragdoll"))?;
-    let s = &character.skeleton;
-    let mut out = String::new();
-    if a.json {
-        let joints: Vec<serde_json::Value> = (0..s.len())
-            .map(|i| {
-                serde_json::json!({
-                    "index": i,
-                    "name": s.joint_label(i),
-                    "parent": s.parent(i).map(|p| s.joint_label(p)),
-                    "role": roles.per_joint[i].map(|r| r.as_str()),
-                    "role_from_file": roles.from_file.get(i).copied().unwrap_or(false),
-                })
-            })
-            .collect();
-        let value = serde_json::json!({
-            "character": character.name,
-            "humanoid": roles.humanoid,
-            "forward": roles.forward.to_array(),
-            "roles_why": roles.why,
-            "roles_missing": roles.missing().iter().map(|(r, why)| serde_json::json!({
-                "role": r.as_str(), "why": why,
-            })).collect::<Vec<_>>(),
-            "joints": joints,
-            "bodies": spec.bodies,
-            "constraints": spec.joints,
-            "total_mass_kg": spec.total_mass_kg(),
-            "clips": clips.json(),
-        });
-        out.push_str(&serde_json::to_string_pretty(&value)?);
-        out.push('\n');
+    let out = if a.json {
+        as_json(&character, &roles, &spec, &clips)?
     } else {
-        use std::fmt::Write;
-        let kind = if roles.humanoid {
-            "humanoid"
-        } else {
-            "not humanoid: generic chain bodies"
-        };
-        writeln!(
-            out,
-            "{} ({kind}), {} joints, {} meshes, {} clips",
-            character.name,
-            s.len(),
-            character.meshes.len(),
-            clips.count()
-        )?;
-        out.push_str(&role_summary(&roles));
-        let mut depth = vec![0usize; s.len()];
-        for i in 0..s.len() {
-            if let Some(p) = s.parent(i) {
-                depth[i] = depth[p] + 1;
-            }
-            let role = roles.per_joint[i].map_or("-".to_string(), |r| r.as_str().to_string());
-            let given = if roles.from_file.get(i).copied().unwrap_or(false) {
-                " (roles file)"
-            } else {
-                ""
-            };
-            writeln!(
-                out,
-                "{}{}  [{role}]{given}",
-                indent(depth[i]),
-                s.joint_label(i)
-            )?;
-        }
-        writeln!(out, "\nbodies:")?;
-        for b in &spec.bodies {
-            let shape = match b.shape {
-                ragdoll::spec::Shape::Capsule { radius_m, length_m } => {
-                    format!("capsule r={radius_m:.3} m, l={length_m:.3} m")
-                }
-                ragdoll::spec::Shape::Box { size_m } => format!(
-                    "box {:.3} x {:.3} x {:.3} m",
-                    size_m[0], size_m[1], size_m[2]
-                ),
-            };
-            writeln!(
-                out,
-                "  {:<16} on {:<16} {shape}, {:.2} kg",
-                b.name, b.bone, b.mass_kg
-            )?;
-        }
-        writeln!(out, "\njoints:")?;
-        for j in &spec.joints {
-            let kind = match j.kind {
-                ragdoll::spec::JointKind::Hinge { min_deg, max_deg } => {
-                    // Rounded first, so -0.3 reads 0, not -0.
-                    let (lo, hi) = (min_deg.round() + 0.0, max_deg.round() + 0.0);
-                    format!("hinge {lo:.0}..{hi:.0}°")
-                }
-                ragdoll::spec::JointKind::SwingTwist {
-                    swing_deg,
-                    twist_deg,
-                    ..
-                } => format!(
-                    "swing-twist cone {swing_deg:.0}°, twist {:.0}..{:.0}°",
-                    twist_deg[0], twist_deg[1]
-                ),
-                ragdoll::spec::JointKind::Ball => "ball".into(),
-                ragdoll::spec::JointKind::Fixed => "fixed".into(),
-            };
-            writeln!(out, "  {:<16} {} -> {}: {kind}", j.name, j.parent, j.child)?;
-        }
-        writeln!(out, "\ntotal mass: {:.2} kg", spec.total_mass_kg())?;
-        clips.write(&mut out)?;
-    }
+        as_text(&character, &roles, &spec, &clips)?
+    };
     use std::io::Write;
     std::io::stdout().write_all(out.as_bytes())?;
     Ok(())
+}
+
+/// `inspect --json`: the joints with their roles, the bodies and constraints as the spec
+/// has them, the clips.
+fn as_json(
+    character: &Character,
+    roles: &Roles,
+    spec: &RagdollSpec,
+    clips: &clip_list::Clips,
+) -> Result<String> {
+    let s = &character.skeleton;
+    let joints: Vec<serde_json::Value> = (0..s.len())
+        .map(|i| {
+            serde_json::json!({
+                "index": i,
+                "name": s.joint_label(i),
+                "parent": s.parent(i).map(|p| s.joint_label(p)),
+                "role": roles.per_joint[i].map(|r| r.as_str()),
+                "role_from_file": roles.from_file.get(i).copied().unwrap_or(false),
+            })
+        })
+        .collect();
+    let value = serde_json::json!({
+        "character": character.name,
+        "humanoid": roles.humanoid,
+        "forward": roles.forward.to_array(),
+        "roles_why": roles.why,
+        "roles_missing": roles.missing().iter().map(|(r, why)| serde_json::json!({
+            "role": r.as_str(), "why": why,
+        })).collect::<Vec<_>>(),
+        "joints": joints,
+        "bodies": spec.bodies,
+        "constraints": spec.joints,
+        "total_mass_kg": spec.total_mass_kg(),
+        "clips": clips.json(),
+    });
+    let mut out = serde_json::to_string_pretty(&value)?;
+    out.push('\n');
+    Ok(out)
+}
+
+/// `inspect`: the joint tree with each joint's role, then the bodies, the joints, the
+/// total mass and the clips.
+fn as_text(
+    character: &Character,
+    roles: &Roles,
+    spec: &RagdollSpec,
+    clips: &clip_list::Clips,
+) -> Result<String> {
+    use std::fmt::Write;
+    let s = &character.skeleton;
+    let mut out = String::new();
+    let kind = if roles.humanoid {
+        "humanoid"
+    } else {
+        "not humanoid: generic chain bodies"
+    };
+    writeln!(
+        out,
+        "{} ({kind}), {} joints, {} meshes, {} clips",
+        character.name,
+        s.len(),
+        character.meshes.len(),
+        clips.count()
+    )?;
+    out.push_str(&role_summary(roles));
+    let mut depth = vec![0usize; s.len()];
+    for i in 0..s.len() {
+        if let Some(p) = s.parent(i) {
+            depth[i] = depth[p] + 1;
+        }
+        let role = roles.per_joint[i].map_or("-".to_string(), |r| r.as_str().to_string());
+        let given = if roles.from_file.get(i).copied().unwrap_or(false) {
+            " (roles file)"
+        } else {
+            ""
+        };
+        writeln!(
+            out,
+            "{}{}  [{role}]{given}",
+            indent(depth[i]),
+            s.joint_label(i)
+        )?;
+    }
+    writeln!(out, "\nbodies:")?;
+    for b in &spec.bodies {
+        writeln!(
+            out,
+            "  {:<16} on {:<16} {}, {:.2} kg",
+            b.name,
+            b.bone,
+            shape_words(&b.shape),
+            b.mass_kg
+        )?;
+    }
+    writeln!(out, "\njoints:")?;
+    for j in &spec.joints {
+        let kind = joint_words(&j.kind);
+        writeln!(out, "  {:<16} {} -> {}: {kind}", j.name, j.parent, j.child)?;
+    }
+    writeln!(out, "\ntotal mass: {:.2} kg", spec.total_mass_kg())?;
+    clips.write(&mut out)?;
+    Ok(out)
+}
+
+/// A body's shape as `inspect` prints it.
+fn shape_words(shape: &spec::Shape) -> String {
+    match *shape {
+        spec::Shape::Capsule { radius_m, length_m } => {
+            format!("capsule r={radius_m:.3} m, l={length_m:.3} m")
+        }
+        spec::Shape::Box { size_m } => format!(
+            "box {:.3} x {:.3} x {:.3} m",
+            size_m[0], size_m[1], size_m[2]
+        ),
+    }
+}
+
+/// A joint's kind and limits as `inspect` prints them.
+fn joint_words(kind: &spec::JointKind) -> String {
+    match *kind {
+        spec::JointKind::Hinge { min_deg, max_deg } => {
+            // Rounded first, so -0.3 reads 0, not -0.
+            let (lo, hi) = (min_deg.round() + 0.0, max_deg.round() + 0.0);
+            format!("hinge {lo:.0}..{hi:.0}°")
+        }
+        spec::JointKind::SwingTwist {
+            swing_deg,
+            twist_deg,
+            ..
+        } => format!(
+            "swing-twist cone {swing_deg:.0}°, twist {:.0}..{:.0}°",
+            twist_deg[0], twist_deg[1]
+        ),
+        spec::JointKind::Ball => "ball".into(),
+        spec::JointKind::Fixed => "fixed".into(),
+    }
 }
 
 /// Deepest joint level drawn by indentation; deeper ones (a 60,000-joint chain would
