@@ -285,7 +285,7 @@ impl super::World {
 
     /// Applies pushes, fields and pins over `[t0, t1]`.
     pub(super) fn apply_forces(&mut self, t0: f64, t1: f64) {
-        use crate::events::{Field, Push};
+        use crate::events::Field;
         // Gravity fields replace the world's gravity while there are any.
         if let Some(g) = self.fields.iter().rev().find_map(|f| match f {
             Field::Gravity { keys } => Some(sample_keys(keys, (0.5 * (t0 + t1)) as f32)),
@@ -293,6 +293,21 @@ impl super::World {
         }) {
             self.backend.set_gravity(g);
         }
+        self.apply_pushes(t0, t1);
+        if self
+            .fields
+            .iter()
+            .any(|f| !matches!(f, Field::Gravity { .. }))
+        {
+            self.apply_fields(t0, t1);
+        }
+        self.apply_pins(t0, t1);
+    }
+
+    /// Each push's share of `[t0, t1]`: an impulse once its time has come, a force for
+    /// the part of its span inside the interval.
+    fn apply_pushes(&mut self, t0: f64, t1: f64) {
+        use crate::events::Push;
         for p in &mut self.pushes {
             if p.done {
                 continue;
@@ -330,36 +345,40 @@ impl super::World {
                 });
             }
         }
-        if self
-            .fields
-            .iter()
-            .any(|f| !matches!(f, Field::Gravity { .. }))
-        {
-            for inst in self.instances.iter().filter(|i| i.active) {
-                for (k, shape) in inst.shapes.iter().enumerate() {
-                    let state = self.states[inst.first_body + k];
-                    let mut impulse = Vec3::ZERO;
-                    for f in &self.fields {
-                        impulse += field_impulse(
-                            f,
-                            t0,
-                            t1,
-                            inst.masses[k],
-                            state.pose.translation,
-                            state.linvel,
-                            |dir| super::blast::projected_area(&state, shape, dir),
-                        );
-                    }
-                    if impulse != Vec3::ZERO {
-                        self.impulses.push(BodyImpulse::AtPoint {
-                            body: inst.first_body + k,
-                            impulse,
-                            point: state.pose.translation,
-                        });
-                    }
+    }
+
+    /// The force fields other than gravity (radial, drag, wind) on every body of every
+    /// active ragdoll, at its centre.
+    fn apply_fields(&mut self, t0: f64, t1: f64) {
+        for inst in self.instances.iter().filter(|i| i.active) {
+            for (k, shape) in inst.shapes.iter().enumerate() {
+                let state = self.states[inst.first_body + k];
+                let mut impulse = Vec3::ZERO;
+                for f in &self.fields {
+                    impulse += field_impulse(
+                        f,
+                        t0,
+                        t1,
+                        inst.masses[k],
+                        state.pose.translation,
+                        state.linvel,
+                        |dir| super::blast::projected_area(&state, shape, dir),
+                    );
+                }
+                if impulse != Vec3::ZERO {
+                    self.impulses.push(BodyImpulse::AtPoint {
+                        body: inst.first_body + k,
+                        impulse,
+                        point: state.pose.translation,
+                    });
                 }
             }
         }
+    }
+
+    /// Pins: released when their time comes; a hard pin moves its anchor along its path,
+    /// a soft one pulls as a damped spring.
+    fn apply_pins(&mut self, t0: f64, t1: f64) {
         for p in &mut self.pins {
             if p.released {
                 continue;
