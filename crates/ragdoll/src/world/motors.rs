@@ -11,10 +11,10 @@
 //! widen to take in every clip pose, each hinge turns to the axis the clip's own elbow or
 //! knee bends about, and parts the clip passes through each other stop colliding.
 
-use crate::backend::BodyImpulse;
+use crate::backend::{BodyImpulse, BodyState};
 use glam::{Quat, Vec3};
 
-use super::{HANDOVER_LIMIT_MARGIN_DEG, World, setting_error};
+use super::{HANDOVER_LIMIT_MARGIN_DEG, Instance, World, setting_error};
 use crate::backend::Backend;
 use crate::error::Result;
 use crate::math::Transform;
@@ -246,108 +246,143 @@ impl World {
                 Some(state) if !state.engaged => self.engage_motors(c, t0),
                 Some(_) => {}
             }
-            let inst = &self.instances[c];
-            let (Some(state), Some(play)) = (&inst.motors, &inst.playback) else {
-                continue;
-            };
-            let t1 = t0 + h as f64;
-            let targets = play.body_poses(t1);
-            let base = inst.first_body;
-            if state.motors.root_on_clip {
-                self.backend
-                    .set_kinematic_target(base + state.root, &targets[state.root]);
-            }
-            let s = state.motors.strength_at((t0 + 0.5 * h as f64) as f32);
-            let omega = std::f32::consts::TAU * MOTOR_FREQUENCY_HZ;
-            let kp = s * omega * omega;
-            let kd = s * 2.0 * MOTOR_DAMPING_RATIO * omega;
-            // The clip's angular velocities: the motors damp toward the clip's motion
-            // rather than toward rest, so a fast joint does not lag behind its target.
-            let clip_velocities = if s > 0.0 {
-                play.body_velocities(t1, h as f64)
-            } else {
-                Vec::new()
-            };
-            // Drives inside the backend's solver where it has them.
-            let first_joint = inst.first_joint;
-            let mut driven = true;
-            for (k, j) in inst.joints.iter().enumerate() {
-                if matches!(j.kind, JointKind::Fixed) {
-                    continue;
-                }
-                let (pt, ct) = (&targets[j.parent], &targets[j.child]);
-                let (target, target_vel) = if s > 0.0 {
-                    (
-                        pt.rotation.conjugate() * ct.rotation,
-                        pt.rotation.conjugate()
-                            * (clip_velocities[j.child].1 - clip_velocities[j.parent].1),
-                    )
-                } else {
-                    (Quat::IDENTITY, Vec3::ZERO)
-                };
-                if !self
-                    .backend
-                    .drive_joint(first_joint + k, target, target_vel, kp, kd)
-                {
-                    driven = false;
-                    break;
-                }
-            }
-            if driven || s <= 0.0 {
-                continue;
-            }
-            let omega = std::f32::consts::TAU * TORQUE_MOTOR_FREQUENCY_HZ;
-            let kp = s * omega * omega;
-            let kd = s * 2.0 * MOTOR_DAMPING_RATIO * omega;
-            let states = &self.states[base..base + inst.shapes.len()];
-            let own: Vec<Vec3> = inst
-                .shapes
-                .iter()
-                .zip(&inst.masses)
-                .map(|(shape, &m)| principal_inertia(shape, m))
-                .collect();
-            for j in &inst.joints {
-                if matches!(j.kind, JointKind::Fixed) {
-                    continue;
-                }
-                let (parent, child) = (&states[j.parent], &states[j.child]);
-                let (pt, ct) = (&targets[j.parent], &targets[j.child]);
-                // Where the child should be turned, the parent where it is.
-                let relative = pt.rotation.conjugate() * ct.rotation;
-                let wanted = parent.pose.rotation * relative;
-                let theta = rotation_vector(wanted * child.pose.rotation.conjugate());
-                // The clip's relative angular velocity, turned from the clip's parent
-                // frame into the current one.
-                let to_now = parent.pose.rotation * pt.rotation.conjugate();
-                let target_rel =
-                    to_now * (clip_velocities[j.child].1 - clip_velocities[j.parent].1);
-                let error_velocity = child.angvel - parent.angvel - target_rel;
-                let anchor = child.pose.transform_point(j.frame_child.translation);
-                // Implicit ("stable") PD: the damping and the spring act on the velocity
-                // at the end of the substep, so the spring cannot overshoot within one
-                // substep whatever the gains; an error in the inertia estimate only
-                // changes how fast a joint gets there.
-                let accel =
-                    (theta * kp - error_velocity * (kd + h * kp)) / (1.0 + h * kd + h * h * kp);
-                let Some(n) = accel.try_normalize() else {
-                    continue;
-                };
-                let about_anchor =
-                    |b: usize| inertia_about(&states[b].pose, own[b], inst.masses[b], anchor, n);
-                let held = state.motors.root_on_clip && j.parent == state.root;
-                let inertia = effective_inertia(
-                    about_anchor(j.child),
-                    (!held).then(|| about_anchor(j.parent)),
-                );
-                let impulse = accel * inertia * h;
-                if impulse.is_finite() {
-                    self.impulses.extend(BodyImpulse::joint_pair(
-                        base + j.child,
-                        base + j.parent,
-                        impulse,
-                    ));
-                }
-            }
+            self.drive_toward_clip(c, t0, h);
+        }
+    }
+
+    /// Ragdoll `c`'s motors over the substep: toward the clip's relative turns and
+    /// velocities at its end, as drives inside the backend's solver where it has them,
+    /// else as torque impulses between each joint's two bodies.
+    fn drive_toward_clip(&mut self, c: usize, t0: f64, h: f32) {
+        let inst = &self.instances[c];
+        let (Some(state), Some(play)) = (&inst.motors, &inst.playback) else {
+            return;
+        };
+        let t1 = t0 + h as f64;
+        let targets = play.body_poses(t1);
+        if state.motors.root_on_clip {
+            self.backend
+                .set_kinematic_target(inst.first_body + state.root, &targets[state.root]);
+        }
+        let s = state.motors.strength_at((t0 + 0.5 * h as f64) as f32);
+        // The clip's angular velocities: the motors damp toward the clip's motion
+        // rather than toward rest, so a fast joint does not lag behind its target.
+        let clip_velocities = if s > 0.0 {
+            play.body_velocities(t1, h as f64)
+        } else {
+            Vec::new()
+        };
+        let aim = Aim {
+            targets: &targets,
+            velocities: &clip_velocities,
+            strength: s,
+        };
+        if drive_in_solver(&mut self.backend, inst, &aim) || s <= 0.0 {
+            return;
+        }
+        let states = &self.states[inst.first_body..inst.first_body + inst.shapes.len()];
+        torque_impulses(inst, state, states, &aim, h, &mut self.impulses);
+    }
+}
+
+/// Where a powered ragdoll's motors aim in a substep: each body's pose at its end on the
+/// clip and the clip's velocities there, and the motors' strength (0 to 1).
+struct Aim<'a> {
+    targets: &'a [Transform],
+    velocities: &'a [(Vec3, Vec3)],
+    strength: f32,
+}
+
+/// Spring and damper gains of a motor of `strength` at `frequency_hz`, critically damped
+/// as [`MOTOR_DAMPING_RATIO`] says.
+fn gains(strength: f32, frequency_hz: f32) -> (f32, f32) {
+    let omega = std::f32::consts::TAU * frequency_hz;
+    (
+        strength * omega * omega,
+        strength * 2.0 * MOTOR_DAMPING_RATIO * omega,
+    )
+}
+
+/// Drives every joint of `inst` toward the clip inside the backend's solver; false where
+/// the backend has no drives (the caller then applies torques).
+fn drive_in_solver(backend: &mut impl Backend, inst: &Instance, aim: &Aim) -> bool {
+    let (kp, kd) = gains(aim.strength, MOTOR_FREQUENCY_HZ);
+    for (k, j) in inst.joints.iter().enumerate() {
+        if matches!(j.kind, JointKind::Fixed) {
+            continue;
+        }
+        let (pt, ct) = (&aim.targets[j.parent], &aim.targets[j.child]);
+        let (target, target_vel) = if aim.strength > 0.0 {
+            (
+                pt.rotation.conjugate() * ct.rotation,
+                pt.rotation.conjugate() * (aim.velocities[j.child].1 - aim.velocities[j.parent].1),
+            )
+        } else {
+            (Quat::IDENTITY, Vec3::ZERO)
+        };
+        if !backend.drive_joint(inst.first_joint + k, target, target_vel, kp, kd) {
+            return false;
+        }
+    }
+    true
+}
+
+/// Torque impulses toward the clip between each joint's two bodies of `inst` (at
+/// `states`), for a backend without drives.
+fn torque_impulses(
+    inst: &Instance,
+    state: &MotorState,
+    states: &[BodyState],
+    aim: &Aim,
+    h: f32,
+    out: &mut Vec<BodyImpulse>,
+) {
+    let (kp, kd) = gains(aim.strength, TORQUE_MOTOR_FREQUENCY_HZ);
+    let base = inst.first_body;
+    let own: Vec<Vec3> = inst
+        .shapes
+        .iter()
+        .zip(&inst.masses)
+        .map(|(shape, &m)| principal_inertia(shape, m))
+        .collect();
+    for j in &inst.joints {
+        if matches!(j.kind, JointKind::Fixed) {
+            continue;
+        }
+        let (parent, child) = (&states[j.parent], &states[j.child]);
+        let (pt, ct) = (&aim.targets[j.parent], &aim.targets[j.child]);
+        // Where the child should be turned, the parent where it is.
+        let relative = pt.rotation.conjugate() * ct.rotation;
+        let wanted = parent.pose.rotation * relative;
+        let theta = rotation_vector(wanted * child.pose.rotation.conjugate());
+        // The clip's relative angular velocity, turned from the clip's parent frame into
+        // the current one.
+        let to_now = parent.pose.rotation * pt.rotation.conjugate();
+        let target_rel = to_now * (aim.velocities[j.child].1 - aim.velocities[j.parent].1);
+        let error_velocity = child.angvel - parent.angvel - target_rel;
+        let anchor = child.pose.transform_point(j.frame_child.translation);
+        // Implicit ("stable") PD: the damping and the spring act on the velocity at the
+        // end of the substep, so the spring cannot overshoot within one substep whatever
+        // the gains; an error in the inertia estimate only changes how fast a joint gets
+        // there.
+        let accel = (theta * kp - error_velocity * (kd + h * kp)) / (1.0 + h * kd + h * h * kp);
+        let Some(n) = accel.try_normalize() else {
+            continue;
+        };
+        let about_anchor =
+            |b: usize| inertia_about(&states[b].pose, own[b], inst.masses[b], anchor, n);
+        let held = state.motors.root_on_clip && j.parent == state.root;
+        let inertia = effective_inertia(
+            about_anchor(j.child),
+            (!held).then(|| about_anchor(j.parent)),
+        );
+        let impulse = accel * inertia * h;
+        if impulse.is_finite() {
+            out.extend(BodyImpulse::joint_pair(
+                base + j.child,
+                base + j.parent,
+                impulse,
+            ));
         }
     }
 }
