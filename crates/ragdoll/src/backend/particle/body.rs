@@ -6,6 +6,7 @@ use glam::{Mat3, Mat4, Vec3, Vec4};
 
 use super::{Affine, Body, Distance, ParticleBackend, triad_frame};
 use crate::backend::{BodyDesc, capsule_of};
+use crate::math::Transform;
 
 /// Shortest stick, metres: a leaf whose capsule barely reaches past its anchor gets a tip
 /// this far away, so its direction stays well defined.
@@ -195,6 +196,53 @@ impl ThreePoint {
     }
 }
 
+/// The masses of a body's anchors and its side particle, and where the side particle
+/// rests (body frame); the centre takes the rest of the mass.
+struct SideAndShares {
+    shares: Vec<f32>,
+    side_rest: Vec3,
+    side_share: f32,
+}
+
+/// [`SideAndShares`] for a body whose `count` anchors (and tip) rest at `rest`: along a
+/// line, the three-point rule's anchor masses and a side particle carrying the inertia
+/// about the bone; else equal anchors and a side particle off their plane.
+fn side_and_shares(
+    rest: &[Vec3],
+    stick: &Stick,
+    rule: Option<ThreePoint>,
+    radius: f32,
+    mass: f32,
+    count: usize,
+) -> SideAndShares {
+    let mut shares = vec![0.0f32; count];
+    let d = (0.5 * stick.extent).max(radius).max(MIN_STICK_M);
+    if let Some(ThreePoint {
+        p, ma, mb, axial, ..
+    }) = rule
+    {
+        shares[0] = ma;
+        shares[stick.ifar] = mb;
+        let perp = Vec3::X
+            .reject_from_normalized(stick.dir)
+            .try_normalize()
+            .unwrap_or_else(|| stick.dir.any_orthonormal_vector());
+        SideAndShares {
+            shares,
+            side_rest: rest[0] + stick.dir * p + perp * d,
+            side_share: (axial / (d * d)).clamp(SIDE_SHARE.0 * mass, SIDE_SHARE.1 * mass),
+        }
+    } else {
+        let normal = stick.dir.cross(rest[stick.ioff] - rest[0]).normalize();
+        shares.fill(0.5 * mass / count as f32);
+        SideAndShares {
+            shares,
+            side_rest: normal * d,
+            side_share: CLUSTER_SIDE_SHARE * mass,
+        }
+    }
+}
+
 impl ParticleBackend {
     /// Body `bi`'s particles: its anchors (the parent joint's first), a tip or two ends
     /// where it has fewer than two apart, a side particle and a centre; their masses, the
@@ -212,22 +260,8 @@ impl ParticleBackend {
         let inv = pose.inverse();
         let (e, radius) = capsule_of(&desc.shape);
         let mass = desc.mass;
-        let mut list: Vec<u32> = parent_anchor.into_iter().collect();
-        for p in anchors {
-            if !list.contains(&p) {
-                list.push(p);
-            }
-        }
+        let mut list = self.anchor_list(&pose, e, radius, parent_anchor, anchors);
         let rest_of = |s: &Self, i: u32| inv.transform_point(s.x[i as usize]);
-        if list.is_empty() {
-            let (mut a, mut c) = (e[0], e[1]);
-            if (c - a).length() < MIN_STICK_M {
-                let h = Vec3::Y * (0.5 * MIN_STICK_M).max(radius);
-                (a, c) = (-h, h);
-            }
-            list.push(self.new_particle(pose.transform_point(a)));
-            list.push(self.new_particle(pose.transform_point(c)));
-        }
         // The anchors' extent: a tip where they are (nearly) one point.
         let r0 = rest_of(self, list[0]);
         let extent = list
@@ -247,80 +281,40 @@ impl ParticleBackend {
             return;
         }
         list.extend(tip.map(|t| self.new_particle(t)));
-        let Stick {
-            ifar,
-            extent,
-            dir,
-            ioff,
-            line,
-        } = stick;
-        // Masses of the anchors and the side particle; the centre takes the rest.
-        let mut shares = vec![0.0f32; list.len()];
-        let (side_rest, side_share);
-        if let Some(ThreePoint {
-            p, ma, mb, axial, ..
-        }) = rule
-        {
-            shares[0] = ma;
-            shares[ifar] = mb;
-            let perp = Vec3::X
-                .reject_from_normalized(dir)
-                .try_normalize()
-                .unwrap_or_else(|| dir.any_orthonormal_vector());
-            let d = (0.5 * extent).max(radius).max(MIN_STICK_M);
-            side_rest = rest[0] + dir * p + perp * d;
-            side_share = (axial / (d * d)).clamp(SIDE_SHARE.0 * mass, SIDE_SHARE.1 * mass);
-        } else {
-            let normal = dir.cross(rest[ioff] - rest[0]).normalize();
-            let d = (0.5 * extent).max(radius).max(MIN_STICK_M);
-            side_rest = normal * d;
-            side_share = CLUSTER_SIDE_SHARE * mass;
-            let each = 0.5 * mass / list.len() as f32;
-            shares.fill(each);
-        }
-        let side = self.new_particle(pose.transform_point(side_rest));
-        let centre_share = mass - shares.iter().sum::<f32>() - side_share;
+        let masses = side_and_shares(&rest, &stick, rule, radius, mass, list.len());
+        let side = self.new_particle(pose.transform_point(masses.side_rest));
+        let centre_share = mass - masses.shares.iter().sum::<f32>() - masses.side_share;
         // The centre goes where the body's centre of mass (its origin) comes out right.
-        let moment: Vec3 =
-            rest.iter().zip(&shares).map(|(r, s)| *r * *s).sum::<Vec3>() + side_rest * side_share;
+        let moment: Vec3 = rest
+            .iter()
+            .zip(&masses.shares)
+            .map(|(r, s)| *r * *s)
+            .sum::<Vec3>()
+            + masses.side_rest * masses.side_share;
         let want_centre = -moment / centre_share.max(1e-9 * mass);
         // Rigidity: every pair of anchors and the side particle.
         let mut frame_pts = list.clone();
         frame_pts.push(side);
-        let mut frame_rest = rest.clone();
-        frame_rest.push(side_rest);
+        let mut frame_rest = rest;
+        frame_rest.push(masses.side_rest);
         self.rigid_set(&frame_pts, &frame_rest);
         // The centre as an affine combination of the triad and the side particle.
-        let triad = if line {
-            [0, ifar, list.len()]
+        let triad = if stick.line {
+            [0, stick.ifar, list.len()]
         } else {
-            [0, ifar, ioff]
+            [0, stick.ifar, stick.ioff]
         };
         let mut refs_k: Vec<usize> = triad.to_vec();
-        if !line {
+        if !stick.line {
             refs_k.push(list.len());
         }
-        let ref_rest: Vec<Vec3> = refs_k.iter().map(|&k| frame_rest[k]).collect();
-        let (rb, rows) = affine_rows(&ref_rest);
-        let dq = (want_centre - rb).extend(1.0);
-        let mut alpha = [0.0f32; 4];
-        let mut refs = [frame_pts[refs_k[0]]; 4];
-        for (s, (&k, row)) in refs_k.iter().zip(&rows).enumerate() {
-            alpha[s] = row.dot(dq);
-            refs[s] = frame_pts[k];
-        }
-        let centre_rest: Vec3 = ref_rest.iter().zip(alpha).map(|(r, a)| *r * a).sum();
-        let centre = self.new_particle(pose.transform_point(centre_rest));
-        self.affines.push(Affine {
-            c: centre,
-            refs,
-            alpha,
-        });
+        let (centre, centre_rest) =
+            self.centre_particle(&pose, &frame_pts, &frame_rest, &refs_k, want_centre);
         // Masses.
-        for (&i, &s) in list.iter().zip(&shares) {
+        for (&i, &s) in list.iter().zip(&masses.shares) {
             self.m[i as usize] += s;
         }
-        self.m[side as usize] += side_share;
+        self.m[side as usize] += masses.side_share;
         self.m[centre as usize] += centre_share;
         // Rest offsets, affine rows of all its particles.
         let mut all = frame_pts;
@@ -339,6 +333,65 @@ impl ParticleBackend {
         let (rbar, mut rows) = affine_rows(&spanning);
         rows.insert(side_k, Vec4::ZERO);
         self.finish_body(bi, ragdoll, desc, &all, &all_rest, (rbar, rows), triad);
+    }
+
+    /// A body's anchor particles: its parent joint's first, then its other joints', each
+    /// once; two new ones at its capsule's ends (a stick at least [`MIN_STICK_M`] long)
+    /// where it has none.
+    fn anchor_list(
+        &mut self,
+        pose: &Transform,
+        e: [Vec3; 2],
+        radius: f32,
+        parent_anchor: Option<u32>,
+        anchors: impl Iterator<Item = u32>,
+    ) -> Vec<u32> {
+        let mut list: Vec<u32> = parent_anchor.into_iter().collect();
+        for p in anchors {
+            if !list.contains(&p) {
+                list.push(p);
+            }
+        }
+        if list.is_empty() {
+            let (mut a, mut c) = (e[0], e[1]);
+            if (c - a).length() < MIN_STICK_M {
+                let h = Vec3::Y * (0.5 * MIN_STICK_M).max(radius);
+                (a, c) = (-h, h);
+            }
+            list.push(self.new_particle(pose.transform_point(a)));
+            list.push(self.new_particle(pose.transform_point(c)));
+        }
+        list
+    }
+
+    /// The centre particle, placed so that the affine combination of the reference
+    /// particles `refs_k` (of `frame_pts`, at `frame_rest`) that gives it lands at
+    /// `want_centre` (body frame); returns it and its rest offset.
+    fn centre_particle(
+        &mut self,
+        pose: &Transform,
+        frame_pts: &[u32],
+        frame_rest: &[Vec3],
+        refs_k: &[usize],
+        want_centre: Vec3,
+    ) -> (u32, Vec3) {
+        let ref_rest: Vec<Vec3> = refs_k.iter().map(|&k| frame_rest[k]).collect();
+        let (rb, rows) = affine_rows(&ref_rest);
+        let dq = (want_centre - rb).extend(1.0);
+        let mut alpha = [0.0f32; 4];
+        let mut refs = [frame_pts[refs_k[0]]; 4];
+        for (s, (&k, row)) in refs_k.iter().zip(&rows).enumerate() {
+            alpha[s] = row.dot(dq);
+            refs[s] = frame_pts[k];
+        }
+        let centre_rest: Vec3 = ref_rest.iter().zip(alpha).map(|(r, a)| *r * a).sum();
+        let centre = self.new_particle(pose.transform_point(centre_rest));
+        self.affines.push(Affine {
+            c: centre,
+            refs,
+            alpha,
+        });
+        (centre, centre_rest)
     }
 
     /// Body `bi` as its anchors `list`, holding `EQUIMOMENTAL_ANCHOR_SHARE` of its mass,
