@@ -148,73 +148,23 @@ pub(crate) fn clip_frame_time(times: &[f32]) -> f32 {
     1.0 / rate
 }
 
+/// One animation's channels that move joints: its index, its name ("" when it has none)
+/// and the channels.
+type Take = (usize, String, Vec<Channel>);
+
 pub(super) fn read_clips(
     doc: &gltf::Document,
     rig: &Rig,
     skeleton: &Skeleton,
     reader: &Reads,
 ) -> Result<Vec<Clip>> {
-    let mut takes: Vec<(usize, String, Vec<Channel>)> = Vec::new();
+    let mut takes: Vec<Take> = Vec::new();
     for anim in doc.animations() {
         let mut channels = Vec::new();
         for ch in anim.channels() {
-            let target = ch.target();
-            let Some(&joint) = rig.node_to_joint.get(&target.node().index()) else {
-                continue;
-            };
-            let property = target.property();
-            let width = match property {
-                Property::Translation | Property::Scale => 3,
-                Property::Rotation => 4,
-                Property::MorphTargetWeights => continue,
-            };
-            let sampler = ch.sampler();
-            let interpolation = sampler.interpolation();
-            let (input, output) = (sampler.input(), sampler.output());
-            reader.expect_dims(&input, &[Dimensions::Scalar], "animation input")?;
-            let (times, _) = reader.floats(&input)?;
-            let (values, comps) = reader.floats(&output)?;
-            let place = || format!("accessor {}", output.index());
-            if comps != width {
-                return Err(format_err(
-                    reader.path(),
-                    place(),
-                    format!(
-                        "animates {property:?} with {comps} components per key, expected {width}"
-                    ),
-                ));
+            if let Some(channel) = read_channel(&ch, rig, reader)? {
+                channels.push(channel);
             }
-            let per_key = if interpolation == Interpolation::CubicSpline {
-                3
-            } else {
-                1
-            };
-            if times.is_empty() || values.len() != times.len() * per_key * width {
-                return Err(format_err(
-                    reader.path(),
-                    place(),
-                    format!(
-                        "has {} values for {} keyframe times ({interpolation:?})",
-                        values.len() / width,
-                        times.len()
-                    ),
-                ));
-            }
-            if times.windows(2).any(|w| w[1] < w[0]) {
-                return Err(format_err(
-                    reader.path(),
-                    format!("accessor {}", input.index()),
-                    "keyframe times decrease",
-                ));
-            }
-            channels.push(Channel {
-                joint,
-                property,
-                interpolation,
-                times,
-                values,
-                width,
-            });
         }
         if !channels.is_empty() {
             takes.push((
@@ -224,36 +174,7 @@ pub(super) fn read_clips(
             ));
         }
     }
-    // Some exporters write one take as one unnamed animation per node (this data's
-    // CesiumMan: 19 animations of 3 channels). Played alone, each moves one joint; the
-    // unnamed ones are one clip when there are several and no two animate the same joint
-    // property. Named animations stay clips of their own.
-    let unnamed: Vec<usize> = (0..takes.len())
-        .filter(|&k| takes[k].1.is_empty())
-        .collect();
-    let mut targets = std::collections::HashSet::new();
-    let split_take = unnamed.len() > 1
-        && unnamed
-            .iter()
-            .flat_map(|&k| takes[k].2.iter().map(|c| (c.joint, c.property as u8)))
-            .all(|t| targets.insert(t));
-    if split_take {
-        // One pass (removing each from the list was quadratic in animations): the first
-        // unnamed take gets the others' channels, the last take's first. Every take before
-        // the first unnamed one is named and kept, so it keeps its index.
-        let first = unnamed[0];
-        let mut others = Vec::new();
-        let mut kept = Vec::with_capacity(takes.len());
-        for (k, take) in takes.into_iter().enumerate() {
-            if k != first && take.1.is_empty() {
-                others.push(take.2);
-            } else {
-                kept.push(take);
-            }
-        }
-        kept[first].2.extend(others.into_iter().rev().flatten());
-        takes = kept;
-    }
+    let takes = join_split_take(takes);
     let mut poses_left = MAX_CLIP_POSES;
     takes
         .into_iter()
@@ -273,6 +194,105 @@ pub(super) fn read_clips(
             Ok(clip)
         })
         .collect()
+}
+
+/// One channel of an animation, checked (components per key, values per time, times
+/// that do not decrease); `None` for a channel of a node that is not a joint, or of
+/// morph weights.
+fn read_channel(
+    ch: &gltf::animation::Channel,
+    rig: &Rig,
+    reader: &Reads,
+) -> Result<Option<Channel>> {
+    let target = ch.target();
+    let Some(&joint) = rig.node_to_joint.get(&target.node().index()) else {
+        return Ok(None);
+    };
+    let property = target.property();
+    let width = match property {
+        Property::Translation | Property::Scale => 3,
+        Property::Rotation => 4,
+        Property::MorphTargetWeights => return Ok(None),
+    };
+    let sampler = ch.sampler();
+    let interpolation = sampler.interpolation();
+    let (input, output) = (sampler.input(), sampler.output());
+    reader.expect_dims(&input, &[Dimensions::Scalar], "animation input")?;
+    let (times, _) = reader.floats(&input)?;
+    let (values, comps) = reader.floats(&output)?;
+    let place = || format!("accessor {}", output.index());
+    if comps != width {
+        return Err(format_err(
+            reader.path(),
+            place(),
+            format!("animates {property:?} with {comps} components per key, expected {width}"),
+        ));
+    }
+    let per_key = if interpolation == Interpolation::CubicSpline {
+        3
+    } else {
+        1
+    };
+    if times.is_empty() || values.len() != times.len() * per_key * width {
+        return Err(format_err(
+            reader.path(),
+            place(),
+            format!(
+                "has {} values for {} keyframe times ({interpolation:?})",
+                values.len() / width,
+                times.len()
+            ),
+        ));
+    }
+    if times.windows(2).any(|w| w[1] < w[0]) {
+        return Err(format_err(
+            reader.path(),
+            format!("accessor {}", input.index()),
+            "keyframe times decrease",
+        ));
+    }
+    Ok(Some(Channel {
+        joint,
+        property,
+        interpolation,
+        times,
+        values,
+        width,
+    }))
+}
+
+/// Some exporters write one take as one unnamed animation per node (this data's
+/// CesiumMan: 19 animations of 3 channels). Played alone, each moves one joint; the
+/// unnamed ones are one clip when there are several and no two animate the same joint
+/// property. Named animations stay clips of their own.
+fn join_split_take(takes: Vec<Take>) -> Vec<Take> {
+    let unnamed: Vec<usize> = (0..takes.len())
+        .filter(|&k| takes[k].1.is_empty())
+        .collect();
+    let mut targets = std::collections::HashSet::new();
+    let split_take = unnamed.len() > 1
+        && unnamed
+            .iter()
+            .flat_map(|&k| takes[k].2.iter().map(|c| (c.joint, c.property as u8)))
+            .all(|t| targets.insert(t));
+    if !split_take {
+        return takes;
+    }
+    // One pass (removing each from the list was quadratic in animations): the first
+    // unnamed take gets the others' channels, the last take's first. Every take before
+    // the first unnamed one is named and kept, so it keeps its index.
+    let first = unnamed[0];
+    let mut others = Vec::new();
+    let mut kept = Vec::with_capacity(takes.len());
+    for (k, take) in takes.into_iter().enumerate() {
+        if k != first && take.1.is_empty() {
+            others.push(take.2);
+        } else {
+            kept.push(take);
+        }
+    }
+    kept[first].2.extend(others.into_iter().rev().flatten());
+    kept
 }
 
 /// Samples one animation's channels at a regular frame time into a [`Clip`].
