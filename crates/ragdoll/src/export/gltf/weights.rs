@@ -64,31 +64,7 @@ pub(super) fn renormalise_weights(
         buffers: &src.buffers,
         path: &src.path,
     };
-    type Key = Vec<(usize, usize)>;
-    let mut prims: Vec<(usize, usize, Key)> = Vec::new();
-    let mut keys_of: HashMap<usize, HashSet<Key>> = HashMap::new();
-    for mesh in doc.meshes() {
-        for prim in mesh.primitives() {
-            let mut key = Vec::new();
-            for k in 0.. {
-                match (
-                    prim.get(&Semantic::Joints(k)),
-                    prim.get(&Semantic::Weights(k)),
-                ) {
-                    (Some(j), Some(w)) => key.push((j.index(), w.index())),
-                    _ => break,
-                }
-            }
-            if key.is_empty() {
-                continue;
-            }
-            for &(j, w) in &key {
-                keys_of.entry(j).or_default().insert(key.clone());
-                keys_of.entry(w).or_default().insert(key.clone());
-            }
-            prims.push((mesh.index(), prim.index(), key));
-        }
-    }
+    let (prims, keys_of) = influence_sets(doc);
     let other = other_accessor_uses(doc);
     let skin_of = skins_by_mesh(doc, src);
     let mut done: HashMap<Key, Key> = HashMap::new();
@@ -115,20 +91,12 @@ pub(super) fn renormalise_weights(
         else {
             continue;
         };
-        let sets = key.len();
-        let mut joints = vec![vec![0u32; vertex_count * 4]; sets];
-        let mut weights = vec![vec![0f32; vertex_count * 4]; sets];
-        for (v, infl) in influences.iter().enumerate() {
-            for (slot, &(j, w)) in infl.iter().enumerate().take(4 * sets) {
-                joints[slot / 4][v * 4 + slot % 4] = j as u32;
-                weights[slot / 4][v * 4 + slot % 4] = w;
-            }
-        }
-        let in_place = sets == 1
+        let (joints, weights) = pack_influences(&influences, vertex_count, key.len());
+        let in_place = key.len() == 1
             && [key[0].0, key[0].1]
                 .iter()
                 .all(|a| !other.contains(a) && keys_of.get(a).is_some_and(|k| k.len() == 1));
-        let mut new_key = Vec::with_capacity(sets);
+        let mut new_key = Vec::with_capacity(key.len());
         for (s, &(ja, wa)) in key.iter().enumerate() {
             let jtype = match doc.accessors().nth(ja).map(|a| a.data_type()) {
                 Some(gltf::accessor::DataType::U8) => UNSIGNED_BYTE,
@@ -144,24 +112,8 @@ pub(super) fn renormalise_weights(
             };
             let wbytes = f32_bytes(weights[s].iter().copied());
             if in_place {
-                for (a, bytes, ctype) in [(ja, &jbytes, jtype), (wa, &wbytes, FLOAT)] {
-                    if !overwrite_elements(bin, a, ctype, vertex_count, bytes) {
-                        let view = bin.push_view(bytes, Some(ARRAY_BUFFER));
-                        let Some(o) = bin.accessors.get_mut(a).and_then(Value::as_object_mut)
-                        else {
-                            continue;
-                        };
-                        for k in ["byteOffset", "normalized", "sparse"] {
-                            o.remove(k);
-                        }
-                        o.insert("bufferView".into(), json!(view));
-                        o.insert("componentType".into(), json!(ctype));
-                    }
-                    if let Some(o) = bin.accessors.get_mut(a).and_then(Value::as_object_mut) {
-                        o.remove("min");
-                        o.remove("max");
-                    }
-                }
+                rewrite_in_place(bin, ja, jtype, &jbytes, vertex_count);
+                rewrite_in_place(bin, wa, FLOAT, &wbytes, vertex_count);
                 new_key.push((ja, wa));
             } else {
                 let jview = bin.push_view(&jbytes, Some(ARRAY_BUFFER));
@@ -175,6 +127,81 @@ pub(super) fn renormalise_weights(
         done.insert(key, new_key);
     }
     Ok(())
+}
+
+/// A primitive's influence sets: its (`JOINTS_n`, `WEIGHTS_n`) accessor pairs in order.
+type Key = Vec<(usize, usize)>;
+
+/// A skinned primitive: its mesh, its index in the mesh, and its influence sets.
+type SkinnedPrimitive = (usize, usize, Key);
+
+/// Every skinned primitive as (mesh, primitive, its sets), and for each accessor the
+/// distinct sets it appears in (an accessor shared by two sets cannot be rewritten in
+/// place for one of them).
+fn influence_sets(doc: &gltf::Document) -> (Vec<SkinnedPrimitive>, HashMap<usize, HashSet<Key>>) {
+    let mut prims: Vec<SkinnedPrimitive> = Vec::new();
+    let mut keys_of: HashMap<usize, HashSet<Key>> = HashMap::new();
+    for mesh in doc.meshes() {
+        for prim in mesh.primitives() {
+            let mut key = Vec::new();
+            for k in 0.. {
+                match (
+                    prim.get(&Semantic::Joints(k)),
+                    prim.get(&Semantic::Weights(k)),
+                ) {
+                    (Some(j), Some(w)) => key.push((j.index(), w.index())),
+                    _ => break,
+                }
+            }
+            if key.is_empty() {
+                continue;
+            }
+            for &(j, w) in &key {
+                keys_of.entry(j).or_default().insert(key.clone());
+                keys_of.entry(w).or_default().insert(key.clone());
+            }
+            prims.push((mesh.index(), prim.index(), key));
+        }
+    }
+    (prims, keys_of)
+}
+
+/// The repaired influences of `vertex_count` vertices laid out as `sets` VEC4 joint and
+/// weight arrays, unused slots joint 0 with weight 0.
+fn pack_influences(
+    influences: &[Vec<(usize, f32)>],
+    vertex_count: usize,
+    sets: usize,
+) -> (Vec<Vec<u32>>, Vec<Vec<f32>>) {
+    let mut joints = vec![vec![0u32; vertex_count * 4]; sets];
+    let mut weights = vec![vec![0f32; vertex_count * 4]; sets];
+    for (v, infl) in influences.iter().enumerate() {
+        for (slot, &(j, w)) in infl.iter().enumerate().take(4 * sets) {
+            joints[slot / 4][v * 4 + slot % 4] = j as u32;
+            weights[slot / 4][v * 4 + slot % 4] = w;
+        }
+    }
+    (joints, weights)
+}
+
+/// Writes `bytes` (components of type `ctype`) as accessor `a`'s data: over its own
+/// elements where they fit, else in a new view the accessor is pointed at; its bounds
+/// are dropped, as they no longer hold.
+fn rewrite_in_place(bin: &mut Bin, a: usize, ctype: u32, bytes: &[u8], vertex_count: usize) {
+    if !overwrite_elements(bin, a, ctype, vertex_count, bytes) {
+        let view = bin.push_view(bytes, Some(ARRAY_BUFFER));
+        if let Some(o) = bin.accessors.get_mut(a).and_then(Value::as_object_mut) {
+            for k in ["byteOffset", "normalized", "sparse"] {
+                o.remove(k);
+            }
+            o.insert("bufferView".into(), json!(view));
+            o.insert("componentType".into(), json!(ctype));
+        }
+    }
+    if let Some(o) = bin.accessors.get_mut(a).and_then(Value::as_object_mut) {
+        o.remove("min");
+        o.remove("max");
+    }
 }
 
 /// The skin each mesh is drawn with, so its weights are repaired against that skin's
