@@ -59,52 +59,9 @@ pub fn parse(text: &str, path: &Path, opts: &ImportOptions) -> Result<Character>
     };
     let mut lines = parser.tokens.lines;
     let motion = super::motion::read_motion(path, &mut lines, motion_line, &joints, &convert)?;
-
-    let skel_joints: Vec<Joint> = joints
-        .iter()
-        .map(|j| Joint {
-            name: j.name.clone(),
-            parent: j.parent,
-            rest: convert.transform(j.parent, j.offset, DQuat::IDENTITY),
-            // An all-zero End Site says nothing about where the bone ends.
-            tip: j
-                .end_site
-                .filter(|e| *e != DVec3::ZERO)
-                .map(|e| (e * metres_per_unit).as_vec3()),
-        })
-        .collect();
-    let skeleton = Skeleton::new(skel_joints)?;
-
-    let frames = match motion.frames {
-        Some(frames) => frames,
-        None => {
-            let rest: Vec<Transform> = skeleton.joints().iter().map(|j| j.rest).collect();
-            vec![rest; motion.count]
-        }
-    };
+    let skeleton = skeleton_of(&joints, &convert, metres_per_unit)?;
     let frame_time = motion.frame_time as f32;
-    let clips = if frames.is_empty() {
-        Vec::new()
-    } else {
-        vec![Clip {
-            name: String::new(),
-            frame_time,
-            frames,
-        }]
-    };
-    if let Some(clip) = clips.first()
-        && let Some((f, j, far)) = skeleton.clip_out_of_reach(clip)
-    {
-        return Err(parse_error(
-            path,
-            motion.frame_lines.get(f).copied().unwrap_or(motion_line),
-            format!(
-                "frame {} puts joint \"{}\" {far} m from the origin, past the {MAX_REACH_M} m a skeleton may reach",
-                f + 1,
-                skeleton.joint_label(j)
-            ),
-        ));
-    }
+    let clips = clip_of(&skeleton, motion, path, motion_line)?;
     let layout = BvhLayout {
         joints: joints
             .iter()
@@ -145,6 +102,61 @@ pub fn parse(text: &str, path: &Path, opts: &ImportOptions) -> Result<Character>
         }
     }
     Ok(character)
+}
+
+/// The skeleton of the HIERARCHY's joints, in metres and Y up.
+fn skeleton_of(joints: &[PJoint], convert: &Convert, metres_per_unit: f64) -> Result<Skeleton> {
+    let skel_joints: Vec<Joint> = joints
+        .iter()
+        .map(|j| Joint {
+            name: j.name.clone(),
+            parent: j.parent,
+            rest: convert.transform(j.parent, j.offset, DQuat::IDENTITY),
+            // An all-zero End Site says nothing about where the bone ends.
+            tip: j
+                .end_site
+                .filter(|e| *e != DVec3::ZERO)
+                .map(|e| (e * metres_per_unit).as_vec3()),
+        })
+        .collect();
+    Skeleton::new(skel_joints)
+}
+
+/// The MOTION section as a clip (none for zero frames; the rest pose repeated where the
+/// file has frames but no channels), refused where a frame puts a joint out of reach.
+fn clip_of(
+    skeleton: &Skeleton,
+    motion: super::motion::Motion,
+    path: &Path,
+    motion_line: usize,
+) -> Result<Vec<Clip>> {
+    let frames = match motion.frames {
+        Some(frames) => frames,
+        None => {
+            let rest: Vec<Transform> = skeleton.joints().iter().map(|j| j.rest).collect();
+            vec![rest; motion.count]
+        }
+    };
+    if frames.is_empty() {
+        return Ok(Vec::new());
+    }
+    let clip = Clip {
+        name: String::new(),
+        frame_time: motion.frame_time as f32,
+        frames,
+    };
+    if let Some((f, j, far)) = skeleton.clip_out_of_reach(&clip) {
+        return Err(parse_error(
+            path,
+            motion.frame_lines.get(f).copied().unwrap_or(motion_line),
+            format!(
+                "frame {} puts joint \"{}\" {far} m from the origin, past the {MAX_REACH_M} m a skeleton may reach",
+                f + 1,
+                skeleton.joint_label(j)
+            ),
+        ));
+    }
+    Ok(vec![clip])
 }
 
 /// The skeleton with the first frame's rotations as its rest rotations, when the rest pose
