@@ -499,21 +499,7 @@ impl<'a> Parser<'a, '_> {
     }
 
     fn hierarchy(&mut self) -> Result<Vec<PJoint>> {
-        match self.tokens.next() {
-            Some(t) if t.text.eq_ignore_ascii_case("HIERARCHY") => {}
-            Some(t) => {
-                return Err(self.err(
-                    t.line,
-                    format!(
-                        "expected \"HIERARCHY\" at the start of a BVH file, found \"{}\"",
-                        t.text
-                    ),
-                ));
-            }
-            None => {
-                return Err(self.err(self.tokens.eof_line(), "the file has no HIERARCHY section"));
-            }
-        }
+        self.hierarchy_keyword()?;
         let mut joints: Vec<PJoint> = Vec::new();
         // The joints whose braces are open, innermost last: an explicit stack, so nesting
         // depth costs memory, never the call stack.
@@ -534,77 +520,105 @@ impl<'a> Parser<'a, '_> {
                 }
                 return Ok(joints);
             };
-            let word = tok.text;
             let Some(&current) = open.last() else {
-                if word.eq_ignore_ascii_case("ROOT") {
+                if tok.text.eq_ignore_ascii_case("ROOT") {
                     open.push(self.joint(&mut joints, tok, None)?);
                     continue;
                 }
                 return Err(self.err(
                     tok.line,
-                    format!("expected \"ROOT\" or \"MOTION\", found \"{word}\""),
+                    format!("expected \"ROOT\" or \"MOTION\", found \"{}\"", tok.text),
                 ));
             };
-            if word.eq_ignore_ascii_case("OFFSET") {
-                if joints[current].has_offset {
-                    return Err(self.err(
-                        tok.line,
-                        format!("joint \"{}\" has a second OFFSET", joints[current].name),
-                    ));
-                }
-                joints[current].offset = self.offset()?;
-                joints[current].has_offset = true;
-            } else if word.eq_ignore_ascii_case("CHANNELS") {
-                if joints[current].has_channels {
-                    return Err(self.err(
-                        tok.line,
-                        format!(
-                            "joint \"{}\" has a second CHANNELS line",
-                            joints[current].name
-                        ),
-                    ));
-                }
-                joints[current].channels = self.channels(&joints[current])?;
-                joints[current].has_channels = true;
-            } else if word.eq_ignore_ascii_case("JOINT") {
-                open.push(self.joint(&mut joints, tok, Some(current))?);
-            } else if word.eq_ignore_ascii_case("End") {
-                if self
-                    .tokens
-                    .peek()
-                    .is_some_and(|t| t.text.eq_ignore_ascii_case("Site"))
-                {
-                    self.tokens.next();
-                }
-                if joints[current].end_site.is_some() {
-                    return Err(self.err(
-                        tok.line,
-                        format!("joint \"{}\" has a second End Site", joints[current].name),
-                    ));
-                }
-                self.expect("{")?;
-                self.expect("OFFSET")?;
-                let off = self.offset()?;
-                self.expect("}")?;
-                joints[current].end_site = Some(off);
-            } else if word == "}" {
-                if !joints[current].has_offset {
-                    return Err(self.err(
-                        joints[current].line,
-                        format!("joint \"{}\" has no OFFSET", joints[current].name),
-                    ));
-                }
-                open.pop();
-            } else {
+            self.inside_joint(&mut joints, &mut open, current, tok)?;
+        }
+    }
+
+    /// The `HIERARCHY` keyword a BVH file starts with.
+    fn hierarchy_keyword(&mut self) -> Result<()> {
+        match self.tokens.next() {
+            Some(t) if t.text.eq_ignore_ascii_case("HIERARCHY") => Ok(()),
+            Some(t) => Err(self.err(
+                t.line,
+                format!(
+                    "expected \"HIERARCHY\" at the start of a BVH file, found \"{}\"",
+                    t.text
+                ),
+            )),
+            None => Err(self.err(self.tokens.eof_line(), "the file has no HIERARCHY section")),
+        }
+    }
+
+    /// One item inside joint `current`'s braces, starting with `tok`: its OFFSET, its
+    /// CHANNELS, a child JOINT (opened), its End Site, or the closing brace.
+    fn inside_joint(
+        &mut self,
+        joints: &mut Vec<PJoint>,
+        open: &mut Vec<usize>,
+        current: usize,
+        tok: Tok<'a>,
+    ) -> Result<()> {
+        let word = tok.text;
+        if word.eq_ignore_ascii_case("OFFSET") {
+            if joints[current].has_offset {
+                return Err(self.err(
+                    tok.line,
+                    format!("joint \"{}\" has a second OFFSET", joints[current].name),
+                ));
+            }
+            joints[current].offset = self.offset()?;
+            joints[current].has_offset = true;
+        } else if word.eq_ignore_ascii_case("CHANNELS") {
+            if joints[current].has_channels {
                 return Err(self.err(
                     tok.line,
                     format!(
-                        "unexpected \"{word}\" inside joint \"{}\" (expected OFFSET, CHANNELS, JOINT, End Site or \"}}\")",
+                        "joint \"{}\" has a second CHANNELS line",
                         joints[current].name
                     ),
                 ));
             }
+            joints[current].channels = self.channels(&joints[current])?;
+            joints[current].has_channels = true;
+        } else if word.eq_ignore_ascii_case("JOINT") {
+            open.push(self.joint(joints, tok, Some(current))?);
+        } else if word.eq_ignore_ascii_case("End") {
+            if self
+                .tokens
+                .peek()
+                .is_some_and(|t| t.text.eq_ignore_ascii_case("Site"))
+            {
+                self.tokens.next();
+            }
+            if joints[current].end_site.is_some() {
+                return Err(self.err(
+                    tok.line,
+                    format!("joint \"{}\" has a second End Site", joints[current].name),
+                ));
+            }
+            self.expect("{")?;
+            self.expect("OFFSET")?;
+            let off = self.offset()?;
+            self.expect("}")?;
+            joints[current].end_site = Some(off);
+        } else if word == "}" {
+            if !joints[current].has_offset {
+                return Err(self.err(
+                    joints[current].line,
+                    format!("joint \"{}\" has no OFFSET", joints[current].name),
+                ));
+            }
+            open.pop();
+        } else {
+            return Err(self.err(
+                tok.line,
+                format!(
+                    "unexpected \"{word}\" inside joint \"{}\" (expected OFFSET, CHANNELS, JOINT, End Site or \"}}\")",
+                    joints[current].name
+                ),
+            ));
         }
+        Ok(())
     }
 }
 
