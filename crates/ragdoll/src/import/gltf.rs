@@ -123,36 +123,9 @@ pub fn from_bytes_with(
 ) -> Result<Character> {
     let units = opts.units.map_or(1.0, |u| u.to_metres());
     let container = data::split_container(bytes, path)?;
-    data::check_json_size(container.json, path)?;
-    let json: serde_json::Value = serde_json::from_slice(container.json).map_err(|e| {
-        let place = if container.json_offset > 0 {
-            format!("JSON chunk line {}, column {}", e.line(), e.column())
-        } else {
-            format!("line {}, column {}", e.line(), e.column())
-        };
-        format_err(path, place, format!("not valid JSON: {e}"))
-    })?;
+    let json = read_json(&container, path)?;
     let doc = parse_document(&json, path)?;
-    // Compressed geometry would read as zeros, which is worse than a clear refusal.
-    let required = json
-        .get("extensionsRequired")
-        .and_then(serde_json::Value::as_array);
-    for ext in required
-        .into_iter()
-        .flatten()
-        .filter_map(serde_json::Value::as_str)
-    {
-        if matches!(
-            ext,
-            "KHR_draco_mesh_compression" | "EXT_meshopt_compression"
-        ) {
-            return Err(format_err(
-                path,
-                "extensionsRequired",
-                format!("uses {ext}, which this importer cannot decode; export it uncompressed"),
-            ));
-        }
-    }
+    refuse_compression(&json, path)?;
     let dir = path
         .parent()
         .map(Path::to_path_buf)
@@ -219,6 +192,45 @@ pub fn from_bytes_with(
         size::scale_to_height(&mut character, h, path)?;
     }
     Ok(character)
+}
+
+/// The glTF's JSON (the whole `.gltf`, or a `.glb`'s JSON chunk), its errors placed by
+/// line and column.
+fn read_json(container: &data::Container, path: &Path) -> Result<serde_json::Value> {
+    data::check_json_size(container.json, path)?;
+    serde_json::from_slice(container.json).map_err(|e| {
+        let place = if container.json_offset > 0 {
+            format!("JSON chunk line {}, column {}", e.line(), e.column())
+        } else {
+            format!("line {}, column {}", e.line(), e.column())
+        };
+        format_err(path, place, format!("not valid JSON: {e}"))
+    })
+}
+
+/// Refuses geometry compressed by an extension the file requires: it would read as
+/// zeros, which is worse than a clear refusal.
+fn refuse_compression(json: &serde_json::Value, path: &Path) -> Result<()> {
+    let required = json
+        .get("extensionsRequired")
+        .and_then(serde_json::Value::as_array);
+    for ext in required
+        .into_iter()
+        .flatten()
+        .filter_map(serde_json::Value::as_str)
+    {
+        if matches!(
+            ext,
+            "KHR_draco_mesh_compression" | "EXT_meshopt_compression"
+        ) {
+            return Err(format_err(
+                path,
+                "extensionsRequired",
+                format!("uses {ext}, which this importer cannot decode; export it uncompressed"),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// A file without a skin whose meshes are one part: every triangle primitive in world
