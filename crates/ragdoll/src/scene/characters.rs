@@ -272,17 +272,7 @@ fn characters_within(
             } else {
                 "character"
             };
-            return Err(c.err(
-                &rc.span(),
-                key,
-                format!(
-                    "the scene's characters would hold {} MiB of data, more than the {} MiB a \
-                     scene may (each character keeps its own copy of its file's meshes, clips \
-                     and buffers): use fewer or lighter characters",
-                    held >> 20,
-                    budget >> 20
-                ),
-            ));
+            return Err(c.err(&rc.span(), key, over_budget(held, budget)));
         }
         let name = match &r.name {
             Some(n) => n.get_ref().clone(),
@@ -299,39 +289,12 @@ fn characters_within(
         let facing_deg = c.opt_checked(&r.facing_deg, "facing_deg", 0.0, |a| {
             check_within(a, -MAX_FACING_DEG, MAX_FACING_DEG, " degrees")
         })?;
-        let activation = r
-            .activate
-            .as_ref()
-            .map_or(Activation::Immediately, |a| a.get_ref().0);
-        if activation != Activation::Immediately
-            && let Some(a) = &r.activate
-            && !character.clips.iter().any(|clip| !clip.frames.is_empty())
-        {
-            return Err(c.err(
-                &a.span(),
-                "activate",
-                format!(
-                    "{} has no animation to play before physics takes over; use \"start\"",
-                    if r.file.is_none() {
-                        "the built-in humanoid"
-                    } else {
-                        input.as_str()
-                    }
-                ),
-            ));
-        }
+        let activation = activation_of(&c, r, &character, &input)?;
         let motors = match &r.powered {
             Some(p) => Some(powered(&c, p, &character)?),
             None => None,
         };
-        let clip_offset_s = c.time(&r.clip_offset_s, "clip_offset_s", 0.0)?;
-        if let Some(v) = &r.clip_offset_s
-            && activation == Activation::Immediately
-            && motors.is_none()
-        {
-            let message = "needs activate or powered: only then does the character play its clip";
-            return Err(c.err(&v.span(), "clip_offset_s", message));
-        }
+        let clip_offset_s = clip_offset_of(&c, r, activation, motors.is_some())?;
         let place = table.named(&name);
         out.push(SceneCharacter {
             name,
@@ -348,6 +311,63 @@ fn characters_within(
         });
     }
     Ok(out)
+}
+
+/// Why a scene's characters are refused for the data they would hold.
+fn over_budget(held: u64, budget: u64) -> String {
+    format!(
+        "the scene's characters would hold {} MiB of data, more than the {} MiB a scene may \
+         (each character keeps its own copy of its file's meshes, clips and buffers): use \
+         fewer or lighter characters",
+        held >> 20,
+        budget >> 20
+    )
+}
+
+/// When the character's physics takes over; refused for a clip hand-over where the
+/// character (`input`) has no animation to play.
+fn activation_of(
+    c: &Ctx,
+    r: &RawCharacter,
+    character: &Character,
+    input: &str,
+) -> Result<Activation> {
+    let activation = r
+        .activate
+        .as_ref()
+        .map_or(Activation::Immediately, |a| a.get_ref().0);
+    if activation != Activation::Immediately
+        && let Some(a) = &r.activate
+        && !character.clips.iter().any(|clip| !clip.frames.is_empty())
+    {
+        return Err(c.err(
+            &a.span(),
+            "activate",
+            format!(
+                "{} has no animation to play before physics takes over; use \"start\"",
+                if r.file.is_none() {
+                    "the built-in humanoid"
+                } else {
+                    input
+                }
+            ),
+        ));
+    }
+    Ok(activation)
+}
+
+/// Where in its clip the character starts, seconds; refused where it plays no clip
+/// (activated at once and not powered).
+fn clip_offset_of(c: &Ctx, r: &RawCharacter, activation: Activation, powered: bool) -> Result<f32> {
+    let clip_offset_s = c.time(&r.clip_offset_s, "clip_offset_s", 0.0)?;
+    if let Some(v) = &r.clip_offset_s
+        && activation == Activation::Immediately
+        && !powered
+    {
+        let message = "needs activate or powered: only then does the character play its clip";
+        return Err(c.err(&v.span(), "clip_offset_s", message));
+    }
+    Ok(clip_offset_s)
 }
 
 #[cfg(test)]
