@@ -44,6 +44,32 @@ pub(super) struct Claims {
     pub arms: [[Option<usize>; 3]; 2],
 }
 
+impl Claims {
+    /// The humanoid these claims make with the trunk `[pelvis, chest]` and the limbs
+    /// confirmed: the spine and neck only where they lie between, not on, their
+    /// neighbours.
+    pub(super) fn humanoid(
+        &self,
+        [pelvis, chest]: [usize; 2],
+        legs: [Limb; 2],
+        arms: [Limb; 2],
+        forward: Vec3,
+        mirrored: bool,
+    ) -> Humanoid {
+        Humanoid {
+            pelvis,
+            spine: self.spine.filter(|&s| s != chest && s != pelvis),
+            chest,
+            neck: self.neck.filter(|&n| Some(n) != self.head && n != chest),
+            head: self.head,
+            legs,
+            arms,
+            forward,
+            mirrored,
+        }
+    }
+}
+
 /// Claims from a humanoid bone table in VRM's (and Unity's) vocabulary. Unknown names
 /// and indices out of range are skipped.
 pub(super) fn claims_from_table(rig: &Rig, table: &[(String, usize)]) -> Claims {
@@ -284,17 +310,7 @@ pub(super) fn confirm(rig: &Rig, c: &Claims) -> Result<Humanoid, String> {
     if mirrored {
         forward = -forward;
     }
-    Ok(Humanoid {
-        pelvis,
-        spine: c.spine.filter(|&s| s != chest && s != pelvis),
-        chest,
-        neck: c.neck.filter(|&n| Some(n) != c.head && n != chest),
-        head: c.head,
-        legs,
-        arms,
-        forward,
-        mirrored,
-    })
+    Ok(c.humanoid([pelvis, chest], legs, arms, forward, mirrored))
 }
 
 /// The limb half of [`confirm`]: both legs and arms claimed, hanging from each other in

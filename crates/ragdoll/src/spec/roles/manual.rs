@@ -347,17 +347,7 @@ fn check(
         ));
     }
     let forward = facing(rig, &legs, &arms, pose)?;
-    let h = Humanoid {
-        pelvis,
-        spine: c.spine.filter(|&s| s != chest && s != pelvis),
-        chest,
-        neck: c.neck.filter(|&n| Some(n) != c.head && n != chest),
-        head: c.head,
-        legs,
-        arms,
-        forward,
-        mirrored: false,
-    };
+    let h = c.humanoid([pelvis, chest], legs, arms, forward, false);
     one_role_each(rig, &h, ignored)?;
     Ok(h)
 }
