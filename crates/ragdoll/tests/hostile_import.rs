@@ -577,6 +577,47 @@ fn gltf_nodes_a_hundred_thousand_deep_import_without_recursion() {
 }
 
 #[test]
+fn gltf_sparse_accessors_replace_the_elements_they_name() {
+    // Vertex 1 of the hand-made skin moved by a sparse substitution over its positions,
+    // and the same substitution on an accessor without a buffer view (zeros elsewhere).
+    // Positions come out bound to their joints (identity inverse bind matrices), so each
+    // is compared with where the plain file puts the same vertex.
+    let (mut json, mut bin) = skinned();
+    let stored = [
+        Vec3::ZERO,
+        Vec3::new(0.1, 0.0, 0.0),
+        Vec3::new(0.0, 1.0, 0.0),
+    ];
+    let plain = import_glb(&json, &bin).unwrap().meshes[0].positions.clone();
+    let joint_at = |k: usize| plain[k] - stored[k];
+    let idx_at = bin.len();
+    bin.extend_from_slice(&[1, 0, 0, 0]);
+    let val_at = bin.len();
+    let moved = Vec3::new(0.25, 0.5, 0.75);
+    for v in moved.to_array() {
+        bin.extend_from_slice(&v.to_le_bytes());
+    }
+    let views = json["bufferViews"].as_array_mut().unwrap();
+    views.push(json!({"buffer": 0, "byteOffset": idx_at, "byteLength": 1}));
+    views.push(json!({"buffer": 0, "byteOffset": val_at, "byteLength": 12}));
+    json["buffers"][0]["byteLength"] = json!(bin.len());
+    json["accessors"][0]["sparse"] = json!({"count": 1,
+        "indices": {"bufferView": 5, "componentType": 5121}, "values": {"bufferView": 6}});
+    json["accessors"][0]["max"] = json!([0.25, 1.0, 0.75]);
+    let p = import_glb(&json, &bin).unwrap().meshes[0].positions.clone();
+    assert_eq!(p[0], plain[0]);
+    assert!((p[1] - (joint_at(1) + moved)).length() < 1e-6, "{}", p[1]);
+    assert_eq!(p[2], plain[2]);
+    let accessor = json["accessors"][0].as_object_mut().unwrap();
+    accessor.remove("bufferView");
+    let p = import_glb(&json, &bin).unwrap().meshes[0].positions.clone();
+    assert!((p[1] - (joint_at(1) + moved)).length() < 1e-6, "{}", p[1]);
+    for k in [0, 2] {
+        assert!((p[k] - joint_at(k)).length() < 1e-6, "vertex {k}: {}", p[k]);
+    }
+}
+
+#[test]
 fn gltf_sizes_that_cost_no_bytes_are_refused_before_allocating() {
     let (json, bin) = skinned();
     // An accessor without a buffer view is zeros: its count must not be trusted.

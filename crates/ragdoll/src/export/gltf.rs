@@ -413,6 +413,41 @@ fn joint_nodes_as_trs(
     Ok(scales)
 }
 
+/// One glTF node per joint (its rest transform, only what differs from the identity),
+/// children listed under their parents, and the roots.
+fn joint_nodes_of(skeleton: &Skeleton) -> (Vec<Value>, Vec<usize>) {
+    let mut nodes: Vec<Value> = skeleton
+        .joints()
+        .iter()
+        .enumerate()
+        .map(|(i, j)| {
+            let mut node = json!({"name": skeleton.joint_label(i)});
+            let r = j.rest;
+            if r.translation != Vec3::ZERO {
+                node["translation"] = json!(r.translation.to_array());
+            }
+            if r.rotation != Quat::IDENTITY {
+                node["rotation"] = json!(r.rotation.normalize().to_array());
+            }
+            if r.scale != Vec3::ONE {
+                node["scale"] = json!(r.scale.to_array());
+            }
+            node
+        })
+        .collect();
+    let mut roots = Vec::new();
+    for i in 0..skeleton.len() {
+        match skeleton.parent(i) {
+            Some(p) => match nodes[p].get_mut("children").and_then(Value::as_array_mut) {
+                Some(c) => c.push(json!(i)),
+                None => nodes[p]["children"] = json!([i]),
+            },
+            None => roots.push(i),
+        }
+    }
+    (nodes, roots)
+}
+
 /// A new glTF for a character without a source glTF: joints, skin, a mesh (the
 /// character's own, else `spec`'s bodies) and, given a track, its animation.
 fn fresh(
@@ -441,35 +476,7 @@ fn fresh(
         }
     };
     let mut bin = Bin::default();
-    let mut nodes: Vec<Value> = skeleton
-        .joints()
-        .iter()
-        .enumerate()
-        .map(|(i, j)| {
-            let mut node = json!({"name": skeleton.joint_label(i)});
-            let r = j.rest;
-            if r.translation != Vec3::ZERO {
-                node["translation"] = json!(r.translation.to_array());
-            }
-            if r.rotation != Quat::IDENTITY {
-                node["rotation"] = json!(r.rotation.normalize().to_array());
-            }
-            if r.scale != Vec3::ONE {
-                node["scale"] = json!(r.scale.to_array());
-            }
-            node
-        })
-        .collect();
-    let mut roots = Vec::new();
-    for i in 0..n {
-        match skeleton.parent(i) {
-            Some(p) => match nodes[p].get_mut("children").and_then(Value::as_array_mut) {
-                Some(c) => c.push(json!(i)),
-                None => nodes[p]["children"] = json!([i]),
-            },
-            None => roots.push(i),
-        }
-    }
+    let (mut nodes, roots) = joint_nodes_of(skeleton);
     let ibm = shapes::inverse_bind_matrices(&mut bin, skeleton);
     let primitive = shapes::primitive(&mut bin, &mesh, n, 0);
     let mesh_node = nodes.len();

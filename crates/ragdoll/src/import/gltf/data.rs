@@ -556,11 +556,18 @@ impl AccessorReader<'_> {
         let dt = a.data_type();
         let cs = component_size(dt);
         let (cols, rows, col_stride) = layout(a.dimensions(), cs);
-        let elem = cols * col_stride;
-        let comps = cols * rows;
+        let shape = Elements {
+            dt,
+            cs,
+            cols,
+            rows,
+            col_stride,
+            elem: cols * col_stride,
+            comps: cols * rows,
+        };
         let count = a.count();
         let total = count
-            .checked_mul(comps)
+            .checked_mul(shape.comps)
             .filter(|&t| t <= MAX_ACCESSOR_COMPONENTS)
             .ok_or_else(|| {
                 self.err(
@@ -570,92 +577,113 @@ impl AccessorReader<'_> {
                     ),
                 )
             })?;
-        let read_into = |out: &mut [f64], data: &[u8], base: usize| {
-            for c in 0..cols {
-                for r in 0..rows {
-                    out[c * rows + r] = component(data, base + c * col_stride + r * cs, dt);
-                }
-            }
-        };
-        let mut out;
+        let mut out = vec![0.0; total];
         if let Some(view) = a.view() {
-            let data = self.view_bytes(&view)?;
-            let stride = view.stride().unwrap_or(elem);
-            if stride < elem {
-                return Err(self.err(
-                    a,
-                    format!("bufferView {} has byteStride {stride}, less than one element ({elem} bytes)", view.index()),
-                ));
-            }
-            if count > 0 {
-                let need = (count - 1)
-                    .checked_mul(stride)
-                    .and_then(|n| n.checked_add(a.offset()))
-                    .and_then(|n| n.checked_add(elem));
-                match need {
-                    Some(n) if n <= data.len() => {}
-                    _ => {
-                        return Err(self.err(
-                            a,
-                            format!(
-                                "{count} elements from byte {} need more than the {} bytes of bufferView {}",
-                                a.offset(),
-                                data.len(),
-                                view.index()
-                            ),
-                        ));
-                    }
-                }
-            }
-            out = vec![0.0; total];
-            for i in 0..count {
-                read_into(
-                    &mut out[i * comps..(i + 1) * comps],
-                    data,
-                    a.offset() + i * stride,
-                );
-            }
-        } else {
-            out = vec![0.0; total];
+            self.read_dense(a, &view, &shape, &mut out)?;
         }
         if let Some(sparse) = a.sparse() {
-            let n = sparse.count();
-            let idx = sparse.indices();
-            let (isize, idt) = match idx.index_type() {
-                gltf::accessor::sparse::IndexType::U8 => (1, DataType::U8),
-                gltf::accessor::sparse::IndexType::U16 => (2, DataType::U16),
-                gltf::accessor::sparse::IndexType::U32 => (4, DataType::U32),
-            };
-            let idata = self.view_bytes(&idx.view())?;
-            let vals = sparse.values();
-            let vdata = self.view_bytes(&vals.view())?;
-            let fits = |offset: usize, size: usize, len: usize| {
-                n.checked_mul(size)
-                    .and_then(|b| b.checked_add(offset))
-                    .is_some_and(|end| end <= len)
-            };
-            if !fits(idx.offset(), isize, idata.len()) || !fits(vals.offset(), elem, vdata.len()) {
-                return Err(self.err(
-                    a,
-                    format!("its {n} sparse entries run past the end of their buffer views"),
-                ));
-            }
-            for k in 0..n {
-                let i = component(idata, idx.offset() + k * isize, idt) as usize;
-                if i >= count {
+            self.apply_sparse(a, &sparse, &shape, &mut out)?;
+        }
+        Ok((out, shape.comps))
+    }
+
+    /// Accessor `a`'s elements from its buffer `view` into `out`, checked to fit the view.
+    fn read_dense(
+        &self,
+        a: &gltf::Accessor,
+        view: &gltf::buffer::View,
+        shape: &Elements,
+        out: &mut [f64],
+    ) -> Result<()> {
+        let count = a.count();
+        let data = self.view_bytes(view)?;
+        let elem = shape.elem;
+        let stride = view.stride().unwrap_or(elem);
+        if stride < elem {
+            return Err(self.err(
+                a,
+                format!(
+                    "bufferView {} has byteStride {stride}, less than one element ({elem} bytes)",
+                    view.index()
+                ),
+            ));
+        }
+        if count > 0 {
+            let need = (count - 1)
+                .checked_mul(stride)
+                .and_then(|n| n.checked_add(a.offset()))
+                .and_then(|n| n.checked_add(elem));
+            match need {
+                Some(n) if n <= data.len() => {}
+                _ => {
                     return Err(self.err(
                         a,
-                        format!("sparse index {i} is not below the count {count}"),
+                        format!(
+                            "{count} elements from byte {} need more than the {} bytes of bufferView {}",
+                            a.offset(),
+                            data.len(),
+                            view.index()
+                        ),
                     ));
                 }
-                read_into(
-                    &mut out[i * comps..(i + 1) * comps],
-                    vdata,
-                    vals.offset() + k * elem,
-                );
             }
         }
-        Ok((out, comps))
+        let comps = shape.comps;
+        for i in 0..count {
+            shape.read_into(
+                &mut out[i * comps..(i + 1) * comps],
+                data,
+                a.offset() + i * stride,
+            );
+        }
+        Ok(())
+    }
+
+    /// Accessor `a`'s sparse substitutions written over `out`, indices and values checked.
+    fn apply_sparse(
+        &self,
+        a: &gltf::Accessor,
+        sparse: &gltf::accessor::sparse::Sparse,
+        shape: &Elements,
+        out: &mut [f64],
+    ) -> Result<()> {
+        let (count, comps, elem) = (a.count(), shape.comps, shape.elem);
+        let n = sparse.count();
+        let idx = sparse.indices();
+        let (isize, idt) = match idx.index_type() {
+            gltf::accessor::sparse::IndexType::U8 => (1, DataType::U8),
+            gltf::accessor::sparse::IndexType::U16 => (2, DataType::U16),
+            gltf::accessor::sparse::IndexType::U32 => (4, DataType::U32),
+        };
+        let idata = self.view_bytes(&idx.view())?;
+        let vals = sparse.values();
+        let vdata = self.view_bytes(&vals.view())?;
+        let fits = |offset: usize, size: usize, len: usize| {
+            n.checked_mul(size)
+                .and_then(|b| b.checked_add(offset))
+                .is_some_and(|end| end <= len)
+        };
+        if !fits(idx.offset(), isize, idata.len()) || !fits(vals.offset(), elem, vdata.len()) {
+            return Err(self.err(
+                a,
+                format!("its {n} sparse entries run past the end of their buffer views"),
+            ));
+        }
+        for k in 0..n {
+            let i = component(idata, idx.offset() + k * isize, idt) as usize;
+            if i >= count {
+                return Err(self.err(
+                    a,
+                    format!("sparse index {i} is not below the count {count}"),
+                ));
+            }
+            shape.read_into(
+                &mut out[i * comps..(i + 1) * comps],
+                vdata,
+                vals.offset() + k * elem,
+            );
+        }
+        Ok(())
     }
 
     /// Components as `f32`, normalised integers mapped to [0, 1] or [−1, 1]; also returns the
@@ -728,6 +756,30 @@ impl AccessorReader<'_> {
                 a,
                 format!("used as {what} but its type is {:?}", a.dimensions()),
             ))
+        }
+    }
+}
+
+/// How an accessor's elements lie in bytes: component type and size, columns and rows
+/// (a matrix pads each column to 4 bytes), bytes per element, components per element.
+struct Elements {
+    dt: DataType,
+    cs: usize,
+    cols: usize,
+    rows: usize,
+    col_stride: usize,
+    elem: usize,
+    comps: usize,
+}
+
+impl Elements {
+    /// One element at byte `base` of `data` into `out`, column by column.
+    fn read_into(&self, out: &mut [f64], data: &[u8], base: usize) {
+        for c in 0..self.cols {
+            for r in 0..self.rows {
+                out[c * self.rows + r] =
+                    component(data, base + c * self.col_stride + r * self.cs, self.dt);
+            }
         }
     }
 }
