@@ -75,7 +75,11 @@ fn as_json(
     let value = serde_json::json!({
         "character": character.name,
         "humanoid": roles.humanoid,
-        "forward": roles.forward.to_array(),
+        // Where it faces in the file: a character lying there was measured stood up.
+        "forward": roles
+            .upright
+            .map_or(roles.forward, |q| q.inverse() * roles.forward)
+            .to_array(),
         "roles_why": roles.why,
         "roles_missing": roles.missing().iter().map(|(r, why)| serde_json::json!({
             "role": r.as_str(), "why": why,

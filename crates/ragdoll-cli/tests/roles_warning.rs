@@ -12,13 +12,13 @@ use scene_keys_files::person;
 #[test]
 fn names_that_promise_a_humanoid_the_skeleton_denies_are_a_warning_on_every_command() {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("flat.bvh"), person(true)).unwrap();
+    std::fs::write(dir.path().join("folded.bvh"), person(true)).unwrap();
     std::fs::write(dir.path().join("standing.bvh"), person(false)).unwrap();
     for args in [
-        vec!["inspect", "flat.bvh", "--units", "m", "--up", "y"],
+        vec!["inspect", "folded.bvh", "--units", "m", "--up", "y"],
         vec![
             "simulate",
-            "flat.bvh",
+            "folded.bvh",
             "--units",
             "m",
             "--up",
@@ -32,7 +32,7 @@ fn names_that_promise_a_humanoid_the_skeleton_denies_are_a_warning_on_every_comm
         let o = ragdoll(dir.path(), &args);
         let err = stderr(&o);
         assert!(
-            err.contains("warning: flat.bvh:") && err.contains("joint names"),
+            err.contains("warning: folded.bvh:") && err.contains("joint names"),
             "{args:?}: {err}"
         );
     }

@@ -13,16 +13,16 @@ use std::process::{Command, Stdio};
 use common::{ragdoll, stderr};
 use scene_keys_files::person;
 
-/// Two characters of one flat person (names that promise a humanoid, a skeleton lying
-/// down) and one standing person.
+/// Two characters of one folded person (names that promise a humanoid, a skeleton with its
+/// legs raised above its hips) and one standing person.
 const SCENE: &str = "duration_s = 0.1\n\
-    [[character]]\nfile = \"flat.bvh\"\nunits = \"m\"\nup = \"y\"\n\
-    [[character]]\nfile = \"flat.bvh\"\nunits = \"m\"\nup = \"y\"\nposition = [3, 0, 0]\n\
+    [[character]]\nfile = \"folded.bvh\"\nunits = \"m\"\nup = \"y\"\n\
+    [[character]]\nfile = \"folded.bvh\"\nunits = \"m\"\nup = \"y\"\nposition = [3, 0, 0]\n\
     [[character]]\nfile = \"standing.bvh\"\nposition = [-3, 0, 0]\n";
 
 fn folder() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("flat.bvh"), person(true)).unwrap();
+    std::fs::write(dir.path().join("folded.bvh"), person(true)).unwrap();
     std::fs::write(dir.path().join("standing.bvh"), person(false)).unwrap();
     std::fs::write(dir.path().join("scene.toml"), SCENE).unwrap();
     std::fs::write(dir.path().join("roles.toml"), "ignore = [\"LeftHand\"]\n").unwrap();
@@ -43,7 +43,7 @@ fn simulate_prints_each_files_roles_warning_once() {
     assert!(o.status.success(), "{err}");
     let warned = roles_warnings(&err);
     assert_eq!(warned.len(), 1, "{err}");
-    assert!(warned[0].starts_with("warning: flat.bvh: "), "{err}");
+    assert!(warned[0].starts_with("warning: folded.bvh: "), "{err}");
 }
 
 #[test]
@@ -73,7 +73,7 @@ fn view_prints_each_files_roles_warning_once() {
     assert!(line.contains("http://"), "{line} {err}");
     let warned = roles_warnings(&err);
     assert_eq!(warned.len(), 1, "{err}");
-    assert!(warned[0].starts_with("warning: flat.bvh: "), "{err}");
+    assert!(warned[0].starts_with("warning: folded.bvh: "), "{err}");
 }
 
 #[test]

@@ -30,7 +30,7 @@ impl Drop for Scratch {
     }
 }
 
-/// A folder holding `standing.bvh`, `flat.bvh` and `bare.vrm` (a bare VRM 1.0 humanoid
+/// A folder holding `standing.bvh`, `folded.bvh` and `bare.vrm` (a bare VRM 1.0 humanoid
 /// hierarchy, metres), with the scene `text` at `scenes/scene.toml`.
 fn folder(text: &str) -> (Scratch, PathBuf) {
     static NEXT: AtomicUsize = AtomicUsize::new(0);
@@ -41,7 +41,7 @@ fn folder(text: &str) -> (Scratch, PathBuf) {
     let _ = std::fs::remove_dir_all(dir.path());
     std::fs::create_dir_all(dir.path()).unwrap();
     std::fs::write(dir.path().join("standing.bvh"), person(false)).unwrap();
-    std::fs::write(dir.path().join("flat.bvh"), person(true)).unwrap();
+    std::fs::write(dir.path().join("folded.bvh"), person(true)).unwrap();
     let vrm = rigid_parts_files::bare("VRMC_vrm", false);
     std::fs::write(dir.path().join("bare.vrm"), &vrm).unwrap();
     std::fs::write(dir.path().join("bare_cm.vrm"), centimetres(&vrm)).unwrap();
@@ -238,15 +238,16 @@ fn roles_files_are_read_from_the_scene_files_folder_and_applied() {
     let bodies = |s: &Scene, k: usize| s.characters[k].spec.bodies.len();
     assert_eq!(bodies(&with, 0), bodies(&without, 0) - 1);
     assert_eq!(bodies(&with, 1), bodies(&with, 0));
-    // A roles file the skeleton cannot satisfy: a flat person's knees are not below its
+    // A roles file the skeleton cannot satisfy: a folded person's knees are not below its
     // hips. The error names the scene's line and key, then the roles file's.
     let (line, m) = failure(
-        "[[character]]\nfile = \"../flat.bvh\"\nunits = \"m\"\nup = \"y\"\nroles = \"roles.toml\"\n",
+        "[[character]]\nfile = \"../folded.bvh\"\nunits = \"m\"\nup = \"y\"\nroles = \"roles.toml\"\n",
         "[roles]\nthigh_l = \"LeftUpLeg\"\nshin_l = \"LeftLeg\"\n",
     );
     assert_eq!(line, 5, "{m}");
     assert!(
-        m.contains("[[character]] \"flat\": roles: ") && m.contains("roles.toml: line 3: shin_l:"),
+        m.contains("[[character]] \"folded\": roles: ")
+            && m.contains("roles.toml: line 3: shin_l:"),
         "{m}"
     );
 }
@@ -254,8 +255,8 @@ fn roles_files_are_read_from_the_scene_files_folder_and_applied() {
 #[test]
 fn names_that_promise_a_humanoid_the_skeleton_denies_warn_in_a_scene_too() {
     let s = load(
-        "[[character]]\nfile = \"../flat.bvh\"\nunits = \"m\"\nup = \"y\"\n\
-         [[character]]\nfile = \"../flat.bvh\"\nunits = \"m\"\nup = \"y\"\nposition = [3, 0, 0]\n\
+        "[[character]]\nfile = \"../folded.bvh\"\nunits = \"m\"\nup = \"y\"\n\
+         [[character]]\nfile = \"../folded.bvh\"\nunits = \"m\"\nup = \"y\"\nposition = [3, 0, 0]\n\
          [[character]]\nfile = \"../standing.bvh\"\nposition = [-3, 0, 0]\n\
          [[character]]\nposition = [0, 0, 3]\n",
     );

@@ -318,7 +318,14 @@ impl Character {
     /// skeleton and skin together: to make it face another way before building its ragdoll
     /// (roles and limits do not depend on the facing).
     pub fn turned(&self, yaw: f32) -> Character {
-        let q = glam::Quat::from_rotation_y(yaw);
+        self.rotated(glam::Quat::from_rotation_y(yaw))
+    }
+
+    /// The character turned by `q` about the origin, skeleton, skin and clips together.
+    /// Role recognition stands a character up with it when its file has it lying down (a
+    /// Z-up export read as Y-up): a ragdoll's bodies and joints are kept in its bones'
+    /// frames, so the ragdoll built from the turned character fits the original one.
+    pub fn rotated(&self, q: glam::Quat) -> Character {
         let mut out = self.clone();
         let mut joints = out.skeleton.joints.clone();
         for j in joints.iter_mut().filter(|j| j.parent.is_none()) {

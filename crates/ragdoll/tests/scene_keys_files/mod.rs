@@ -4,16 +4,13 @@
 #![allow(dead_code)] // each test binary uses its own subset
 
 /// A BVH person (Mixamo-like names, metres, one frame) with each offset given as
-/// (sideways, up); `flat` lays every "up" along the ground instead, as an exporter with the
-/// wrong up axis does: its names then promise a humanoid its skeleton denies.
-pub fn person(flat: bool) -> String {
-    let off = |x: f32, up: f32| {
-        if flat {
-            format!("OFFSET {x} 0 {up}")
-        } else {
-            format!("OFFSET {x} {up} 0")
-        }
-    };
+/// (sideways, up); `folded` raises its legs above its hips instead (knees and feet higher
+/// than the hips, the trunk upright), as no figure standing or lying has them: its names
+/// then promise a humanoid its skeleton denies. (A person merely lying down, as an
+/// exporter with the wrong up axis leaves one, is stood up and recognised.)
+pub fn person(folded: bool) -> String {
+    let off = |x: f32, up: f32| format!("OFFSET {x} {up} 0");
+    let leg_up = if folded { -1.0 } else { 1.0 };
     let chain = |names: &[String], offsets: &[(f32, f32)], end: (f32, f32)| -> String {
         let mut s = String::new();
         for (n, &(x, up)) in names.iter().zip(offsets) {
@@ -29,8 +26,8 @@ pub fn person(flat: bool) -> String {
     let leg = |side: &str, x: f32| {
         chain(
             &names(side, ["UpLeg", "Leg", "Foot"]),
-            &[(x, 0.0), (0.0, -0.45), (0.0, -0.42)],
-            (0.0, -0.08),
+            &[(x, 0.0), (0.0, -0.45 * leg_up), (0.0, -0.42 * leg_up)],
+            (0.0, -0.08 * leg_up),
         )
     };
     let arm = |side: &str, x: f32| {

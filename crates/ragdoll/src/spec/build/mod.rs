@@ -73,9 +73,13 @@ pub fn build_spec_with_roles(
         });
     }
     let roles = super::roles_for(character, roles)?;
-    let rig = Rig::new(character);
+    // A character lying in its file is built stood up, as its roles were found; the spec
+    // is in its bones' frames, so it fits the character as the file has it.
+    let turned = roles.upright.map(|q| character.rotated(q));
+    let upright = turned.as_ref().unwrap_or(character);
+    let rig = Rig::new(upright);
     let b = Builder::new(&rig, &roles, opts);
-    let mut spec = b.spec(character)?;
+    let mut spec = b.spec(upright)?;
     // The ragdoll starts in the first animation frame; limits give way where that pose
     // lies outside them (see `fit_limits_to_pose`).
     let start = super::start_pose(character, true);

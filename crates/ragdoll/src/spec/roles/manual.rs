@@ -74,6 +74,9 @@ pub fn roles_with_file(character: &Character, file: &RoleFile) -> Result<Roles> 
         roles.from_file = from_file;
         return Ok(roles);
     }
+    // A character its file has lying down is checked as recognition stood it up.
+    let turned = base.upright.map(|q| character.rotated(q));
+    let character = turned.as_ref().unwrap_or(character);
     let rest = Rig::new(character);
     let posed = first_frame(character).map(|w| Rig::posed(character, w));
     let mut first_error = None;
@@ -104,6 +107,7 @@ pub fn roles_with_file(character: &Character, file: &RoleFile) -> Result<Roles> 
                     ),
                     warning: None,
                     from_file,
+                    upright: base.upright,
                 });
             }
             Err(e) => {

@@ -36,6 +36,9 @@
 //!
 //! Each is tried on the rest pose and then on the first animation frame, since some
 //! exporters' rest pose is not upright (Rokoko's bone-local BVH offsets lie along +X).
+//! Where names or a bone table still fail because the whole character lies down in its
+//! file (a Z-up scene exported without turning its axes), they are checked again with it
+//! stood up by its trunk (`upright.rs`), and its ragdoll is built stood up.
 //! Anything that is not a humanoid becomes [`Role::Chain`] links (`chain.rs`).
 
 mod chain;
@@ -46,8 +49,9 @@ mod rig;
 mod role_file;
 mod side;
 mod structure;
+mod upright;
 
-use glam::Vec3;
+use glam::{Quat, Vec3};
 
 pub use manual::{roles_for, roles_with_file};
 pub(crate) use names::{NameHint, Part, name_hint};
@@ -82,6 +86,12 @@ pub struct Roles {
     /// For each skeleton joint, whether a roles file ([`RoleFile`]) gave its role or listed
     /// it as a helper; all `false` when roles were only recognised.
     pub from_file: Vec<bool>,
+    /// The turn about the origin that stands the character up, where its file has it
+    /// lying down (a Z-up scene exported without turning its axes): the roles, `forward`
+    /// and `height_m` were measured on the character turned by it
+    /// ([`Character::rotated`]), and its ragdoll is built from that turned character.
+    /// `None` for a character that stands as it is.
+    pub upright: Option<Quat>,
 }
 
 /// The roles every humanoid is looked for, in the order reports list them.
@@ -221,6 +231,16 @@ fn recognise_with_helpers(character: &Character, helpers: &[bool]) -> Roles {
     }
     let promised = looks_humanoid(&hints);
     let quadruped = promised && on_all_fours(&rest, &hints);
+    // A quadruped stood on its hind legs is not a person lying down.
+    let table = (!character.humanoid_bones.is_empty())
+        .then_some(upright::Source::Table(&character.humanoid_bones));
+    let sources = table.into_iter().chain([upright::Source::Names(&hints)]);
+    if let Some(roles) = sources
+        .filter(|_| !quadruped)
+        .find_map(|source| upright::stood_up(character, source))
+    {
+        return roles;
+    }
     let why = match doubts.first() {
         _ if quadruped => "Not a humanoid: a quadruped, standing on the four limbs its names call legs and arms; its bones are chain links, and the leg joints it stands bent are hinges.".to_string(),
         Some(d) if promised => format!("Not a humanoid: {d}, and no joint has two legs reaching the ground, a rising spine and two arms."),
@@ -237,6 +257,7 @@ fn recognise_with_helpers(character: &Character, helpers: &[bool]) -> Roles {
         warning: (promised && !quadruped).then(|| why.clone()),
         why,
         from_file: vec![false; rest.len()],
+        upright: None,
     }
 }
 
@@ -295,6 +316,7 @@ fn humanoid_roles(rig: &Rig, h: &structure::Humanoid, how: String) -> Roles {
         why,
         warning: mirrored,
         from_file: vec![false; rig.len()],
+        upright: None,
     }
 }
 

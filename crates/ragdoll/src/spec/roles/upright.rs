@@ -1,0 +1,127 @@
+//! Characters lying down in their file: a Z-up scene exported without its axis turned
+//! (Blender's and 3ds Max's up is Z, glTF's and BVH's Y), or a figure modelled on its back.
+//! Every check of the other passes reads "up" as +Y (knees below hips, a leg reaching the
+//! ground), so such a character's names or bone table fail them and it was built as a
+//! creature, weighed by its volume: the same knight lying down came out at 3.9 tonnes.
+//!
+//! Where the names or the table claim a pelvis and something above it (chest, neck or
+//! head) and that trunk lies more than [`MIN_TILT_DEG`] off the vertical, the character is
+//! turned so the trunk points up and the claims are checked again on the turned skeleton.
+//! What they confirm there is its ragdoll: bodies and joints are kept in their bones'
+//! frames, so the ragdoll built from the turned character fits the original, which falls
+//! from the pose its file gives (lying).
+//!
+//! The skeleton's shape alone is not stood up: without names, a creature's body turned on
+//! end can pass for legs and a spine.
+
+use glam::{Quat, Vec3};
+
+use super::confirm::{self, Claims};
+use super::{NameHint, Rig, Roles, first_frame, humanoid_roles};
+use crate::skeleton::Character;
+
+/// A trunk tilted less than this from the vertical is standing: turning it upright would
+/// not change what the checks see.
+const MIN_TILT_DEG: f32 = 20.0;
+/// A trunk within this of an axis is taken to lie along it: an exporter's axis swap turns
+/// a scene by exactly 90° or 180°, and turning back by exactly that gives the ragdoll its
+/// upright export gets, not one tilted by however far the trunk leans off the vertical.
+const AXIS_SNAP_DEG: f32 = 15.0;
+
+/// The claims a pass makes on a rig: from the file's bone table or from the joint names.
+#[derive(Clone, Copy)]
+pub(super) enum Source<'a> {
+    Table(&'a [(String, usize)]),
+    Names(&'a [NameHint]),
+}
+
+impl Source<'_> {
+    fn claims(self, rig: &Rig) -> Claims {
+        match self {
+            Source::Table(t) => confirm::claims_from_table(rig, t),
+            Source::Names(h) => confirm::claims_from_names(rig, h),
+        }
+    }
+
+    fn words(self) -> &'static str {
+        match self {
+            Source::Table(_) => "from the file's humanoid bone table",
+            Source::Names(_) => "from the joint names",
+        }
+    }
+}
+
+/// The roles `source` gives once `character` is stood up, if its trunk lies down in the
+/// rest pose or the first animation frame and the claims hold on the turned skeleton.
+pub(super) fn stood_up(character: &Character, source: Source) -> Option<Roles> {
+    for (posed, pose) in [(false, "rest pose"), (true, "first animation frame")] {
+        let Some(rig) = rig_in(character, posed) else {
+            continue;
+        };
+        let Some(up) = trunk_up(&rig, &source.claims(&rig)) else {
+            continue;
+        };
+        if up.angle_between(Vec3::Y) < MIN_TILT_DEG.to_radians() {
+            continue;
+        }
+        let q = Quat::from_rotation_arc(snapped(up), Vec3::Y);
+        let turned = character.rotated(q);
+        let Some(turned_rig) = rig_in(&turned, posed) else {
+            continue;
+        };
+        if let Ok(h) = confirm::confirm(&turned_rig, &source.claims(&turned_rig)) {
+            let how = format!(
+                "{}, checked with the character stood up (its {pose} lies with the head toward {})",
+                source.words(),
+                direction_words(up)
+            );
+            let mut roles = humanoid_roles(&turned_rig, &h, how);
+            roles.upright = Some(q);
+            return Some(roles);
+        }
+    }
+    None
+}
+
+/// `c`'s rig in the rest pose, or in its first animation frame (`None` without one).
+fn rig_in(c: &Character, posed: bool) -> Option<Rig<'_>> {
+    if posed {
+        first_frame(c).map(|w| Rig::posed(c, w))
+    } else {
+        Some(Rig::new(c))
+    }
+}
+
+/// Which way the claimed trunk points: from the pelvis (else the middle of the thighs)
+/// to the head (else the neck, else the chest). `None` without both ends.
+fn trunk_up(rig: &Rig, c: &Claims) -> Option<Vec3> {
+    let thighs = || match (c.legs[0][0], c.legs[1][0]) {
+        (Some(l), Some(r)) => Some(0.5 * (rig.pos[l] + rig.pos[r])),
+        _ => None,
+    };
+    let bottom = c.pelvis.map(|p| rig.pos[p]).or_else(thighs)?;
+    let top = c.head.or(c.neck).or(c.chest).map(|j| rig.pos[j])?;
+    (top - bottom).try_normalize()
+}
+
+/// `d`, or the axis it lies within [`AXIS_SNAP_DEG`] of.
+fn snapped(d: Vec3) -> Vec3 {
+    [Vec3::X, Vec3::NEG_X, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z]
+        .into_iter()
+        .find(|a| d.angle_between(*a) < AXIS_SNAP_DEG.to_radians())
+        .unwrap_or(d)
+}
+
+/// A direction as a user reads it: the axis it lies nearest, signed (`-Z`).
+fn direction_words(d: Vec3) -> &'static str {
+    let a = d.abs();
+    if a.x >= a.y && a.x >= a.z {
+        if d.x > 0.0 { "+X" } else { "-X" }
+    } else if a.y >= a.z {
+        if d.y > 0.0 { "+Y" } else { "-Y" }
+    } else if d.z > 0.0 {
+        "+Z"
+    } else {
+        "-Z"
+    }
+}
