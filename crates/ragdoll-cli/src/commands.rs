@@ -154,6 +154,7 @@ fn world_settings(a: &RunArgs, rest_pose: bool) -> Result<WorldSettings> {
     let settings = WorldSettings {
         backend: a.backend.backend,
         fps: a.fps,
+        joint_damping: a.joint_damping,
         start: if rest_pose {
             StartPose::Rest
         } else {
@@ -164,6 +165,9 @@ fn world_settings(a: &RunArgs, rest_pose: bool) -> Result<WorldSettings> {
     settings.validate().map_err(|e| match e {
         ragdoll::Error::Setting { setting, message } if setting == "fps" => {
             anyhow::anyhow!("--fps: {message}")
+        }
+        ragdoll::Error::Setting { setting, message } if setting == "joint_damping" => {
+            anyhow::anyhow!("--joint-damping: {message}")
         }
         e => e.into(),
     })?;

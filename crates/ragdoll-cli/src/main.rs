@@ -201,6 +201,18 @@ struct RunArgs {
     /// Output frames per second.
     #[arg(long, allow_negative_numbers = true, default_value_t = 30.0)]
     fps: f32,
+    /// Passive joint damping, per second (rigid and fast backends; off by default): a limp
+    /// limb's swing relative to its parent loses speed at this rate, its amplitude falling
+    /// as exp(-RATE t / 2), so a raised head or a hanging arm comes to rest instead of
+    /// swinging for the whole run. A relaxed human knee's is about 0.8 (the leg-drop
+    /// pendulum test).
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_name = "RATE",
+        default_value_t = 0.0
+    )]
+    joint_damping: f32,
 }
 
 /// How a character's animation leads into the simulation. Only for commands that read a

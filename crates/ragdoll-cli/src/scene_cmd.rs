@@ -119,7 +119,7 @@ fn refuse_character_flags(a: &SimulateArgs, matches: &ArgMatches) -> Result<()> 
 }
 
 /// The flags that override the scene's own settings, where the user typed them:
-/// `--seconds`, `--fps`, `--rest-pose`, `--split`, `--backend`.
+/// `--seconds`, `--fps`, `--rest-pose`, `--split`, `--backend`, `--joint-damping`.
 fn apply_flags(a: &SimulateArgs, matches: &ArgMatches, scene: &mut Scene) -> Result<()> {
     if given(matches, "seconds") {
         if !(a.sim.run.seconds.is_finite()
@@ -160,6 +160,17 @@ fn apply_flags(a: &SimulateArgs, matches: &ArgMatches, scene: &mut Scene) -> Res
     if given(matches, "backend") {
         scene.settings.backend = a.sim.run.backend.backend;
     }
+    if given(matches, "joint_damping") {
+        scene.settings.joint_damping = a.sim.run.joint_damping;
+    }
+    // A flag can make the scene's settings disagree (`--backend particle` with the file's
+    // `joint_damping`): said before anything runs, naming the setting.
+    scene.settings.validate().map_err(|e| match e {
+        ragdoll::Error::Setting { setting, message } => {
+            anyhow::anyhow!("{}: {setting}: {message}", a.file.display())
+        }
+        e => e.into(),
+    })?;
     Ok(())
 }
 

@@ -289,4 +289,43 @@ fn scene_flags_override_or_are_refused() {
     assert!(!o.status.success());
     assert!(stderr(&o).contains("folder"), "{}", stderr(&o));
     assert!(!tmp.path().join("out2").exists() && !tmp.path().join("x.glb").exists());
+    // A flag that makes the scene's settings disagree is refused before anything runs:
+    // damping from the command line on the scene's particle backend, or the file's
+    // damping on a particle backend the command line chose.
+    std::fs::write(
+        tmp.path().join("p.toml"),
+        "backend = \"particle\"\n[[character]]\n",
+    )
+    .unwrap();
+    std::fs::write(
+        tmp.path().join("d.toml"),
+        "joint_damping = 1.5\n[[character]]\n",
+    )
+    .unwrap();
+    for args in [
+        ["p.toml", "--joint-damping", "1"],
+        ["d.toml", "--backend", "particle"],
+    ] {
+        let mut all = vec!["simulate", "-o", "out3", "--seconds", "0.2"];
+        all.extend(args);
+        let o = ragdoll(tmp.path(), &all);
+        assert!(!o.status.success());
+        let e = stderr(&o);
+        assert!(e.contains("joint_damping") && e.contains(args[0]), "{e}");
+        assert!(!tmp.path().join("out3").exists());
+    }
+    let o = ragdoll(
+        tmp.path(),
+        &[
+            "simulate",
+            "d.toml",
+            "-o",
+            "out4",
+            "--seconds",
+            "0.2",
+            "--backend",
+            "fast",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
 }

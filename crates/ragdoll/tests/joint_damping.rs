@@ -1,6 +1,6 @@
 //! Passive joint damping ([`WorldSettings::joint_damping`]): a limb swinging from a still
 //! body loses its swing as a viscously damped pendulum does, at the set rate; with the
-//! damping off it keeps swinging. Rigid backend only for now: the particle backend refuses
+//! damping off it keeps swinging. Rigid and fast backends for now: the particle backend refuses
 //! it, and its undamped pendulum is measured for comparison.
 
 use glam::{Quat, Vec3};
@@ -120,13 +120,15 @@ fn a_swinging_limb_decays_at_the_damping_rate_and_swings_on_without_it() {
     // A viscous couple c·I·ω on a pendulum of inertia I about its pivot: the amplitude
     // falls as exp(-c t / 2).
     let c = 1.5;
-    let rate = swing_decay_rate(BackendKind::Rigid, c);
-    assert!(
-        (rate - 0.5 * c).abs() < 0.15 * 0.5 * c,
-        "swing decays at {rate} per second, a damper of {c} gives {}",
-        0.5 * c
-    );
-    for backend in [BackendKind::Rigid, BackendKind::Particle] {
+    for backend in [BackendKind::Rigid, BackendKind::Fast] {
+        let rate = swing_decay_rate(backend, c);
+        assert!(
+            (rate - 0.5 * c).abs() < 0.15 * 0.5 * c,
+            "{backend:?}: swing decays at {rate} per second, a damper of {c} gives {}",
+            0.5 * c
+        );
+    }
+    for backend in [BackendKind::Rigid, BackendKind::Fast, BackendKind::Particle] {
         let undamped = swing_decay_rate(backend, 0.0);
         assert!(
             undamped.abs() < 0.05,
@@ -144,7 +146,7 @@ fn the_particle_backend_refuses_joint_damping() {
     };
     let err = settings.validate().unwrap_err().to_string();
     assert!(
-        err.contains("joint_damping") && err.contains("rigid"),
+        err.contains("joint_damping") && err.contains("rigid and fast"),
         "{err}"
     );
 }

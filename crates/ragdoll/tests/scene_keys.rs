@@ -271,3 +271,26 @@ fn names_that_promise_a_humanoid_the_skeleton_denies_warn_in_a_scene_too() {
     assert_eq!((warned(0), warned(1), warned(2), warned(3)), (1, 1, 0, 0));
     assert!(s.characters[2].character.warnings.is_empty());
 }
+
+/// `joint_damping` reaches the world's settings; a value out of range, or damping the
+/// scene's backend cannot apply (particle), is refused at its key's line.
+#[test]
+fn joint_damping_is_a_world_setting_refused_where_it_cannot_apply() {
+    let s = load("joint_damping = 1.5\n[[character]]\n");
+    assert_eq!(s.settings.joint_damping, 1.5);
+    assert_eq!(load("[[character]]\n").settings.joint_damping, 0.0);
+    for (text, words) in [
+        (
+            "fps = 30\njoint_damping = -1\n[[character]]\n",
+            "between 0 and 100",
+        ),
+        (
+            "backend = \"particle\"\njoint_damping = 2\n[[character]]\n",
+            "rigid and fast",
+        ),
+    ] {
+        let (line, m) = failure(text, "");
+        assert_eq!(line, 2, "{m}");
+        assert!(m.contains("joint_damping") && m.contains(words), "{m}");
+    }
+}

@@ -284,7 +284,7 @@ fn character_import_rows(sub: &'static str, base: &[&str]) -> Vec<Case> {
     t
 }
 
-/// `--backend`, `--seconds`, `--fps`, `--preview`. clap refuses a flag given twice, so
+/// `--backend`, `--seconds`, `--fps`, `--joint-damping`, `--preview`. clap refuses a flag given twice, so
 /// `base` has no --seconds and each row adds one.
 #[rustfmt::skip]
 fn run_rows(sub: &'static str, base: &[&str]) -> Vec<Case> {
@@ -293,6 +293,7 @@ fn run_rows(sub: &'static str, base: &[&str]) -> Vec<Case> {
         case(sub, "--backend", base, &[&S[..], &["--backend", "particle"]].concat(), Some(particle), &["--backend", "soft"], "--backend"),
         case(sub, "--seconds", base, &["--seconds", "0.5"], Some(frames_16), &["--seconds", "-1"], "--seconds"),
         case(sub, "--fps", base, &[&S[..], &["--fps", "10"]].concat(), Some(frames_3), &[&S[..], &["--fps", "0"]].concat(), "--fps"),
+        case(sub, "--joint-damping", base, &[&S[..], &["--joint-damping", "1.5"]].concat(), None, &[&S[..], &["--backend", "particle", "--joint-damping", "1"]].concat(), "--joint-damping"),
         case(sub, "--preview", base, &[&S[..], &["--preview", "p.png"]].concat(), Some(png_written), &[&S[..], &["--preview", "p.jpg"]].concat(), "--preview"),
     ]
 }

@@ -18,7 +18,8 @@ use crate::error::{Error, Result};
 use crate::events::{check_end, check_keys, check_magnitude, check_point, check_time};
 use crate::spec::check_within;
 use crate::world::{
-    Activation, MAX_COORDINATE_M, MAX_FPS, MAX_GRAVITY_MPS2, MAX_SECONDS, StartPose, WorldSettings,
+    Activation, MAX_COORDINATE_M, MAX_FPS, MAX_GRAVITY_MPS2, MAX_JOINT_DAMPING, MAX_SECONDS,
+    StartPose, WorldSettings,
 };
 
 /// Most characters in one scene. Each is loaded and built before anything runs; a crowd
@@ -259,8 +260,12 @@ fn settings(src: &Src, raw: &RawScene) -> Result<WorldSettings> {
     let fps = top.opt_checked(&raw.fps, "fps", 30.0, |f| {
         check_within(f, 1.0, MAX_FPS, " frames per second")
     })?;
+    let joint_damping = top.opt_checked(&raw.joint_damping, "joint_damping", 0.0, |c| {
+        check_within(c, 0.0, MAX_JOINT_DAMPING, " per second")
+    })?;
     let mut settings = WorldSettings {
         fps,
+        joint_damping,
         ..Default::default()
     };
     if let Some(g) = &raw.gravity {
@@ -289,6 +294,13 @@ fn settings(src: &Src, raw: &RawScene) -> Result<WorldSettings> {
                 )
             })
         })?;
+    }
+    // Damping the chosen backend cannot apply is refused at its key, not at run time.
+    if let Some(c) = &raw.joint_damping
+        && let Err(Error::Setting { setting, message }) = settings.validate()
+        && setting == "joint_damping"
+    {
+        return Err(top.err(&c.span(), "joint_damping", message));
     }
     if let Some(s) = &raw.start_pose {
         settings.start = match s.get_ref() {

@@ -20,6 +20,7 @@ pub(super) struct RawScene {
     pub(super) gravity: Option<S<[f32; 3]>>,
     pub(super) ground: Option<S<GroundValue>>,
     pub(super) backend: Option<S<String>>,
+    pub(super) joint_damping: Option<S<f32>>,
     pub(super) start_pose: Option<S<StartPoseName>>,
     pub(super) output: Option<RawOutput>,
     #[serde(default)]

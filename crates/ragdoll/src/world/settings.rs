@@ -68,7 +68,7 @@ pub struct WorldSettings {
     pub fast_substeps: usize,
     /// Passive joint damping, per second (default [`DEFAULT_JOINT_DAMPING`], off): how
     /// fast a limp limb swinging from a still body loses its speed relative to it, so its
-    /// swing's amplitude decays as `exp(-c t / 2)`. Rigid backend only for now.
+    /// swing's amplitude decays as `exp(-c t / 2)`. Rigid and fast backends for now.
     pub joint_damping: f32,
 }
 
@@ -165,7 +165,7 @@ impl WorldSettings {
             checks.push((
                 "joint_damping",
                 Err(
-                    "works on the rigid backend only for now; use 0 with the particle backend"
+                    "works on the rigid and fast backends only for now; use 0 with the particle backend"
                         .to_string(),
                 ),
             ));
