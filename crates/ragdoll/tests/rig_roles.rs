@@ -306,7 +306,7 @@ fn every_humanoid_file_lying_down_has_its_roles_on_the_right_joints() {
 }
 
 /// A humanoid its file has lying down (on its back, face down, on its side, upside down)
-/// gets the ragdoll it gets standing: the same roles, masses, body placements and joint
+/// or leaning (57°) gets the ragdoll it gets standing: the same roles, masses, body placements and joint
 /// limits, all kept in its bones' frames. Before, every check read "up" as +Y, so a lying
 /// figure failed them and was weighed as a creature by its volume.
 #[test]
@@ -324,6 +324,11 @@ fn a_humanoid_lying_in_its_file_gets_the_ragdoll_it_gets_standing() {
         ("face down", Quat::from_rotation_x(FRAC_PI_2)),
         ("on its side", Quat::from_rotation_z(FRAC_PI_2)),
         ("upside down", Quat::from_rotation_z(PI)),
+        // Recognised as it is, but leaning: its limits are measured stood up too.
+        (
+            "tilted",
+            Quat::from_axis_angle(Vec3::new(1.0, 0.0, 1.0).normalize(), 1.0),
+        ),
     ];
     for (how, q) in turns {
         let lying = standing.rotated(q);
@@ -341,6 +346,30 @@ fn a_humanoid_lying_in_its_file_gets_the_ragdoll_it_gets_standing() {
         let worst = spec_difference(&spec, &built);
         assert!(worst < 1e-3, "{how}: specs differ by up to {worst}");
     }
+}
+
+/// A hunched figure (the trunk bent 25° forward at the spine over straight legs) stands as
+/// it was made: it is not turned, so its legs keep their cones about the vertical.
+#[test]
+fn a_hunched_humanoid_is_not_stood_up() {
+    let (_, mixamo) = STYLES[0];
+    let plain = humanoid();
+    let mut c = renamed(&plain, |n| {
+        let (base, side) = split_side(n);
+        mixamo(base, side)
+    });
+    let mut joints = c.skeleton.joints().to_vec();
+    let spine = plain
+        .skeleton
+        .joints()
+        .iter()
+        .position(|j| j.name == "spine")
+        .unwrap();
+    joints[spine].rest.rotation = Quat::from_rotation_x(25f32.to_radians());
+    c.skeleton = Skeleton::new(joints).unwrap();
+    let roles = recognise_roles(&c);
+    assert!(roles.humanoid, "{}", roles.why);
+    assert_eq!(roles.upright, None, "{}", roles.why);
 }
 
 /// The largest difference between two specs of the same skeleton: masses (kg), body

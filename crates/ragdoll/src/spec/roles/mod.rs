@@ -38,7 +38,8 @@
 //! exporters' rest pose is not upright (Rokoko's bone-local BVH offsets lie along +X).
 //! Where names or a bone table still fail because the whole character lies down in its
 //! file (a Z-up scene exported without turning its axes), they are checked again with it
-//! stood up by its trunk (`upright.rs`), and its ragdoll is built stood up.
+//! stood up by its trunk (`upright.rs`), and its ragdoll is built stood up; so is a
+//! humanoid found leaning, since its joints' cones are placed from the vertical.
 //! Anything that is not a humanoid becomes [`Role::Chain`] links (`chain.rs`).
 
 mod chain;
@@ -169,6 +170,13 @@ pub fn recognise_roles(character: &Character) -> Roles {
 /// flags none past its end) for helper bones whatever their names say, as a roles file's
 /// `ignore` list asks.
 fn recognise_with_helpers(character: &Character, helpers: &[bool]) -> Roles {
+    let roles = recognise_as_is(character, helpers);
+    upright::level(character, roles, |c| recognise_as_is(c, helpers))
+}
+
+/// [`recognise_with_helpers`] on the character as its file has it, standing it up only
+/// where nothing holds otherwise.
+fn recognise_as_is(character: &Character, helpers: &[bool]) -> Roles {
     let rest = Rig::new(character);
     let posed = first_frame(character).map(|w| Rig::posed(character, w));
     let rigs: Vec<(&Rig, &str)> = std::iter::once((&rest, "rest pose"))

@@ -17,7 +17,7 @@
 use glam::{Quat, Vec3};
 
 use super::confirm::{self, Claims};
-use super::{NameHint, Rig, Roles, first_frame, humanoid_roles};
+use super::{NameHint, Rig, Role, Roles, first_frame, humanoid_roles};
 use crate::skeleton::Character;
 
 /// A trunk tilted less than this from the vertical is standing: turning it upright would
@@ -81,6 +81,64 @@ pub(super) fn stood_up(character: &Character, source: Source) -> Option<Roles> {
         }
     }
     None
+}
+
+/// `roles` found as the character stands in its file, or, where its rest pose leans more
+/// than [`MIN_TILT_DEG`], the roles `again` finds on it stood up: the same joints, with
+/// the facing and the limits' frames measured upright. Every joint frame is built from
+/// the vertical (a hip's cone opens downward and forward), so a figure leaning 57° in its
+/// file got cones turned 57° off its own legs, which the rest pose then widened to hold.
+///
+/// How far it leans is read from the trunk (pelvis to head) and the legs (each thigh to
+/// its foot) together: a whole figure tilted turns both, while a hunched one (the orc's
+/// trunk leans 20° over straight legs) is standing as it was made.
+pub(super) fn level(
+    character: &Character,
+    roles: Roles,
+    again: impl Fn(&Character) -> Roles,
+) -> Roles {
+    if !roles.humanoid || roles.upright.is_some() {
+        return roles;
+    }
+    let Some(up) = body_up(&Rig::new(character), &roles) else {
+        return roles;
+    };
+    let tilt = up.angle_between(Vec3::Y);
+    if tilt < MIN_TILT_DEG.to_radians() {
+        return roles;
+    }
+    let q = Quat::from_rotation_arc(snapped(up), Vec3::Y);
+    let mut stood = again(&character.rotated(q));
+    if !(stood.humanoid && stood.upright.is_none() && stood.per_joint == roles.per_joint) {
+        return roles;
+    }
+    stood.upright = Some(q);
+    stood.why = format!(
+        "{} Its rest pose leans {:.0}° off the vertical, so its ragdoll is built stood up.",
+        stood.why,
+        tilt.to_degrees()
+    );
+    stood
+}
+
+/// The way a recognised humanoid's body points up in `rig`: the mean of its trunk's
+/// direction (pelvis to head, else neck or chest) and its legs' (each foot, else shin, to
+/// its thigh). `None` without a pelvis, a top or a leg.
+fn body_up(rig: &Rig, roles: &Roles) -> Option<Vec3> {
+    let at = |r: Role| roles.joint(r).map(|j| rig.pos[j]);
+    let top = at(Role::Head)
+        .or_else(|| at(Role::Neck))
+        .or_else(|| at(Role::Chest))?;
+    let trunk = (top - at(Role::Pelvis)?).try_normalize()?;
+    let leg = |thigh: Role, shin: Role, foot: Role| {
+        (at(thigh)? - at(foot).or_else(|| at(shin))?).try_normalize()
+    };
+    let legs = [
+        leg(Role::ThighL, Role::ShinL, Role::FootL),
+        leg(Role::ThighR, Role::ShinR, Role::FootR),
+    ];
+    let legs = legs.iter().flatten().sum::<Vec3>().try_normalize()?;
+    (trunk + legs).try_normalize()
 }
 
 /// `c`'s rig in the rest pose, or in its first animation frame (`None` without one).
