@@ -100,7 +100,10 @@ pub(super) fn level(
     if !roles.humanoid || roles.upright.is_some() {
         return roles;
     }
-    let Some(up) = body_up(&Rig::new(character), &roles) else {
+    let rest: Vec<Vec3> = (character.skeleton.rest_world().iter())
+        .map(|t| t.translation)
+        .collect();
+    let Some(up) = body_up(&rest, &roles) else {
         return roles;
     };
     let tilt = up.angle_between(Vec3::Y);
@@ -121,11 +124,11 @@ pub(super) fn level(
     stood
 }
 
-/// The way a recognised humanoid's body points up in `rig`: the mean of its trunk's
-/// direction (pelvis to head, else neck or chest) and its legs' (each foot, else shin, to
-/// its thigh). `None` without a pelvis, a top or a leg.
-fn body_up(rig: &Rig, roles: &Roles) -> Option<Vec3> {
-    let at = |r: Role| roles.joint(r).map(|j| rig.pos[j]);
+/// The way a recognised humanoid's body points up, its joints at `pos`: the mean of its
+/// trunk's direction (pelvis to head, else neck or chest) and its legs' (each foot, else
+/// shin, to its thigh). `None` without a pelvis, a top or a leg.
+fn body_up(pos: &[Vec3], roles: &Roles) -> Option<Vec3> {
+    let at = |r: Role| roles.joint(r).and_then(|j| pos.get(j).copied());
     let top = at(Role::Head)
         .or_else(|| at(Role::Neck))
         .or_else(|| at(Role::Chest))?;
