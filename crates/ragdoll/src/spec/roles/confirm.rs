@@ -30,6 +30,54 @@ const DETACHED_END_H: f32 = 0.12;
 /// shorter (~0.05 H each), a head 0.13 H tall.
 const SKULL_H: f32 = 0.08;
 
+/// Where a pass's claims come from: the file's humanoid bone table or the joint names.
+#[derive(Clone, Copy)]
+pub(super) enum Source<'a> {
+    Table(&'a [(String, usize)]),
+    Names(&'a [NameHint]),
+}
+
+impl Source<'_> {
+    /// The joints this source claims on `rig`.
+    pub(super) fn claims(self, rig: &Rig) -> Claims {
+        match self {
+            Source::Table(t) => claims_from_table(rig, t),
+            Source::Names(h) => claims_from_names(rig, h),
+        }
+    }
+
+    /// Where the roles came from, as the user reads it.
+    pub(super) fn words(self) -> &'static str {
+        match self {
+            Source::Table(_) => "from the file's humanoid bone table",
+            Source::Names(_) => "from the joint names",
+        }
+    }
+
+    /// How the roles were found, confirmed in `pose`.
+    pub(super) fn checked_in(self, pose: &str) -> String {
+        match self {
+            Source::Table(_) => format!("{}, checked in the {pose}", self.words()),
+            Source::Names(_) => format!(
+                "{}, checked against the skeleton in the {pose}",
+                self.words()
+            ),
+        }
+    }
+
+    /// Why the claims failed in `pose` with the check's sentence `e`.
+    pub(super) fn doubt(self, pose: &str, e: &str) -> String {
+        match self {
+            Source::Table(_) => {
+                format!("the file's humanoid bone table does not hold in the {pose}: {e}")
+            }
+            Source::Names(_) => {
+                format!("the joint names do not give a humanoid in the {pose}: {e}")
+            }
+        }
+    }
+}
+
 /// The joints claimed for each part, before they are checked.
 #[derive(Clone, Debug, Default)]
 pub(super) struct Claims {

@@ -54,6 +54,8 @@ mod upright;
 
 use glam::{Quat, Vec3};
 
+use confirm::Source;
+
 pub use manual::{roles_for, roles_with_file};
 pub(crate) use names::{NameHint, Part, name_hint};
 pub(crate) use rig::Rig;
@@ -182,48 +184,17 @@ fn recognise_as_is(character: &Character, helpers: &[bool]) -> Roles {
     let rigs: Vec<(&Rig, &str)> = std::iter::once((&rest, "rest pose"))
         .chain(posed.as_ref().map(|r| (r, "first animation frame")))
         .collect();
-    let hints: Vec<NameHint> = character
-        .skeleton
-        .joints()
-        .iter()
-        .enumerate()
-        .map(|(i, j)| {
-            let mut h = name_hint(&j.name);
-            h.helper |= helpers.get(i).copied().unwrap_or(false);
-            h
-        })
-        .collect();
+    let hints = hints_of(character, helpers);
+    let table =
+        (!character.humanoid_bones.is_empty()).then_some(Source::Table(&character.humanoid_bones));
+    let sources: Vec<Source> = table.into_iter().chain([Source::Names(&hints)]).collect();
     let mut doubts = Vec::new();
-    if !character.humanoid_bones.is_empty() {
+    for &source in &sources {
         for &(rig, pose) in &rigs {
-            let claims = confirm::claims_from_table(rig, &character.humanoid_bones);
-            match confirm::confirm(rig, &claims) {
-                Ok(h) => {
-                    return humanoid_roles(
-                        rig,
-                        &h,
-                        format!("from the file's humanoid bone table, checked in the {pose}"),
-                    );
-                }
-                Err(e) => doubts.push(format!(
-                    "the file's humanoid bone table does not hold in the {pose}: {e}"
-                )),
+            match confirm::confirm(rig, &source.claims(rig)) {
+                Ok(h) => return humanoid_roles(rig, &h, source.checked_in(pose)),
+                Err(e) => doubts.push(source.doubt(pose, &e)),
             }
-        }
-    }
-    for &(rig, pose) in &rigs {
-        let claims = confirm::claims_from_names(rig, &hints);
-        match confirm::confirm(rig, &claims) {
-            Ok(h) => {
-                return humanoid_roles(
-                    rig,
-                    &h,
-                    format!("from the joint names, checked against the skeleton in the {pose}"),
-                );
-            }
-            Err(e) => doubts.push(format!(
-                "the joint names do not give a humanoid in the {pose}: {e}"
-            )),
         }
     }
     for &(rig, pose) in &rigs {
@@ -240,12 +211,10 @@ fn recognise_as_is(character: &Character, helpers: &[bool]) -> Roles {
     let promised = looks_humanoid(&hints);
     let quadruped = promised && on_all_fours(&rest, &hints);
     // A quadruped stood on its hind legs is not a person lying down.
-    let table = (!character.humanoid_bones.is_empty())
-        .then_some(upright::Source::Table(&character.humanoid_bones));
-    let sources = table.into_iter().chain([upright::Source::Names(&hints)]);
-    if let Some(roles) = sources
-        .filter(|_| !quadruped)
-        .find_map(|source| upright::stood_up(character, source))
+    if !quadruped
+        && let Some(roles) = sources
+            .iter()
+            .find_map(|&source| upright::stood_up(character, source))
     {
         return roles;
     }
@@ -267,6 +236,21 @@ fn recognise_as_is(character: &Character, helpers: &[bool]) -> Roles {
         from_file: vec![false; rest.len()],
         upright: None,
     }
+}
+
+/// What each joint's name says, with the joints flagged in `helpers` taken for helpers.
+fn hints_of(character: &Character, helpers: &[bool]) -> Vec<NameHint> {
+    character
+        .skeleton
+        .joints()
+        .iter()
+        .enumerate()
+        .map(|(i, j)| {
+            let mut h = name_hint(&j.name);
+            h.helper |= helpers.get(i).copied().unwrap_or(false);
+            h
+        })
+        .collect()
 }
 
 /// Whether the limbs the names call legs and arms, all four, hang from well above the

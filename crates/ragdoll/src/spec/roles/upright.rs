@@ -16,8 +16,8 @@
 
 use glam::{Quat, Vec3};
 
-use super::confirm::{self, Claims};
-use super::{NameHint, Rig, Role, Roles, first_frame, humanoid_roles};
+use super::confirm::{self, Claims, Source};
+use super::{Rig, Role, Roles, first_frame, humanoid_roles};
 use crate::skeleton::Character;
 
 /// A trunk tilted less than this from the vertical is standing: turning it upright would
@@ -27,29 +27,6 @@ const MIN_TILT_DEG: f32 = 20.0;
 /// a scene by exactly 90° or 180°, and turning back by exactly that gives the ragdoll its
 /// upright export gets, not one tilted by however far the trunk leans off the vertical.
 const AXIS_SNAP_DEG: f32 = 15.0;
-
-/// The claims a pass makes on a rig: from the file's bone table or from the joint names.
-#[derive(Clone, Copy)]
-pub(super) enum Source<'a> {
-    Table(&'a [(String, usize)]),
-    Names(&'a [NameHint]),
-}
-
-impl Source<'_> {
-    fn claims(self, rig: &Rig) -> Claims {
-        match self {
-            Source::Table(t) => confirm::claims_from_table(rig, t),
-            Source::Names(h) => confirm::claims_from_names(rig, h),
-        }
-    }
-
-    fn words(self) -> &'static str {
-        match self {
-            Source::Table(_) => "from the file's humanoid bone table",
-            Source::Names(_) => "from the joint names",
-        }
-    }
-}
 
 /// The roles `source` gives once `character` is stood up, if its trunk lies down in the
 /// rest pose or the first animation frame and the claims hold on the turned skeleton.
