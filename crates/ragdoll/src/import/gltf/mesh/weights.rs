@@ -145,6 +145,25 @@ pub(crate) fn read_influences(
     if sets.is_empty() {
         return Ok(None);
     }
+    check_sets(&sets, vertex_count, reader)?;
+    let (mut out, flags) = gather(&sets, vertex_count, skin, reader, charge)?;
+    let (mut repair, unweighted) = normalise(&mut out, &flags);
+    if !unweighted.is_empty() {
+        let edges = edges(prim, vertex_count, reader, charge)?;
+        let (near, far) = fill_from_neighbours(&mut out, &edges, skin.root);
+        repair.from_neighbour = near;
+        repair.to_root = far;
+    }
+    Ok(Some((out, repair)))
+}
+
+/// Every check of a primitive's influence sets that needs no data, so a count that does
+/// not match the vertices is refused before anything is read or allocated for it.
+fn check_sets(
+    sets: &[(gltf::Accessor, gltf::Accessor)],
+    vertex_count: usize,
+    reader: &AccessorReader,
+) -> Result<()> {
     if sets.len() > MAX_INFLUENCE_SETS {
         return Err(format_err(
             reader.path,
@@ -154,9 +173,7 @@ pub(crate) fn read_influences(
             ),
         ));
     }
-    // Every check that needs no data comes first, so a count that does not match the
-    // vertices is refused before anything is read or allocated for it.
-    for (ja, wa) in &sets {
+    for (ja, wa) in sets {
         reader.expect_dims(ja, &[Dimensions::Vec4], "JOINTS")?;
         reader.expect_dims(wa, &[Dimensions::Vec4], "WEIGHTS")?;
         for a in [ja, wa] {
@@ -169,9 +186,24 @@ pub(crate) fn read_influences(
             }
         }
     }
+    Ok(())
+}
+
+/// A bad weight (non-finite or negative) in a vertex's flags.
+const BAD_WEIGHT: u8 = 1;
+/// A joint index past the skin in a vertex's flags.
+const JOINT_OUT_OF_RANGE: u8 = 2;
+
+/// Every vertex's positive weights on joints of the skin, merged per joint over all sets,
+/// and per vertex the flags of what was dropped ([`BAD_WEIGHT`], [`JOINT_OUT_OF_RANGE`]).
+fn gather(
+    sets: &[(gltf::Accessor, gltf::Accessor)],
+    vertex_count: usize,
+    skin: SkinSlots,
+    reader: &AccessorReader,
+    charge: &dyn Fn(&gltf::Accessor) -> Result<()>,
+) -> Result<(Influences, Vec<u8>)> {
     let mut out: Influences = Vec::new();
-    let mut repair = WeightRepair::default();
-    // Per vertex: 1 = a bad weight, 2 = a joint out of range (bit flags).
     let mut flags: Vec<u8> = Vec::new();
     for (k, (ja, wa)) in sets.iter().enumerate() {
         charge(ja)?;
@@ -187,14 +219,14 @@ pub(crate) fn read_influences(
             for c in 0..4 {
                 let (slot, w) = (jv[c] as usize, wv[c]);
                 if !w.is_finite() || w < 0.0 {
-                    flags[v] |= 1;
+                    flags[v] |= BAD_WEIGHT;
                     continue;
                 }
                 if w == 0.0 {
                     continue;
                 }
                 if slot >= skin.count {
-                    flags[v] |= 2;
+                    flags[v] |= JOINT_OUT_OF_RANGE;
                     continue;
                 }
                 match out[v].iter_mut().find(|(s, _)| *s == slot) {
@@ -204,13 +236,20 @@ pub(crate) fn read_influences(
             }
         }
     }
+    Ok((out, flags))
+}
+
+/// Scales each vertex's weights to sum to 1 and counts what was repaired; returns the
+/// count and the vertices left with no weight at all (for their neighbours to fill).
+fn normalise(out: &mut Influences, flags: &[u8]) -> (WeightRepair, Vec<usize>) {
+    let mut repair = WeightRepair::default();
     let mut unweighted = Vec::new();
     for (v, infl) in out.iter_mut().enumerate() {
         // In f64: finite f32 weights can still overflow an f32 sum.
         let sum: f64 = infl.iter().map(|&(_, w)| w as f64).sum();
         let mut changed = flags[v] != 0;
-        repair.not_finite_or_negative += (flags[v] & 1) as usize;
-        repair.joint_out_of_range += (flags[v] >> 1) as usize;
+        repair.not_finite_or_negative += (flags[v] & BAD_WEIGHT != 0) as usize;
+        repair.joint_out_of_range += (flags[v] & JOINT_OUT_OF_RANGE != 0) as usize;
         if sum > 0.0 {
             if (sum - 1.0).abs() > WEIGHT_SUM_TOLERANCE as f64 {
                 repair.unnormalised += 1;
@@ -225,13 +264,7 @@ pub(crate) fn read_influences(
         }
         repair.vertices += changed as usize;
     }
-    if !unweighted.is_empty() {
-        let edges = edges(prim, vertex_count, reader, charge)?;
-        let (near, far) = fill_from_neighbours(&mut out, &edges, skin.root);
-        repair.from_neighbour = near;
-        repair.to_root = far;
-    }
-    Ok(Some((out, repair)))
+    (repair, unweighted)
 }
 
 /// Each vertex's neighbours along the primitive's triangle edges, as offsets into one
