@@ -281,6 +281,27 @@ fn file_stem(path: &Path) -> String {
 /// checked here first. Every other index is checked by the crate's validation, which runs
 /// before any code here indexes anything.
 pub(crate) fn parse_document(json: &serde_json::Value, path: &Path) -> Result<gltf::Document> {
+    let root: gltf::json::Root = gltf::json::deserialize::from_value(trimmed(json))
+        .map_err(|e| format_err(path, "JSON", format!("not a glTF 2.0 document: {e}")))?;
+    check_positions(&root, path)?;
+    check_channel_targets(&root, path)?;
+    gltf::Document::from_json(root).map_err(|e| match e {
+        gltf::Error::Validation(list) if !list.is_empty() => {
+            let (p, err) = &list[0];
+            let more = if list.len() > 1 {
+                format!(" (and {} more problems)", list.len() - 1)
+            } else {
+                String::new()
+            };
+            format_err(path, p.to_string(), format!("{err:?}{more}"))
+        }
+        other => format_err(path, "JSON", other.to_string()),
+    })
+}
+
+/// A copy of the document without what the `gltf` crate would refuse and a ragdoll does
+/// not read (see [`parse_document`]).
+fn trimmed(json: &serde_json::Value) -> serde_json::Value {
     let mut json = json.clone();
     if let Some(o) = json.as_object_mut() {
         for key in [
@@ -328,8 +349,12 @@ pub(crate) fn parse_document(json: &serde_json::Value, path: &Path) -> Result<gl
             }
         }
     }
-    let root: gltf::json::Root = gltf::json::deserialize::from_value(json)
-        .map_err(|e| format_err(path, "JSON", format!("not a glTF 2.0 document: {e}")))?;
+    json
+}
+
+/// Every primitive's `POSITION` names an accessor that exists: the crate's validation
+/// indexes the accessors with it before checking it.
+fn check_positions(root: &gltf::json::Root, path: &Path) -> Result<()> {
     for (m, mesh) in root.meshes.iter().enumerate() {
         for (p, prim) in mesh.primitives.iter().enumerate() {
             let position = gltf::json::validation::Checked::Valid(Semantic::Positions);
@@ -344,6 +369,12 @@ pub(crate) fn parse_document(json: &serde_json::Value, path: &Path) -> Result<gl
             }
         }
     }
+    Ok(())
+}
+
+/// Every animation channel targets a node that exists along a known path: the crate
+/// leaves these unchecked although its typed accessors panic on a bad one.
+fn check_channel_targets(root: &gltf::json::Root, path: &Path) -> Result<()> {
     let node_count = root.nodes.len();
     for (a, anim) in root.animations.iter().enumerate() {
         for (c, ch) in anim.channels.iter().enumerate() {
@@ -364,16 +395,5 @@ pub(crate) fn parse_document(json: &serde_json::Value, path: &Path) -> Result<gl
             }
         }
     }
-    gltf::Document::from_json(root).map_err(|e| match e {
-        gltf::Error::Validation(list) if !list.is_empty() => {
-            let (p, err) = &list[0];
-            let more = if list.len() > 1 {
-                format!(" (and {} more problems)", list.len() - 1)
-            } else {
-                String::new()
-            };
-            format_err(path, p.to_string(), format!("{err:?}{more}"))
-        }
-        other => format_err(path, "JSON", other.to_string()),
-    })
+    Ok(())
 }
