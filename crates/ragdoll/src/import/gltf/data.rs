@@ -68,6 +68,20 @@ pub(crate) fn split_container<'a>(bytes: &'a [u8], path: &Path) -> Result<Contai
         });
     }
     let err = |at: usize, message: String| format_err(path, format!("byte {at}"), message);
+    let data = glb_data(bytes, &err)?;
+    let (json, json_end) = json_chunk(data, &err)?;
+    Ok(Container {
+        json,
+        json_offset: 20,
+        bin: bin_chunk(data, json_end, &err)?,
+    })
+}
+
+/// An error at a byte offset of the file.
+type ByteErr<'e> = &'e dyn Fn(usize, String) -> crate::error::Error;
+
+/// The bytes a GLB's 12-byte header declares (version 2 only), which must all be there.
+fn glb_data<'a>(bytes: &'a [u8], err: ByteErr) -> Result<&'a [u8]> {
     if bytes.len() < 12 {
         return Err(err(
             bytes.len(),
@@ -94,7 +108,11 @@ pub(crate) fn split_container<'a>(bytes: &'a [u8], path: &Path) -> Result<Contai
             ),
         ));
     }
-    let data = &bytes[..length];
+    Ok(&bytes[..length])
+}
+
+/// The JSON chunk, which must come first, and where it ends.
+fn json_chunk<'a>(data: &'a [u8], err: ByteErr) -> Result<(&'a [u8], usize)> {
     if data.len() < 20 {
         return Err(err(12, "the GLB has no JSON chunk".into()));
     }
@@ -112,7 +130,11 @@ pub(crate) fn split_container<'a>(bytes: &'a [u8], path: &Path) -> Result<Contai
             ),
         ));
     }
-    let json = &data[20..json_end];
+    Ok((&data[20..json_end], json_end))
+}
+
+/// The first BIN chunk after the JSON one, if any; every chunk on the way must be whole.
+fn bin_chunk<'a>(data: &'a [u8], json_end: usize, err: ByteErr) -> Result<Option<&'a [u8]>> {
     let mut bin = None;
     let mut at = json_end.next_multiple_of(4);
     while at < data.len() {
@@ -137,11 +159,7 @@ pub(crate) fn split_container<'a>(bytes: &'a [u8], path: &Path) -> Result<Contai
         }
         at = end.next_multiple_of(4);
     }
-    Ok(Container {
-        json,
-        json_offset: 20,
-        bin,
-    })
+    Ok(bin)
 }
 
 /// Most JSON values (numbers, strings, arrays, objects…) a glTF document may hold: 2 million.
