@@ -27,8 +27,6 @@ impl Preview<'_> {
     }
 
     pub(crate) fn draw_markers(&mut self, t: f32) {
-        let cam = self.camera;
-        let ss = self.ss as f32;
         for m in self.markers.clone() {
             match m {
                 Marker::Blast {
@@ -37,62 +35,12 @@ impl Preview<'_> {
                     tnt_kg,
                 } => {
                     let tau = t - time_s;
-                    let radius = fireball_radius(tnt_kg);
                     if tau < 0.0 {
-                        // The charge, waiting.
-                        let s = 0.06 * tnt_kg.cbrt().clamp(0.5, 3.0);
-                        let pos: Vec<Vec3> =
-                            self.cube.0.iter().map(|&v| position + v * s).collect();
-                        let nrm = self.cube.0.clone();
-                        draw_lit(
-                            &mut self.target,
-                            &cam,
-                            self.light,
-                            &pos,
-                            &nrm,
-                            &self.cube.1,
-                            |_| Vec3::new(0.35, 0.12, 0.1),
-                            &mut self.screen,
-                            &mut self.shade,
-                        );
+                        self.draw_charge(position, tnt_kg);
                     } else if tau < 0.45 {
-                        // A ragged fireball that swells in 50 ms, then cools and fades.
-                        let grow = (tau / 0.05).min(1.0);
-                        let r = radius * grow * (1.0 + 0.4 * tau);
-                        let heat = (tau / 0.45).clamp(0.0, 1.0);
-                        let core = Vec3::new(1.0, 0.96, 0.75)
-                            .lerp(Vec3::new(1.0, 0.55, 0.12), (heat * 3.0).min(1.0))
-                            .lerp(Vec3::new(0.32, 0.28, 0.26), ((heat - 0.35) / 0.65).max(0.0));
-                        let pos: Vec<Vec3> = self
-                            .sphere
-                            .0
-                            .iter()
-                            .enumerate()
-                            .map(|(k, &v)| position + v * r * (0.8 + 0.4 * hash(k)))
-                            .collect();
-                        // Mottled: each vertex between the core colour and a deeper orange.
-                        let deep = core * Vec3::new(0.95, 0.55, 0.35);
-                        let colors: Vec<Vec3> = (0..pos.len())
-                            .map(|k| core.lerp(deep, hash(k + 101)))
-                            .collect();
-                        draw_flat(
-                            &mut self.target,
-                            &cam,
-                            &pos,
-                            &self.sphere.1,
-                            &colors,
-                            &mut self.screen,
-                        );
+                        let r = self.draw_fireball(position, fireball_radius(tnt_kg), tau);
                         if tau < 0.2 {
-                            // Sparks flying out of it.
-                            let spark = Vec3::new(1.0, 0.85, 0.35);
-                            let dirs: Vec<Vec3> =
-                                self.sphere.0.iter().step_by(4).copied().collect();
-                            for (k, d) in dirs.into_iter().enumerate() {
-                                let a = position + d * r * 0.9;
-                                let b = position + d * r * (1.4 + 0.8 * hash(k + 7));
-                                self.line(a, b, spark, 1.5 * ss);
-                            }
+                            self.draw_sparks(position, r);
                         }
                     }
                 }
@@ -101,26 +49,90 @@ impl Preview<'_> {
                     end,
                     time_s,
                     hit,
-                } => {
-                    let tau = t - time_s;
-                    if (-0.1..=0.25).contains(&tau) {
-                        self.line(origin, end, Vec3::new(1.0, 0.9, 0.3), 1.5 * ss);
-                    }
-                    if hit && (0.0..=0.3).contains(&tau) {
-                        let pos: Vec<Vec3> =
-                            self.sphere.0.iter().map(|&v| end + v * 0.05).collect();
-                        let colors = vec![Vec3::new(1.0, 0.3, 0.15); pos.len()];
-                        draw_flat(
-                            &mut self.target,
-                            &cam,
-                            &pos,
-                            &self.sphere.1,
-                            &colors,
-                            &mut self.screen,
-                        );
-                    }
-                }
+                } => self.draw_shot(origin, end, hit, t - time_s),
             }
+        }
+    }
+
+    /// The charge, waiting: a dark cube sized by its mass.
+    fn draw_charge(&mut self, position: Vec3, tnt_kg: f32) {
+        let s = 0.06 * tnt_kg.cbrt().clamp(0.5, 3.0);
+        let pos: Vec<Vec3> = self.cube.0.iter().map(|&v| position + v * s).collect();
+        let nrm = self.cube.0.clone();
+        draw_lit(
+            &mut self.target,
+            &self.camera,
+            self.light,
+            &pos,
+            &nrm,
+            &self.cube.1,
+            |_| Vec3::new(0.35, 0.12, 0.1),
+            &mut self.screen,
+            &mut self.shade,
+        );
+    }
+
+    /// A ragged fireball `tau` seconds after the blast that swells in 50 ms, then cools and
+    /// fades; returns the radius drawn.
+    fn draw_fireball(&mut self, position: Vec3, radius: f32, tau: f32) -> f32 {
+        let grow = (tau / 0.05).min(1.0);
+        let r = radius * grow * (1.0 + 0.4 * tau);
+        let heat = (tau / 0.45).clamp(0.0, 1.0);
+        let core = Vec3::new(1.0, 0.96, 0.75)
+            .lerp(Vec3::new(1.0, 0.55, 0.12), (heat * 3.0).min(1.0))
+            .lerp(Vec3::new(0.32, 0.28, 0.26), ((heat - 0.35) / 0.65).max(0.0));
+        let pos: Vec<Vec3> = self
+            .sphere
+            .0
+            .iter()
+            .enumerate()
+            .map(|(k, &v)| position + v * r * (0.8 + 0.4 * hash(k)))
+            .collect();
+        // Mottled: each vertex between the core colour and a deeper orange.
+        let deep = core * Vec3::new(0.95, 0.55, 0.35);
+        let colors: Vec<Vec3> = (0..pos.len())
+            .map(|k| core.lerp(deep, hash(k + 101)))
+            .collect();
+        draw_flat(
+            &mut self.target,
+            &self.camera,
+            &pos,
+            &self.sphere.1,
+            &colors,
+            &mut self.screen,
+        );
+        r
+    }
+
+    /// Sparks flying out of a fireball of radius `r`.
+    fn draw_sparks(&mut self, position: Vec3, r: f32) {
+        let ss = self.ss as f32;
+        let spark = Vec3::new(1.0, 0.85, 0.35);
+        let dirs: Vec<Vec3> = self.sphere.0.iter().step_by(4).copied().collect();
+        for (k, d) in dirs.into_iter().enumerate() {
+            let a = position + d * r * 0.9;
+            let b = position + d * r * (1.4 + 0.8 * hash(k + 7));
+            self.line(a, b, spark, 1.5 * ss);
+        }
+    }
+
+    /// A shot `tau` seconds after it was fired: its tracer, and a red flash where it hit.
+    fn draw_shot(&mut self, origin: Vec3, end: Vec3, hit: bool, tau: f32) {
+        let ss = self.ss as f32;
+        if (-0.1..=0.25).contains(&tau) {
+            self.line(origin, end, Vec3::new(1.0, 0.9, 0.3), 1.5 * ss);
+        }
+        if hit && (0.0..=0.3).contains(&tau) {
+            let pos: Vec<Vec3> = self.sphere.0.iter().map(|&v| end + v * 0.05).collect();
+            let colors = vec![Vec3::new(1.0, 0.3, 0.15); pos.len()];
+            draw_flat(
+                &mut self.target,
+                &self.camera,
+                &pos,
+                &self.sphere.1,
+                &colors,
+                &mut self.screen,
+            );
         }
     }
 
