@@ -281,14 +281,7 @@ fn check(msg: &ClientMsg, shape: &SceneShape) -> Result<(), Rejected> {
             mass_kg,
         } => {
             body_index(*ragdoll, *body, shape)?;
-            // Wide bounds: some files are in centimetres read as metres (Fox), and their
-            // bodies are that large. The spec's own validation judges the result.
-            in_range("radius_m", *radius_m, 1e-3, MAX_COORDINATE_M)?;
-            in_range("length_m", *length_m, 0.0, MAX_COORDINATE_M)?;
-            for v in center_m {
-                in_range("center_m", *v, -MAX_COORDINATE_M, MAX_COORDINATE_M)?;
-            }
-            in_range("mass_kg", *mass_kg, 1e-3, MAX_MASS_KG)
+            check_body_edit(*radius_m, *length_m, center_m, *mass_kg)
         }
         ClientMsg::EditJoint {
             ragdoll,
@@ -305,34 +298,62 @@ fn check(msg: &ClientMsg, shape: &SceneShape) -> Result<(), Rejected> {
                     shape.joints[*ragdoll]
                 ));
             }
-            let hinge = min_deg.is_some() || max_deg.is_some();
-            let cone = swing_deg.is_some() || twist_deg.is_some();
-            if hinge == cone {
-                return reject(
-                    "edit_joint takes either min_deg and max_deg (hinge) or swing_deg and twist_deg (swing-twist)",
-                );
-            }
-            if hinge {
-                let (Some(lo), Some(hi)) = (min_deg, max_deg) else {
-                    return reject("a hinge edit needs both min_deg and max_deg");
-                };
-                in_range("min_deg", *lo, -180.0, 180.0)?;
-                in_range("max_deg", *hi, -180.0, 180.0)?;
-                if lo > hi {
-                    return reject("min_deg must not be above max_deg");
-                }
-            } else {
-                let (Some(swing), Some([lo, hi])) = (swing_deg, twist_deg) else {
-                    return reject("a swing-twist edit needs both swing_deg and twist_deg");
-                };
-                in_range("swing_deg", *swing, 0.0, 180.0)?;
-                in_range("twist_deg", *lo, -180.0, 180.0)?;
-                in_range("twist_deg", *hi, -180.0, 180.0)?;
-                if lo > hi {
-                    return reject("twist_deg must be [min, max]");
-                }
-            }
-            Ok(())
+            check_joint_edit(*min_deg, *max_deg, *swing_deg, *twist_deg)
         }
     }
+}
+
+/// An edited body's sizes and mass. Wide bounds: some files are in centimetres read as
+/// metres (Fox), and their bodies are that large; the spec's own validation judges the
+/// result.
+fn check_body_edit(
+    radius_m: f32,
+    length_m: f32,
+    center_m: &[f32; 3],
+    mass_kg: f32,
+) -> Result<(), Rejected> {
+    in_range("radius_m", radius_m, 1e-3, MAX_COORDINATE_M)?;
+    in_range("length_m", length_m, 0.0, MAX_COORDINATE_M)?;
+    for v in center_m {
+        in_range("center_m", *v, -MAX_COORDINATE_M, MAX_COORDINATE_M)?;
+    }
+    in_range("mass_kg", mass_kg, 1e-3, MAX_MASS_KG)
+}
+
+/// An edited joint's limits: a hinge's range or a swing-twist's cone and twist range,
+/// not both.
+fn check_joint_edit(
+    min_deg: Option<f32>,
+    max_deg: Option<f32>,
+    swing_deg: Option<f32>,
+    twist_deg: Option<[f32; 2]>,
+) -> Result<(), Rejected> {
+    let hinge = min_deg.is_some() || max_deg.is_some();
+    let cone = swing_deg.is_some() || twist_deg.is_some();
+    if hinge == cone {
+        return reject(
+            "edit_joint takes either min_deg and max_deg (hinge) or swing_deg and twist_deg (swing-twist)",
+        );
+    }
+    if hinge {
+        let (Some(lo), Some(hi)) = (min_deg, max_deg) else {
+            return reject("a hinge edit needs both min_deg and max_deg");
+        };
+        in_range("min_deg", lo, -180.0, 180.0)?;
+        in_range("max_deg", hi, -180.0, 180.0)?;
+        if lo > hi {
+            return reject("min_deg must not be above max_deg");
+        }
+    } else {
+        let (Some(swing), Some([lo, hi])) = (swing_deg, twist_deg) else {
+            return reject("a swing-twist edit needs both swing_deg and twist_deg");
+        };
+        in_range("swing_deg", swing, 0.0, 180.0)?;
+        in_range("twist_deg", lo, -180.0, 180.0)?;
+        in_range("twist_deg", hi, -180.0, 180.0)?;
+        if lo > hi {
+            return reject("twist_deg must be [min, max]");
+        }
+    }
+    Ok(())
 }
