@@ -210,6 +210,80 @@ async fn start_over(app: &App) -> bool {
     queued
 }
 
+/// What a connection keeps to pass its page's messages on: the rate limit, the log's
+/// ceiling and where replies go.
+struct Page<'a> {
+    app: &'a App,
+    peer: SocketAddr,
+    rate: Rate,
+    log: LogLimit,
+    reply: mpsc::Sender<Arc<str>>,
+}
+
+impl Page<'_> {
+    /// Checks one thing the page sent and passes a good message on to the simulation, or
+    /// counts and logs why it was dropped. `false` when the connection is over.
+    fn receive(&mut self, incoming: Option<Result<Message, axum::Error>>) -> bool {
+        let (app, peer, log) = (self.app, self.peer, &self.log);
+        match incoming {
+            Some(Ok(Message::Text(text))) => {
+                if !self.rate.take() {
+                    Dropped::count(&app.dropped.over_rate);
+                    log.line(|| {
+                        format!(
+                            "dropped a message from {peer}: over {MESSAGES_PER_S} messages a second"
+                        )
+                    });
+                    return true;
+                }
+                match parse_client_message(text.as_str(), &app.shape) {
+                    Ok(msg) => {
+                        let command = Command::Client {
+                            msg,
+                            reply: self.reply.clone(),
+                        };
+                        match app.commands.try_send(command) {
+                            Ok(()) => {}
+                            Err(TrySendError::Full(_)) => {
+                                Dropped::count(&app.dropped.busy);
+                                log.line(|| format!(
+                                    "dropped a message from {peer}: the simulation is busy ({} messages are waiting)",
+                                    crate::MAX_QUEUED_COMMANDS
+                                ));
+                            }
+                            // The simulation has stopped: the server is going down.
+                            Err(TrySendError::Disconnected(_)) => return false,
+                        }
+                    }
+                    Err(why) => {
+                        Dropped::count(&app.dropped.refused);
+                        log.line(|| format!("dropped a message from {peer}: {why}"));
+                    }
+                }
+                true
+            }
+            Some(Ok(Message::Binary(bytes))) => {
+                if !self.rate.take() {
+                    Dropped::count(&app.dropped.over_rate);
+                    return true;
+                }
+                Dropped::count(&app.dropped.refused);
+                log.line(|| format!(
+                    "dropped a binary message of {} bytes from {peer}: only JSON text is understood",
+                    bytes.len()
+                ));
+                true
+            }
+            Some(Ok(Message::Ping(_) | Message::Pong(_))) => true,
+            Some(Ok(Message::Close(_))) | None => false,
+            Some(Err(e)) => {
+                log.line(|| format!("closed the connection from {peer}: {e}"));
+                false
+            }
+        }
+    }
+}
+
 /// One page: the simulation starts over for it, then it gets the scene and specs, then
 /// frames, spec changes, notices and replies as they come, while its messages are
 /// checked and passed on.
@@ -230,56 +304,17 @@ async fn connection(mut ws: WebSocket, peer: SocketAddr, slot: PageSlot) {
     {
         return;
     }
-    let log = LogLimit::default();
-    let mut rate = Rate::new();
+    let mut page = Page {
+        app: &app,
+        peer,
+        rate: Rate::new(),
+        log: LogLimit::default(),
+        reply,
+    };
     loop {
         tokio::select! {
-            incoming = ws.recv() => match incoming {
-                Some(Ok(Message::Text(text))) => {
-                    if !rate.take() {
-                        Dropped::count(&app.dropped.over_rate);
-                        log.line(|| format!("dropped a message from {peer}: over {MESSAGES_PER_S} messages a second"));
-                        continue;
-                    }
-                    match parse_client_message(text.as_str(), &app.shape) {
-                        Ok(msg) => {
-                            let command = Command::Client { msg, reply: reply.clone() };
-                            match app.commands.try_send(command) {
-                                Ok(()) => {}
-                                Err(TrySendError::Full(_)) => {
-                                    Dropped::count(&app.dropped.busy);
-                                    log.line(|| format!(
-                                        "dropped a message from {peer}: the simulation is busy ({} messages are waiting)",
-                                        crate::MAX_QUEUED_COMMANDS
-                                    ));
-                                }
-                                // The simulation has stopped: the server is going down.
-                                Err(TrySendError::Disconnected(_)) => return,
-                            }
-                        }
-                        Err(why) => {
-                            Dropped::count(&app.dropped.refused);
-                            log.line(|| format!("dropped a message from {peer}: {why}"));
-                        }
-                    }
-                }
-                Some(Ok(Message::Binary(bytes))) => {
-                    if !rate.take() {
-                        Dropped::count(&app.dropped.over_rate);
-                        continue;
-                    }
-                    Dropped::count(&app.dropped.refused);
-                    log.line(|| format!(
-                        "dropped a binary message of {} bytes from {peer}: only JSON text is understood",
-                        bytes.len()
-                    ));
-                }
-                Some(Ok(Message::Ping(_) | Message::Pong(_))) => {}
-                Some(Ok(Message::Close(_))) | None => return,
-                Some(Err(e)) => {
-                    log.line(|| format!("closed the connection from {peer}: {e}"));
-                    return;
-                }
+            incoming = ws.recv() => if !page.receive(incoming) {
+                return;
             },
             changed = frames.changed() => {
                 if changed.is_err() {
