@@ -108,6 +108,73 @@ pub fn single_character_scene(
     }
 }
 
+/// The server's socket, bound and non-blocking, and the address it got.
+fn listen(options: &ViewOptions) -> Result<(std::net::TcpListener, SocketAddr)> {
+    let addr = SocketAddr::new(options.host, options.port);
+    let listener = std::net::TcpListener::bind(addr).map_err(|e| Error::Setting {
+        setting: "port".into(),
+        message: format!("cannot listen on {addr}: {e} (--port 0 picks a free port)"),
+    })?;
+    listener.set_nonblocking(true).map_err(server_err)?;
+    let addr = listener.local_addr().map_err(server_err)?;
+    Ok((listener, addr))
+}
+
+/// A server that could not start, as the user reads it.
+fn server_err(e: std::io::Error) -> Error {
+    Error::Setting {
+        setting: "server".into(),
+        message: format!("cannot start the server: {e}"),
+    }
+}
+
+/// The simulation's thread, running `session` under `supervisor` on the commands `rx`.
+fn spawn_simulation(
+    supervisor: supervisor::Supervisor,
+    session: Session,
+    rx: mpsc::Receiver<Command>,
+    stopped: mpsc::Sender<Stopped>,
+) -> Result<std::thread::JoinHandle<()>> {
+    std::thread::Builder::new()
+        .name("ragdoll-view-sim".into())
+        .spawn(move || {
+            // The supervisor catches the session's panics; this catches its own, so
+            // `wait` always hears that the simulation is gone.
+            let run = std::panic::AssertUnwindSafe(|| supervisor.run(session, rx));
+            if std::panic::catch_unwind(run).is_err() {
+                let _ = stopped.send(Err("the simulation's supervisor crashed".into()));
+            }
+        })
+        .map_err(server_err)
+}
+
+/// The web server on `listener`, on a runtime of its own; says on `stopped` when it ends.
+fn serve(
+    listener: std::net::TcpListener,
+    app: Arc<server::App>,
+    stopped: mpsc::Sender<Stopped>,
+) -> Result<tokio::runtime::Runtime> {
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .map_err(server_err)?;
+    let listener = {
+        let _guard = runtime.enter();
+        tokio::net::TcpListener::from_std(listener).map_err(server_err)?
+    };
+    let service = server::router(app).into_make_service_with_connect_info::<SocketAddr>();
+    runtime.spawn(async move {
+        let why = match axum::serve(listener, service).await {
+            Ok(()) => "the server stopped".to_string(),
+            Err(e) => format!("the server stopped: {e}"),
+        };
+        eprintln!("viewer: {why}");
+        let _ = stopped.send(Err(why));
+    });
+    Ok(runtime)
+}
+
 /// Refuses a save folder that can never be written: a path that is a file, or sits below
 /// one. A folder that does not exist yet is fine (the first save creates it).
 fn check_save_dir(dir: &Path) -> Result<()> {
@@ -178,18 +245,7 @@ impl Viewer {
     /// ```
     pub fn start(scene: Scene, options: &ViewOptions) -> Result<Viewer> {
         check_save_dir(&options.save_dir)?;
-        let addr = SocketAddr::new(options.host, options.port);
-        let listener = std::net::TcpListener::bind(addr).map_err(|e| Error::Setting {
-            setting: "port".into(),
-            message: format!("cannot listen on {addr}: {e} (--port 0 picks a free port)"),
-        })?;
-        let io = |e: std::io::Error| Error::Setting {
-            setting: "server".into(),
-            message: format!("cannot start the server: {e}"),
-        };
-        listener.set_nonblocking(true).map_err(io)?;
-        let addr = listener.local_addr().map_err(io)?;
-
+        let (listener, addr) = listen(options)?;
         let (frames_tx, frames_rx) = watch::channel::<Arc<str>>(Arc::from(""));
         let (specs_tx, specs_rx) = watch::channel::<Arc<str>>(Arc::from(""));
         let (notices, _) = broadcast::channel(64);
@@ -227,37 +283,8 @@ impl Viewer {
             stopped: stopped_tx.clone(),
             fail_restart: fail_restart.clone(),
         };
-        let sim_stopped = stopped_tx.clone();
-        let simulation = std::thread::Builder::new()
-            .name("ragdoll-view-sim".into())
-            .spawn(move || {
-                // The supervisor catches the session's panics; this catches its own, so
-                // `wait` always hears that the simulation is gone.
-                let run = std::panic::AssertUnwindSafe(|| supervisor.run(session, rx));
-                if std::panic::catch_unwind(run).is_err() {
-                    let _ = sim_stopped.send(Err("the simulation's supervisor crashed".into()));
-                }
-            })
-            .map_err(io)?;
-
-        let runtime = tokio::runtime::Builder::new_multi_thread()
-            .worker_threads(2)
-            .enable_all()
-            .build()
-            .map_err(io)?;
-        let listener = {
-            let _guard = runtime.enter();
-            tokio::net::TcpListener::from_std(listener).map_err(io)?
-        };
-        let service = server::router(app).into_make_service_with_connect_info::<SocketAddr>();
-        runtime.spawn(async move {
-            let why = match axum::serve(listener, service).await {
-                Ok(()) => "the server stopped".to_string(),
-                Err(e) => format!("the server stopped: {e}"),
-            };
-            eprintln!("viewer: {why}");
-            let _ = stopped_tx.send(Err(why));
-        });
+        let simulation = spawn_simulation(supervisor, session, rx, stopped_tx.clone())?;
+        let runtime = serve(listener, app, stopped_tx)?;
         Ok(Viewer {
             addr,
             runtime,
