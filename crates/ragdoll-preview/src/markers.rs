@@ -93,14 +93,7 @@ impl Preview<'_> {
         let colors: Vec<Vec3> = (0..pos.len())
             .map(|k| core.lerp(deep, hash(k + 101)))
             .collect();
-        draw_flat(
-            &mut self.target,
-            &self.camera,
-            &pos,
-            &self.sphere.1,
-            &colors,
-            &mut self.screen,
-        );
+        self.draw_sphere(&pos, &colors);
         r
     }
 
@@ -125,15 +118,20 @@ impl Preview<'_> {
         if hit && (0.0..=0.3).contains(&tau) {
             let pos: Vec<Vec3> = self.sphere.0.iter().map(|&v| end + v * 0.05).collect();
             let colors = vec![Vec3::new(1.0, 0.3, 0.15); pos.len()];
-            draw_flat(
-                &mut self.target,
-                &self.camera,
-                &pos,
-                &self.sphere.1,
-                &colors,
-                &mut self.screen,
-            );
+            self.draw_sphere(&pos, &colors);
         }
+    }
+
+    /// The marker sphere's triangles over the vertices `pos`, flat, one colour a vertex.
+    fn draw_sphere(&mut self, pos: &[Vec3], colors: &[Vec3]) {
+        draw_flat(
+            &mut self.target,
+            &self.camera,
+            pos,
+            &self.sphere.1,
+            colors,
+            &mut self.screen,
+        );
     }
 
     fn line(&mut self, a: Vec3, b: Vec3, color: Vec3, width: f32) {
