@@ -293,6 +293,7 @@ fn every_humanoid_file_lying_down_has_its_roles_on_the_right_joints() {
         if recognise_roles(&c).why.contains("skeleton's shape") {
             continue;
         }
+        let standing = recognise_roles(&c);
         for (how, q) in turns {
             let lying = c.rotated(q);
             bad.extend(
@@ -300,9 +301,30 @@ fn every_humanoid_file_lying_down_has_its_roles_on_the_right_joints() {
                     .into_iter()
                     .map(|b| format!("{b} ({how})")),
             );
+            // A warning that names the facing (mirrored sides) names it in the file's
+            // axes, where the lying body faces: the standing facing turned with it.
+            if standing.warning.is_some() {
+                let words = axis_words(q * standing.forward);
+                let warning = recognise_roles(&lying).warning.unwrap_or_default();
+                if !warning.contains(&format!("faces {words}")) {
+                    bad.push(format!(
+                        "{rel} ({how}): want \"faces {words}\" in {warning}"
+                    ));
+                }
+            }
         }
     }
     assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
+
+/// `d` as the warnings write a direction along an axis: `+Y`, `-Z`.
+fn axis_words(d: Vec3) -> String {
+    let axes = [(Vec3::X, "X"), (Vec3::Y, "Y"), (Vec3::Z, "Z")];
+    let (axis, name) = axes
+        .into_iter()
+        .max_by(|a, b| d.dot(a.0).abs().total_cmp(&d.dot(b.0).abs()))
+        .unwrap();
+    format!("{}{name}", if d.dot(axis) > 0.0 { "+" } else { "-" })
 }
 
 /// A humanoid its file has lying down (on its back, face down, on its side, upside down)

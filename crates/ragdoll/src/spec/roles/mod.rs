@@ -172,13 +172,16 @@ pub fn recognise_roles(character: &Character) -> Roles {
 /// flags none past its end) for helper bones whatever their names say, as a roles file's
 /// `ignore` list asks.
 fn recognise_with_helpers(character: &Character, helpers: &[bool]) -> Roles {
-    let roles = recognise_as_is(character, helpers);
-    upright::level(character, roles, |c| recognise_as_is(c, helpers))
+    let roles = recognise_as_is(character, helpers, None);
+    upright::level(character, roles, |c, q| {
+        recognise_as_is(c, helpers, Some(q))
+    })
 }
 
 /// [`recognise_with_helpers`] on the character as its file has it, standing it up only
-/// where nothing holds otherwise.
-fn recognise_as_is(character: &Character, helpers: &[bool]) -> Roles {
+/// where nothing holds otherwise; `turn` is the turn a caller already stood it up by
+/// (see [`humanoid_roles`]).
+fn recognise_as_is(character: &Character, helpers: &[bool], turn: Option<Quat>) -> Roles {
     let rest = Rig::new(character);
     let posed = first_frame(character).map(|w| Rig::posed(character, w));
     let rigs: Vec<(&Rig, &str)> = std::iter::once((&rest, "rest pose"))
@@ -192,7 +195,7 @@ fn recognise_as_is(character: &Character, helpers: &[bool]) -> Roles {
     for &source in &sources {
         for &(rig, pose) in &rigs {
             match confirm::confirm(rig, &source.claims(rig)) {
-                Ok(h) => return humanoid_roles(rig, &h, source.checked_in(pose)),
+                Ok(h) => return humanoid_roles(rig, &h, source.checked_in(pose), turn),
                 Err(e) => doubts.push(source.doubt(pose, &e)),
             }
         }
@@ -205,6 +208,7 @@ fn recognise_as_is(character: &Character, helpers: &[bool]) -> Roles {
                 format!(
                     "from the skeleton's shape in the {pose} (two legs to the ground, a spine, two arms)"
                 ),
+                turn,
             );
         }
     }
@@ -212,6 +216,7 @@ fn recognise_as_is(character: &Character, helpers: &[bool]) -> Roles {
     let quadruped = promised && on_all_fours(&rest, &hints);
     // A quadruped stood on its hind legs is not a person lying down.
     if !quadruped
+        && turn.is_none()
         && let Some(roles) = sources
             .iter()
             .find_map(|&source| upright::stood_up(character, source))
@@ -284,7 +289,11 @@ pub fn looks_humanoid(hints: &[NameHint]) -> bool {
         })
 }
 
-fn humanoid_roles(rig: &Rig, h: &structure::Humanoid, how: String) -> Roles {
+/// The roles of the humanoid `h` found on `rig`. `turn` is the turn that stood the
+/// character up before `rig` was made, if one did: the roles record it
+/// ([`Roles::upright`]), and the facing a warning names is turned back to the file's axes,
+/// which are the ones the user sees.
+fn humanoid_roles(rig: &Rig, h: &structure::Humanoid, how: String, turn: Option<Quat>) -> Roles {
     let mut per_joint = vec![None; rig.len()];
     for (j, role) in h.assignments() {
         per_joint[j] = Some(role);
@@ -292,7 +301,7 @@ fn humanoid_roles(rig: &Rig, h: &structure::Humanoid, how: String) -> Roles {
     let mirrored = h.mirrored.then(|| {
         format!(
             "The sides in its joint names are mirrored: the body faces {} by its feet (or knees), so the limbs named as left ({}, ...) are on the character's right; the roles keep the names, and knees and elbows bend the way the body faces.",
-            facing_words(h.forward),
+            facing_words(turn.map_or(h.forward, |q| q.inverse() * h.forward)),
             rig.skeleton.joint_label(h.legs[0].upper)
         )
     });
@@ -308,14 +317,14 @@ fn humanoid_roles(rig: &Rig, h: &structure::Humanoid, how: String) -> Roles {
         why,
         warning: mirrored,
         from_file: vec![false; rig.len()],
-        upright: None,
+        upright: turn,
     }
 }
 
-/// A horizontal direction as a user reads it: `+Z` when it lies along an axis, else its
-/// components.
+/// A direction as a user reads it: `+Z` when it lies along an axis (`+Y` for a character
+/// lying on its back in its file), else its components.
 fn facing_words(forward: Vec3) -> String {
-    let axes = [(Vec3::X, "X"), (Vec3::Z, "Z")];
+    let axes = [(Vec3::X, "X"), (Vec3::Y, "Y"), (Vec3::Z, "Z")];
     for (axis, name) in axes {
         let d = forward.dot(axis);
         if d.abs() > 0.99 {

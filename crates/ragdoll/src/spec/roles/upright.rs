@@ -52,19 +52,18 @@ pub(super) fn stood_up(character: &Character, source: Source) -> Option<Roles> {
                 source.words(),
                 direction_words(up)
             );
-            let mut roles = humanoid_roles(&turned_rig, &h, how);
-            roles.upright = Some(q);
-            return Some(roles);
+            return Some(humanoid_roles(&turned_rig, &h, how, Some(q)));
         }
     }
     None
 }
 
 /// `roles` found as the character stands in its file, or, where its rest pose leans more
-/// than [`MIN_TILT_DEG`], the roles `again` finds on it stood up: the same joints, with
-/// the facing and the limits' frames measured upright. Every joint frame is built from
-/// the vertical (a hip's cone opens downward and forward), so a figure leaning 57° in its
-/// file got cones turned 57° off its own legs, which the rest pose then widened to hold.
+/// than [`MIN_TILT_DEG`], the roles `again` finds on it stood up by a turn (given to it
+/// too): the same joints, with the facing and the limits' frames measured upright. Every
+/// joint frame is built from the vertical (a hip's cone opens downward and forward), so a
+/// figure leaning 57° in its file got cones turned 57° off its own legs, which the rest
+/// pose then widened to hold.
 ///
 /// How far it leans is read from the trunk (pelvis to head) and the legs (each thigh to
 /// its foot) together: a whole figure tilted turns both, while a hunched one (the orc's
@@ -72,7 +71,7 @@ pub(super) fn stood_up(character: &Character, source: Source) -> Option<Roles> {
 pub(super) fn level(
     character: &Character,
     roles: Roles,
-    again: impl Fn(&Character) -> Roles,
+    again: impl Fn(&Character, Quat) -> Roles,
 ) -> Roles {
     if !roles.humanoid || roles.upright.is_some() {
         return roles;
@@ -88,11 +87,10 @@ pub(super) fn level(
         return roles;
     }
     let q = Quat::from_rotation_arc(snapped(up), Vec3::Y);
-    let mut stood = again(&character.rotated(q));
-    if !(stood.humanoid && stood.upright.is_none() && stood.per_joint == roles.per_joint) {
+    let mut stood = again(&character.rotated(q), q);
+    if !(stood.humanoid && stood.per_joint == roles.per_joint) {
         return roles;
     }
-    stood.upright = Some(q);
     stood.why = format!(
         "{} Its rest pose leans {:.0}° off the vertical, so its ragdoll is built stood up.",
         stood.why,
