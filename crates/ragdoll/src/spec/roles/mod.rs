@@ -219,7 +219,7 @@ fn recognise_as_is(character: &Character, helpers: &[bool], turn: Option<Quat>) 
         && turn.is_none()
         && let Some(roles) = sources
             .iter()
-            .find_map(|&source| upright::stood_up(character, source))
+            .find_map(|&source| upright::stood_up(character, &rigs, source))
     {
         return roles;
     }

@@ -29,13 +29,16 @@ const MIN_TILT_DEG: f32 = 20.0;
 const AXIS_SNAP_DEG: f32 = 15.0;
 
 /// The roles `source` gives once `character` is stood up, if its trunk lies down in the
-/// rest pose or the first animation frame and the claims hold on the turned skeleton.
-pub(super) fn stood_up(character: &Character, source: Source) -> Option<Roles> {
-    for (posed, pose) in [(false, "rest pose"), (true, "first animation frame")] {
-        let Some(rig) = rig_in(character, posed) else {
-            continue;
-        };
-        let Some(up) = trunk_up(&rig, &source.claims(&rig)) else {
+/// rest pose or the first animation frame (`rigs`, the caller's: the rest pose first) and
+/// the claims hold on the turned skeleton.
+pub(super) fn stood_up(
+    character: &Character,
+    rigs: &[(&Rig, &str)],
+    source: Source,
+) -> Option<Roles> {
+    for (k, &(rig, pose)) in rigs.iter().enumerate() {
+        let posed = k > 0;
+        let Some(up) = trunk_up(rig, &source.claims(rig)) else {
             continue;
         };
         if up.angle_between(Vec3::Y) < MIN_TILT_DEG.to_radians() {
