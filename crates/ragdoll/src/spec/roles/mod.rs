@@ -223,6 +223,12 @@ fn recognise_as_is(character: &Character, helpers: &[bool], turn: Option<Quat>) 
     {
         return roles;
     }
+    if turn.is_none()
+        && !quadruped
+        && let Some(roles) = upright::stood_up_by_shape(&rigs)
+    {
+        return roles;
+    }
     let why = match doubts.first() {
         _ if quadruped => "Not a humanoid: a quadruped, standing on the four limbs its names call legs and arms; its bones are chain links, and the leg joints it stands bent are hinges.".to_string(),
         Some(d) if promised => format!("Not a humanoid: {d}, and no joint has two legs reaching the ground, a rising spine and two arms."),

@@ -1,7 +1,7 @@
 //! The skeleton in world space (a pose plus its skin), with the per-subtree facts every
 //! recognition pass and the builder ask of it.
 
-use glam::{Vec3, Vec4};
+use glam::{Quat, Vec3, Vec4};
 
 use super::LEAF_LENGTH_FRACTION;
 use crate::math::Transform;
@@ -67,7 +67,34 @@ impl<'a> Rig<'a> {
     }
 
     fn with_world(character: &'a Character, world: Vec<Transform>, skin: bool) -> Self {
-        let skeleton = &character.skeleton;
+        let n = character.skeleton.len();
+        let (verts, skin_weight) = if skin {
+            skin_of(character)
+        } else {
+            (Vec::new(), vec![0.0; n])
+        };
+        Self::from_parts(&character.skeleton, world, verts, skin_weight)
+    }
+
+    /// The same pose and skin turned by `q` about the origin, as the character turned by
+    /// [`Character::rotated`] would give, without copying its meshes and clips: what a
+    /// check of the shape alone tries on a character lying in its file.
+    pub fn turned(&self, q: Quat) -> Rig<'a> {
+        let world = self
+            .world
+            .iter()
+            .map(|t| Transform::new(q * t.translation, (q * t.rotation).normalize()))
+            .collect();
+        let verts = self.verts.iter().map(|&(p, j, w)| (q * p, j, w)).collect();
+        Self::from_parts(self.skeleton, world, verts, self.skin_weight.clone())
+    }
+
+    fn from_parts(
+        skeleton: &'a Skeleton,
+        world: Vec<Transform>,
+        verts: Vec<SkinVertex>,
+        skin_weight: Vec<f32>,
+    ) -> Self {
         let n = skeleton.len();
         let pos: Vec<Vec3> = world.iter().map(|t| t.translation).collect();
         let tips: Vec<Option<Vec3>> = (0..n)
@@ -83,11 +110,6 @@ impl<'a> Rig<'a> {
                 children[p].push(i);
             }
         }
-        let (verts, skin_weight) = if skin {
-            skin_of(character)
-        } else {
-            (Vec::new(), vec![0.0; n])
-        };
         let mut lo = Vec3::splat(f32::MAX);
         let mut hi = Vec3::splat(f32::MIN);
         let points = pos

@@ -11,13 +11,14 @@
 //! frames, so the ragdoll built from the turned character fits the original, which falls
 //! from the pose its file gives (lying).
 //!
-//! The skeleton's shape alone is not stood up: without names, a creature's body turned on
-//! end can pass for legs and a spine.
+//! Without names or a table, the skeleton's shape is checked again turned by each quarter
+//! or half turn ([`stood_up_by_shape`]); it is taken only when exactly one turn stands a
+//! humanoid up, since nothing else says which way is up.
 
 use glam::{Quat, Vec3};
 
 use super::confirm::{self, Claims, Source};
-use super::{Rig, Role, Roles, first_frame, humanoid_roles};
+use super::{Rig, Role, Roles, first_frame, humanoid_roles, structure};
 use crate::skeleton::Character;
 
 /// A trunk tilted less than this from the vertical is standing: turning it upright would
@@ -61,6 +62,38 @@ pub(super) fn stood_up(
     None
 }
 
+/// The roles the skeleton's shape alone gives the character stood up by a quarter or half
+/// turn (the turns an exporter's axis swap makes), when exactly one such turn gives a
+/// humanoid in the rest pose, else in the first animation frame (`rigs`, the caller's:
+/// the rest pose first). An unnamed humanoid lying down in its file (CesiumMan exported
+/// Z-up) then gets the ragdoll it gets standing.
+///
+/// Only whole turns, and only a single answer: without names nothing says which way is
+/// up, so the turned skeleton must pass every check of the shape on its own, two legs
+/// reaching the ground below a rising spine with two arms. A quadruped stood on end does
+/// not (its legs then point along the ground, and on its back they point up); a figure
+/// two turns would both stand up is not told apart from a creature and stays one.
+pub(super) fn stood_up_by_shape(rigs: &[(&Rig, &str)]) -> Option<Roles> {
+    for &(rig, pose) in rigs {
+        let mut found = [Vec3::X, Vec3::NEG_X, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z]
+            .into_iter()
+            .filter_map(|up| {
+                let q = Quat::from_rotation_arc(up, Vec3::Y);
+                let turned = rig.turned(q);
+                let h = structure::find_humanoid(&turned)?;
+                let how = format!(
+                    "from the skeleton's shape in the {pose} (two legs to the ground, a spine, two arms), checked with the character stood up (its {pose} lies with the head toward {})",
+                    direction_words(up)
+                );
+                Some(humanoid_roles(&turned, &h, how, Some(q)))
+            });
+        if let Some(roles) = found.next() {
+            return found.next().is_none().then_some(roles);
+        }
+    }
+    None
+}
+
 /// `roles` found as the character stands in its file, or, where its rest pose leans more
 /// than [`MIN_TILT_DEG`], the roles `again` finds on it stood up by a turn (given to it
 /// too): the same joints, with the facing and the limits' frames measured upright. Every
@@ -91,7 +124,18 @@ pub(super) fn level(
     }
     let q = Quat::from_rotation_arc(snapped(up), Vec3::Y);
     let mut stood = again(&character.rotated(q), q);
-    if !(stood.humanoid && stood.per_joint == roles.per_joint) {
+    // The same joints must carry the same roles; only their sides may change: the side
+    // checks read left and right across the vertical, so a figure tilted 42° (CesiumMan
+    // turned about a diagonal) had its arms' sides swapped as it lay, and stood up has
+    // them right.
+    let unsided = |r: &Option<Role>| {
+        r.map(|r| {
+            let s = r.as_str();
+            s.strip_suffix("_l").or(s.strip_suffix("_r")).unwrap_or(s)
+        })
+    };
+    let same_joints = (stood.per_joint.iter().map(unsided)).eq(roles.per_joint.iter().map(unsided));
+    if !(stood.humanoid && same_joints) {
         return roles;
     }
     stood.why = format!(
