@@ -448,7 +448,7 @@ fn an_unnamed_creature_is_not_stood_up_into_a_humanoid() {
         ("e".into(), Some(0), Vec3::new(0.0, 0.3, -0.15)),
     ];
     for x in [0.08f32, -0.08] {
-        let mut add = |rows: &mut Vec<(String, Option<usize>, Vec3)>, parent, p| {
+        let add = |rows: &mut Vec<(String, Option<usize>, Vec3)>, parent, p| {
             rows.push((format!("j{}", rows.len()), parent, p));
             rows.len() - 1
         };
