@@ -60,8 +60,10 @@
 //! root in a frame = `C · T(p·s) · R`. Other joints keep their rotations; their translations
 //! are scaled to metres. Everything needed to write the file back is kept in [`BvhLayout`].
 
+mod hierarchy;
 mod motion;
 mod parse;
+mod text;
 
 use glam::{DMat3, DQuat, DVec3};
 

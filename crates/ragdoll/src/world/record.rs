@@ -72,7 +72,7 @@ impl super::World {
         }
     }
 
-    /// Clamps every joint back into its limits (see [`WorldSettings::project_limits`]).
+    /// Clamps every joint back into its limits (see [`WorldSettings::project_limits`](super::WorldSettings::project_limits)).
     ///
     /// Where turning a subtree would sink one of its bodies below the ground (deeper than
     /// it already was, beyond [`PROJECTION_GROUND_SLACK_M`]), the whole ragdoll is lifted
@@ -270,7 +270,7 @@ impl super::World {
 const MIN_BONE_M: f32 = 1.0e-3;
 
 /// Largest relative change of a bone's length in `frame` from `lengths` (taken from this
-/// frame when empty): what [`Metrics::max_bone_stretch`] records. Backend-independent, so
+/// frame when empty): what [`Metrics::max_bone_stretch`](crate::track::Metrics::max_bone_stretch) records. Backend-independent, so
 /// it measures both backends alike.
 fn bone_stretch(parents: &[Option<usize>], lengths: &mut Vec<f32>, frame: &[Transform]) -> f32 {
     let length = |j: usize| {

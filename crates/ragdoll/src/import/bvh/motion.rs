@@ -4,7 +4,9 @@
 use std::path::Path;
 
 use super::FRAME_TIME_RANGE_S;
-use super::parse::{Convert, Lines, PJoint, check_range, parse_error, parse_number};
+use super::hierarchy::PJoint;
+use super::parse::Convert;
+use super::text::{Lines, check_range, parse_error, parse_number};
 use crate::error::Result;
 use crate::math::Transform;
 use crate::skeleton::MAX_CLIP_POSES;

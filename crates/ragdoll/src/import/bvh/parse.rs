@@ -1,5 +1,5 @@
-//! Reading BVH text: a streaming tokenizer for the hierarchy, and the unit and up-axis
-//! detection (see the parent module's docs); the motion is read in `motion.rs`.
+//! Reading BVH text: the hierarchy (`hierarchy.rs`), then the unit and up-axis detection
+//! (see the parent module's docs) and the motion (`motion.rs`), into a character.
 //!
 //! Nothing here holds more than one frame's numbers at a time or recurses on the file's
 //! nesting, so memory is the joints plus the clip (bounded by
@@ -10,14 +10,16 @@ use std::path::Path;
 
 use glam::{DQuat, DVec3};
 
+use super::hierarchy::{PJoint, read_hierarchy};
+use super::text::parse_error;
+
 use super::{
-    BvhJoint, BvhLayout, Channel, MAX_CHANNELS_PER_JOINT, MAX_VALUE, TYPICAL_HEIGHT_M,
-    UNIT_CANDIDATES, compose_rotation, up_rotation,
+    BvhJoint, BvhLayout, Channel, TYPICAL_HEIGHT_M, UNIT_CANDIDATES, compose_rotation, up_rotation,
 };
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::import::{ImportOptions, UpAxis};
 use crate::math::Transform;
-use crate::skeleton::{Character, Clip, Joint, MAX_JOINTS, MAX_REACH_M, Skeleton, Source};
+use crate::skeleton::{Character, Clip, Joint, MAX_REACH_M, Skeleton, Source};
 
 /// Loads a BVH file; see the module docs for what is detected and how it is converted.
 /// The file is read with [`crate::files::read_capped`] (regular files of at most
@@ -31,21 +33,10 @@ pub fn load(path: &Path, opts: &ImportOptions) -> Result<Character> {
 /// Parses BVH text; `path` is only used to name the file in errors and the character.
 ///
 /// This is the entry point for fuzzing (through `String::from_utf8_lossy` of the bytes):
-/// any text gives a [`Character`] or an [`Error::Parse`] naming a line, never a panic.
+/// any text gives a [`Character`] or an [`Error::Parse`](crate::error::Error::Parse) naming a line, never a panic.
 pub fn parse(text: &str, path: &Path, opts: &ImportOptions) -> Result<Character> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let mut parser = Parser {
-        path,
-        tokens: Tokens::new(Lines::new(text)),
-    };
-    let joints = parser.hierarchy()?;
-    let Some(motion_line) = parser.tokens.motion_line else {
-        return Err(parse_error(
-            path,
-            parser.tokens.last_content,
-            "the file ends without a MOTION section",
-        ));
-    };
+    let (joints, motion_line, mut lines) = read_hierarchy(text, path)?;
 
     let positions = rest_positions(&joints);
     let up = opts.up.unwrap_or_else(|| detect_up(&positions));
@@ -57,7 +48,6 @@ pub fn parse(text: &str, path: &Path, opts: &ImportOptions) -> Result<Character>
         c: up_rotation(up),
         s: metres_per_unit,
     };
-    let mut lines = parser.tokens.lines;
     let motion = super::motion::read_motion(path, &mut lines, motion_line, &joints, &convert)?;
     let skeleton = skeleton_of(&joints, &convert, metres_per_unit)?;
     let frame_time = motion.frame_time as f32;
@@ -240,416 +230,6 @@ fn joint_motion(j: &PJoint, vals: &[f64]) -> (DVec3, DQuat) {
         }
     }
     (t, compose_rotation(&axes, &angles))
-}
-
-pub(super) fn parse_error(path: &Path, line: usize, message: impl Into<String>) -> Error {
-    Error::Parse {
-        path: path.to_path_buf(),
-        line,
-        message: message.into(),
-    }
-}
-
-/// The lines of a text with their 1-based numbers, split on `\n`, `\r\n`, or lone `\r` (old
-/// Mac files), so line numbers match editors. Lazy: a file of a billion empty lines costs
-/// no memory.
-pub(super) struct Lines<'a> {
-    rest: Option<&'a str>,
-    sep: char,
-    number: usize,
-}
-
-impl<'a> Lines<'a> {
-    fn new(text: &'a str) -> Self {
-        Lines {
-            rest: Some(text),
-            sep: if text.contains('\n') { '\n' } else { '\r' },
-            number: 0,
-        }
-    }
-}
-
-impl<'a> Iterator for Lines<'a> {
-    type Item = (usize, &'a str);
-
-    fn next(&mut self) -> Option<(usize, &'a str)> {
-        let text = self.rest?;
-        let (line, rest) = match text.split_once(self.sep) {
-            Some((l, r)) => (l, Some(r)),
-            None => (text, None),
-        };
-        self.rest = rest;
-        self.number += 1;
-        let line = match self.sep {
-            '\n' => line.strip_suffix('\r').unwrap_or(line),
-            _ => line,
-        };
-        Some((self.number, line))
-    }
-}
-
-/// A hierarchy word with its 1-based line.
-#[derive(Clone, Copy, Debug)]
-struct Tok<'a> {
-    line: usize,
-    text: &'a str,
-}
-
-/// The words of the hierarchy, read a line at a time; they end at the first line that
-/// starts with `MOTION`, or at the end of the file.
-struct Tokens<'a> {
-    lines: Lines<'a>,
-    words: std::str::SplitWhitespace<'a>,
-    line: usize,
-    peeked: Option<Tok<'a>>,
-    ended: bool,
-    /// The `MOTION` line, once reached.
-    motion_line: Option<usize>,
-    /// The last line with anything on it so far (1 when there is none).
-    last_content: usize,
-}
-
-impl<'a> Tokens<'a> {
-    fn new(lines: Lines<'a>) -> Self {
-        Tokens {
-            lines,
-            words: "".split_whitespace(),
-            line: 0,
-            peeked: None,
-            ended: false,
-            motion_line: None,
-            last_content: 1,
-        }
-    }
-
-    fn read(&mut self) -> Option<Tok<'a>> {
-        loop {
-            if let Some(text) = self.words.next() {
-                return Some(Tok {
-                    line: self.line,
-                    text,
-                });
-            }
-            if self.ended {
-                return None;
-            }
-            let Some((n, l)) = self.lines.next() else {
-                self.ended = true;
-                return None;
-            };
-            let words = l.split_whitespace();
-            match words.clone().next() {
-                Some(first) if first.eq_ignore_ascii_case("MOTION") => {
-                    self.motion_line = Some(n);
-                    self.ended = true;
-                    return None;
-                }
-                Some(_) => self.last_content = n,
-                None => {}
-            }
-            self.words = words;
-            self.line = n;
-        }
-    }
-
-    fn peek(&mut self) -> Option<Tok<'a>> {
-        if self.peeked.is_none() {
-            self.peeked = self.read();
-        }
-        self.peeked
-    }
-
-    fn next(&mut self) -> Option<Tok<'a>> {
-        self.peek();
-        self.peeked.take()
-    }
-
-    /// The line to blame when the hierarchy runs out: the `MOTION` line, or the file's last
-    /// line with content.
-    fn eof_line(&self) -> usize {
-        self.motion_line.unwrap_or(self.last_content)
-    }
-}
-
-/// A joint as read from the hierarchy, in file units.
-#[derive(Clone, Debug)]
-pub(super) struct PJoint {
-    name: String,
-    parent: Option<usize>,
-    line: usize,
-    offset: DVec3,
-    has_offset: bool,
-    pub(super) channels: Vec<Channel>,
-    has_channels: bool,
-    end_site: Option<DVec3>,
-}
-
-struct Parser<'a, 'p> {
-    path: &'p Path,
-    tokens: Tokens<'a>,
-}
-
-impl<'a> Parser<'a, '_> {
-    fn err(&self, line: usize, message: impl Into<String>) -> Error {
-        parse_error(self.path, line, message)
-    }
-
-    fn next(&mut self, expected: &str) -> Result<Tok<'a>> {
-        match self.tokens.next() {
-            Some(t) => Ok(t),
-            None => Err(self.err(
-                self.tokens.eof_line(),
-                format!("the hierarchy ends here, but {expected} was expected"),
-            )),
-        }
-    }
-
-    fn expect(&mut self, word: &str) -> Result<Tok<'a>> {
-        let t = self.next(&format!("\"{word}\""))?;
-        if t.text.eq_ignore_ascii_case(word) {
-            Ok(t)
-        } else {
-            Err(self.err(t.line, format!("expected \"{word}\", found \"{}\"", t.text)))
-        }
-    }
-
-    fn number(&mut self, what: &str) -> Result<f64> {
-        let t = self.next(what)?;
-        let v = parse_number(t.text)
-            .ok_or_else(|| self.err(t.line, format!("expected {what}, found \"{}\"", t.text)))?;
-        check_range(v, what).map_err(|m| self.err(t.line, m))
-    }
-
-    /// The rest of the keyword's line (a joint name may contain spaces), minus a trailing
-    /// `{` some writers put on the same line.
-    fn name_after(&mut self, keyword: Tok<'a>) -> String {
-        let mut words = Vec::new();
-        while let Some(t) = self.tokens.peek() {
-            if t.line != keyword.line || t.text == "{" {
-                break;
-            }
-            words.push(t.text);
-            self.tokens.next();
-        }
-        words.join(" ")
-    }
-
-    fn offset(&mut self) -> Result<DVec3> {
-        let x = self.number("the OFFSET's X value")?;
-        let y = self.number("the OFFSET's Y value")?;
-        let z = self.number("the OFFSET's Z value")?;
-        Ok(DVec3::new(x, y, z))
-    }
-
-    /// A new joint named on `keyword`'s line, unless the skeleton is already full.
-    fn joint(
-        &mut self,
-        joints: &mut Vec<PJoint>,
-        keyword: Tok<'a>,
-        parent: Option<usize>,
-    ) -> Result<usize> {
-        if joints.len() >= MAX_JOINTS {
-            return Err(self.err(
-                keyword.line,
-                format!("a skeleton may have at most {MAX_JOINTS} joints; this is one more"),
-            ));
-        }
-        let name = self.name_after(keyword);
-        self.expect("{")?;
-        joints.push(new_joint(name, parent, keyword.line));
-        Ok(joints.len() - 1)
-    }
-
-    fn channels(&mut self, joint: &PJoint) -> Result<Vec<Channel>> {
-        let t = self.next("the channel count")?;
-        let n: usize = t.text.parse().map_err(|_| {
-            self.err(
-                t.line,
-                format!(
-                    "expected the channel count after CHANNELS, found \"{}\"",
-                    t.text
-                ),
-            )
-        })?;
-        if n > MAX_CHANNELS_PER_JOINT {
-            return Err(self.err(
-                t.line,
-                format!(
-                    "joint \"{}\" lists {n} channels; a joint may have at most {MAX_CHANNELS_PER_JOINT}",
-                    joint.name
-                ),
-            ));
-        }
-        let mut channels = Vec::with_capacity(n);
-        for k in 0..n {
-            let t = self.next(&format!("channel {} of {n}", k + 1))?;
-            let ch = Channel::parse(t.text).ok_or_else(|| {
-                self.err(
-                    t.line,
-                    format!(
-                        "expected channel {} of {n} (such as Xposition or Zrotation), found \"{}\"",
-                        k + 1,
-                        t.text
-                    ),
-                )
-            })?;
-            channels.push(ch);
-        }
-        Ok(channels)
-    }
-
-    fn hierarchy(&mut self) -> Result<Vec<PJoint>> {
-        self.hierarchy_keyword()?;
-        let mut joints: Vec<PJoint> = Vec::new();
-        // The joints whose braces are open, innermost last: an explicit stack, so nesting
-        // depth costs memory, never the call stack.
-        let mut open: Vec<usize> = Vec::new();
-        loop {
-            let Some(tok) = self.tokens.next() else {
-                if let Some(&j) = open.last() {
-                    return Err(self.err(
-                        self.tokens.eof_line(),
-                        format!(
-                            "the hierarchy ends here, but joint \"{}\" (line {}) has no closing \"}}\"",
-                            joints[j].name, joints[j].line
-                        ),
-                    ));
-                }
-                if joints.is_empty() {
-                    return Err(self.err(self.tokens.eof_line(), "the hierarchy has no ROOT joint"));
-                }
-                return Ok(joints);
-            };
-            let Some(&current) = open.last() else {
-                if tok.text.eq_ignore_ascii_case("ROOT") {
-                    open.push(self.joint(&mut joints, tok, None)?);
-                    continue;
-                }
-                return Err(self.err(
-                    tok.line,
-                    format!("expected \"ROOT\" or \"MOTION\", found \"{}\"", tok.text),
-                ));
-            };
-            self.inside_joint(&mut joints, &mut open, current, tok)?;
-        }
-    }
-
-    /// The `HIERARCHY` keyword a BVH file starts with.
-    fn hierarchy_keyword(&mut self) -> Result<()> {
-        match self.tokens.next() {
-            Some(t) if t.text.eq_ignore_ascii_case("HIERARCHY") => Ok(()),
-            Some(t) => Err(self.err(
-                t.line,
-                format!(
-                    "expected \"HIERARCHY\" at the start of a BVH file, found \"{}\"",
-                    t.text
-                ),
-            )),
-            None => Err(self.err(self.tokens.eof_line(), "the file has no HIERARCHY section")),
-        }
-    }
-
-    /// One item inside joint `current`'s braces, starting with `tok`: its OFFSET, its
-    /// CHANNELS, a child JOINT (opened), its End Site, or the closing brace.
-    fn inside_joint(
-        &mut self,
-        joints: &mut Vec<PJoint>,
-        open: &mut Vec<usize>,
-        current: usize,
-        tok: Tok<'a>,
-    ) -> Result<()> {
-        let word = tok.text;
-        if word.eq_ignore_ascii_case("OFFSET") {
-            if joints[current].has_offset {
-                return Err(self.err(
-                    tok.line,
-                    format!("joint \"{}\" has a second OFFSET", joints[current].name),
-                ));
-            }
-            joints[current].offset = self.offset()?;
-            joints[current].has_offset = true;
-        } else if word.eq_ignore_ascii_case("CHANNELS") {
-            if joints[current].has_channels {
-                return Err(self.err(
-                    tok.line,
-                    format!(
-                        "joint \"{}\" has a second CHANNELS line",
-                        joints[current].name
-                    ),
-                ));
-            }
-            joints[current].channels = self.channels(&joints[current])?;
-            joints[current].has_channels = true;
-        } else if word.eq_ignore_ascii_case("JOINT") {
-            open.push(self.joint(joints, tok, Some(current))?);
-        } else if word.eq_ignore_ascii_case("End") {
-            if self
-                .tokens
-                .peek()
-                .is_some_and(|t| t.text.eq_ignore_ascii_case("Site"))
-            {
-                self.tokens.next();
-            }
-            if joints[current].end_site.is_some() {
-                return Err(self.err(
-                    tok.line,
-                    format!("joint \"{}\" has a second End Site", joints[current].name),
-                ));
-            }
-            self.expect("{")?;
-            self.expect("OFFSET")?;
-            let off = self.offset()?;
-            self.expect("}")?;
-            joints[current].end_site = Some(off);
-        } else if word == "}" {
-            if !joints[current].has_offset {
-                return Err(self.err(
-                    joints[current].line,
-                    format!("joint \"{}\" has no OFFSET", joints[current].name),
-                ));
-            }
-            open.pop();
-        } else {
-            return Err(self.err(
-                tok.line,
-                format!(
-                    "unexpected \"{word}\" inside joint \"{}\" (expected OFFSET, CHANNELS, JOINT, End Site or \"}}\")",
-                    joints[current].name
-                ),
-            ));
-        }
-        Ok(())
-    }
-}
-
-fn new_joint(name: String, parent: Option<usize>, line: usize) -> PJoint {
-    PJoint {
-        name,
-        parent,
-        line,
-        offset: DVec3::ZERO,
-        has_offset: false,
-        channels: Vec::new(),
-        has_channels: false,
-        end_site: None,
-    }
-}
-
-/// A finite number that also fits an `f32` (the crate's working precision).
-pub(super) fn parse_number(s: &str) -> Option<f64> {
-    let v: f64 = s.parse().ok()?;
-    (v.is_finite() && (v as f32).is_finite()).then_some(v)
-}
-
-/// `v` when it is within [`MAX_VALUE`], else the sentence saying so.
-pub(super) fn check_range(v: f64, what: &str) -> std::result::Result<f64, String> {
-    if v.abs() <= MAX_VALUE {
-        Ok(v)
-    } else {
-        Err(format!(
-            "{what} is {v}, beyond the ±{MAX_VALUE} a BVH value may be (offsets and positions in file units, angles in degrees)"
-        ))
-    }
 }
 
 /// Rest-pose positions of every joint and End Site, in file units and axes.

@@ -12,7 +12,7 @@
 //! - `cone_tilt_deg = [ty, tz]`: the parent side of the joint frame is the frame turned
 //!   about its Y by `ty`, then about the turned Z by `tz` (`frame · Ry(ty) · Rz(tz)`, as
 //!   the world builds it), so the cone centre is `Ry(ty) · Rz(tz) · X` in the joint frame.
-//!   [`cone_centre`] computes it.
+//!   [`cone_centre`](joints::cone_centre) computes it.
 
 mod collision;
 mod joints;
