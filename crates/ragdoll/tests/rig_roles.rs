@@ -402,7 +402,8 @@ fn unnamed(c: &Character) -> Character {
 
 /// A humanoid without names (found by the skeleton's shape alone) lying in its file gets
 /// the ragdoll it gets standing, as a named one does: its shape is checked again turned
-/// by each quarter or half turn. Before, it was a creature weighed by its volume.
+/// by each quarter or half turn, else by its longest axis, and the turn kept stands its
+/// own trunk and legs up. Before, it was a creature weighed by its volume.
 #[test]
 fn an_unnamed_humanoid_lying_in_its_file_gets_the_ragdoll_it_gets_standing() {
     let standing = unnamed(&humanoid());
@@ -410,11 +411,15 @@ fn an_unnamed_humanoid_lying_in_its_file_gets_the_ragdoll_it_gets_standing() {
     assert!(roles.humanoid, "{}", roles.why);
     assert!(roles.why.contains("skeleton's shape"), "{}", roles.why);
     let spec = build_spec(&standing, &BuildOptions::default()).unwrap();
-    // Leaning (recognised as it is, then measured stood up), as far as the shape alone
-    // is still found leaning: at 41° the shape alone no longer finds it.
-    let tilts = [25f32, 35.0].map(|deg| {
+    // Leaning a little (recognised as it is, then measured stood up) or a lot (stood up
+    // by its longest axis, or by the nearest quarter turn and then by its own trunk and
+    // legs).
+    let tilts = [25f32, 35.0, 41.0, 57.0, 70.0, 110.0, 150.0].map(|deg| {
         let axis = Vec3::new(1.0, 0.0, 1.0).normalize();
-        ("tilted", Quat::from_axis_angle(axis, deg.to_radians()))
+        (
+            Box::leak(format!("tilted {deg}°").into_boxed_str()) as &str,
+            Quat::from_axis_angle(axis, deg.to_radians()),
+        )
     });
     for (how, q) in lying_turns().into_iter().chain(tilts) {
         let lying = standing.rotated(q);

@@ -85,6 +85,12 @@ impl ResolvedJoint {
     }
 }
 
+/// A pose this close to a limit, degrees, lies on it rather than past it. Angles read back
+/// from f32 transforms carry noise of about 1e-5°, and a straight elbow or knee rests
+/// exactly on its limit: the noise alone decided whether its limit was widened by the
+/// whole margin (the same figure built standing and stood up from lying differed by 5°).
+const ON_LIMIT_DEG: f32 = 0.01;
+
 impl ResolvedJoint {
     /// Widens the limits so the pose of these two bodies lies `margin_deg` inside them;
     /// returns whether anything changed.
@@ -96,14 +102,15 @@ impl ResolvedJoint {
     ) -> bool {
         let a = self.angles(parent, child);
         let (swing, twist) = (a.swing.to_degrees(), a.twist.to_degrees());
+        let t = ON_LIMIT_DEG;
         let mut changed = false;
         match &mut self.kind {
             JointKind::Hinge { min_deg, max_deg } => {
-                if twist < *min_deg {
+                if twist < *min_deg - t {
                     *min_deg = twist - margin_deg;
                     changed = true;
                 }
-                if twist > *max_deg {
+                if twist > *max_deg + t {
                     *max_deg = twist + margin_deg;
                     changed = true;
                 }
@@ -113,15 +120,15 @@ impl ResolvedJoint {
                 twist_deg,
                 ..
             } => {
-                if swing > *swing_deg {
+                if swing > *swing_deg + t {
                     *swing_deg = (swing + margin_deg).min(180.0);
                     changed = true;
                 }
-                if twist < twist_deg[0] {
+                if twist < twist_deg[0] - t {
                     twist_deg[0] = twist - margin_deg;
                     changed = true;
                 }
-                if twist > twist_deg[1] {
+                if twist > twist_deg[1] + t {
                     twist_deg[1] = twist + margin_deg;
                     changed = true;
                 }

@@ -62,36 +62,88 @@ pub(super) fn stood_up(
     None
 }
 
-/// The roles the skeleton's shape alone gives the character stood up by a quarter or half
-/// turn (the turns an exporter's axis swap makes), when exactly one such turn gives a
-/// humanoid in the rest pose, else in the first animation frame (`rigs`, the caller's:
-/// the rest pose first). An unnamed humanoid lying down in its file (CesiumMan exported
-/// Z-up) then gets the ragdoll it gets standing.
+/// The roles the skeleton's shape alone gives the character stood up, when exactly one
+/// way up gives a humanoid in the rest pose, else in the first animation frame (`rigs`,
+/// the caller's: the rest pose first). The ways tried are the quarter and half turns an
+/// exporter's axis swap makes, then, when none of them stands it up, either end of the
+/// skeleton's longest axis (a figure lying at a slant). The turn kept is the one that
+/// stands the found figure's own trunk and legs up ([`settled`]). An unnamed humanoid
+/// lying down in its file (CesiumMan exported Z-up) then gets the ragdoll it gets
+/// standing.
 ///
-/// Only whole turns, and only a single answer: without names nothing says which way is
-/// up, so the turned skeleton must pass every check of the shape on its own, two legs
-/// reaching the ground below a rising spine with two arms. A quadruped stood on end does
-/// not (its legs then point along the ground, and on its back they point up); a figure
-/// two turns would both stand up is not told apart from a creature and stays one.
+/// Only a single answer: without names nothing says which way is up, so the turned
+/// skeleton must pass every check of the shape on its own, two legs reaching the ground
+/// below a rising spine with two arms. A quadruped stood on end does not (its legs then
+/// point along the ground, and on its back they point up); a figure two turns would both
+/// stand up is not told apart from a creature and stays one.
 pub(super) fn stood_up_by_shape(rigs: &[(&Rig, &str)]) -> Option<Roles> {
     for &(rig, pose) in rigs {
-        let mut found = [Vec3::X, Vec3::NEG_X, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z]
-            .into_iter()
-            .filter_map(|up| {
-                let q = Quat::from_rotation_arc(up, Vec3::Y);
-                let turned = rig.turned(q);
-                let h = structure::find_humanoid(&turned)?;
-                let how = format!(
-                    "from the skeleton's shape in the {pose} (two legs to the ground, a spine, two arms), checked with the character stood up (its {pose} lies with the head toward {})",
-                    direction_words(up)
-                );
-                Some(humanoid_roles(&turned, &h, how, Some(q)))
-            });
-        if let Some(roles) = found.next() {
-            return found.next().is_none().then_some(roles);
+        let axes = [Vec3::X, Vec3::NEG_X, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z];
+        let mut found = standing_shapes(rig, pose, &axes);
+        if found.is_empty() {
+            let weights = vec![1.0; rig.pos.len()];
+            let (_, [long, ..], _) = crate::math::principal_axes(&rig.pos, &weights);
+            found = standing_shapes(rig, pose, &[long, -long]);
+        }
+        match found.as_slice() {
+            [] => continue,
+            [(up, roles)] => return Some(settled(rig, pose, *up, roles.clone())),
+            _ => return None,
         }
     }
     None
+}
+
+/// Each way up in `ups` (file axes) under which `rig`'s shape is a humanoid, with its roles
+/// (two at most: a second answer already makes the shape ambiguous).
+fn standing_shapes(rig: &Rig, pose: &str, ups: &[Vec3]) -> Vec<(Vec3, Roles)> {
+    (ups.iter())
+        .filter_map(|&up| Some((up, shape_stood_up(rig, pose, up)?)))
+        .take(2)
+        .collect()
+}
+
+/// The roles of `rig`'s shape turned so that `up` (file axes) points up, if it is a
+/// humanoid then.
+fn shape_stood_up(rig: &Rig, pose: &str, up: Vec3) -> Option<Roles> {
+    let q = Quat::from_rotation_arc(up, Vec3::Y);
+    let turned = rig.turned(q);
+    let h = structure::find_humanoid(&turned)?;
+    let how = format!(
+        "from the skeleton's shape in the {pose} (two legs to the ground, a spine, two arms), checked with the character stood up (its {pose} lies with the head toward {})",
+        direction_words(up)
+    );
+    Some(humanoid_roles(&turned, &h, how, Some(q)))
+}
+
+/// `roles`, found with `rig` turned so that `up` points up, found again with it turned so
+/// that the figure's own trunk and legs do ([`body_up`], exactly along an axis within
+/// [`AXIS_SNAP_DEG`]) when that differs: a figure lying at a slant, stood up by its
+/// longest axis or by the nearest quarter turn, otherwise keeps the rest of its lean in
+/// every joint frame. The same joints must carry the same roles (sides may change, as in
+/// [`level`]).
+fn settled(rig: &Rig, pose: &str, up: Vec3, roles: Roles) -> Roles {
+    let Some(own) = body_up(&rig.pos, &roles).map(snapped) else {
+        return roles;
+    };
+    if own.angle_between(up) < 1e-4 {
+        return roles;
+    }
+    match shape_stood_up(rig, pose, own) {
+        Some(better) if same_joints(&better, &roles) => better,
+        _ => roles,
+    }
+}
+
+/// Whether `a` and `b` give the same joints the same roles, sides aside.
+fn same_joints(a: &Roles, b: &Roles) -> bool {
+    let unsided = |r: &Option<Role>| {
+        r.map(|r| {
+            let s = r.as_str();
+            s.strip_suffix("_l").or(s.strip_suffix("_r")).unwrap_or(s)
+        })
+    };
+    (a.per_joint.iter().map(unsided)).eq(b.per_joint.iter().map(unsided))
 }
 
 /// `roles` found as the character stands in its file, or, where its rest pose leans more
@@ -125,17 +177,10 @@ pub(super) fn level(
     let q = Quat::from_rotation_arc(snapped(up), Vec3::Y);
     let mut stood = again(&character.rotated(q), q);
     // The same joints must carry the same roles; only their sides may change: the side
-    // checks read left and right across the vertical, so a figure tilted 42° (CesiumMan
-    // turned about a diagonal) had its arms' sides swapped as it lay, and stood up has
+    // checks read left and right across the vertical, so a figure tilted 41° (CesiumMan
+    // turned about a diagonal) had its arms' sides swapped as it leaned, and stood up has
     // them right.
-    let unsided = |r: &Option<Role>| {
-        r.map(|r| {
-            let s = r.as_str();
-            s.strip_suffix("_l").or(s.strip_suffix("_r")).unwrap_or(s)
-        })
-    };
-    let same_joints = (stood.per_joint.iter().map(unsided)).eq(roles.per_joint.iter().map(unsided));
-    if !(stood.humanoid && same_joints) {
+    if !(stood.humanoid && same_joints(&stood, &roles)) {
         return roles;
     }
     stood.why = format!(
