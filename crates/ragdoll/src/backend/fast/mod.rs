@@ -30,6 +30,7 @@ mod body;
 mod box_capsule;
 mod contact;
 mod island;
+mod narrow;
 mod sleep;
 mod solve;
 
