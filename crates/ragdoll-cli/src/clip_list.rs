@@ -7,7 +7,7 @@ use anyhow::Result;
 use ragdoll::import::{self, ClipChoice};
 use ragdoll::skeleton::{Character, Clip};
 
-use crate::commands::import_error;
+use crate::character::import_error;
 
 /// The character's clips as read, before `--clip` keeps one.
 pub struct Clips {

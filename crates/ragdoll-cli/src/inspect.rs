@@ -5,7 +5,7 @@ use anyhow::{Context, Result};
 use ragdoll::skeleton::Character;
 use ragdoll::spec::{self, RagdollSpec, Roles};
 
-use crate::commands::{load, ragdoll, ragdoll_spec};
+use crate::character::{load, ragdoll, ragdoll_spec};
 use crate::{BuildArgs, ImportArgs, InspectArgs, clip_list, output};
 
 pub fn build(a: &BuildArgs) -> Result<()> {

@@ -37,6 +37,7 @@ macro_rules! out {
 }
 
 mod bench;
+mod character;
 mod checks;
 mod clip_list;
 mod commands;

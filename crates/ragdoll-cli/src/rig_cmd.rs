@@ -141,7 +141,7 @@ pub fn run(a: &RigArgs) -> Result<()> {
     let progress = Progress::new(0, &format!("rigging {}", a.file.display()));
     let character = import::load_rigged(
         &a.file,
-        &crate::commands::import_options(&import_args),
+        &crate::character::import_options(&import_args),
         &opts,
     )
     .map_err(rig_flag_error)?;

@@ -12,7 +12,7 @@ use ragdoll::scene::Scene;
 use ragdoll::world::{StartPose, WorldSettings};
 use ragdoll_view::{ViewOptions, Viewer, single_character_scene};
 
-use crate::commands::{load_or_builtin, ragdoll_spec};
+use crate::character::{load_or_builtin, ragdoll_spec};
 use crate::scene_cmd::is_scene;
 use crate::{ImportArgs, RagdollArgs};
 
