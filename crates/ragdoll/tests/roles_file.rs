@@ -125,6 +125,48 @@ fn ignoring_a_joint_takes_its_body_away() {
     assert_eq!(spec.bodies.len(), 15);
 }
 
+/// Joints without names (CesiumMan's are all unnamed) are named in a roles file as
+/// `inspect` prints them, `joint<i>`, lying in the file or not. Before, every such line
+/// was refused: "\"joint0\" is not a joint of CesiumMan; the closest names are
+/// \"joint0\", ...".
+#[test]
+fn unnamed_joints_are_named_by_their_labels() {
+    let mut c = humanoid();
+    let mut joints: Vec<Joint> = c.skeleton.joints().to_vec();
+    for j in &mut joints {
+        j.name.clear();
+    }
+    c.skeleton = Skeleton::new(joints).unwrap();
+    let plain = humanoid();
+    let label = |name: &str| format!("joint{}", plain.skeleton.find(name).unwrap());
+    let text = format!(
+        "ignore = [\"{}\"]\n[roles]\nhead = \"{}\"\n",
+        label("hand_l"),
+        label("neck")
+    );
+    for (how, q) in [
+        ("standing", glam::Quat::IDENTITY),
+        (
+            "lying",
+            glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2),
+        ),
+    ] {
+        let c = c.rotated(q);
+        let roles = roles_with_file(&c, &roles_file(&text)).unwrap();
+        assert!(roles.humanoid, "{how}: {}", roles.why);
+        let at = |name: &str| roles.per_joint[plain.skeleton.find(name).unwrap()];
+        assert_eq!(at("neck"), Some(Role::Head), "{how}");
+        assert_eq!(at("head"), None, "{how}");
+        assert_eq!(at("hand_l"), None, "{how}");
+        assert_eq!(at("thigh_l"), Some(Role::ThighL), "{how}");
+    }
+    let e = error(&c, "[roles]\nhead = \"joint99\"\n");
+    assert!(
+        e.contains("line 2") && e.contains("\"joint99\" is not a joint"),
+        "{e}"
+    );
+}
+
 #[test]
 fn mistakes_are_one_sentence_naming_the_line_and_the_key() {
     let c = humanoid();

@@ -122,12 +122,15 @@ pub fn roles_with_file(character: &Character, file: &RoleFile) -> Result<Roles> 
     })
 }
 
-/// Each entry's joint index; unknown, ambiguous or doubly given joints are errors.
+/// Each entry's joint index; unknown, ambiguous or doubly given joints are errors. A joint
+/// is named as `inspect` prints it: by its name, or `joint<i>` when it has none (CesiumMan's
+/// joints are all unnamed).
 fn resolve(character: &Character, file: &RoleFile) -> Result<Vec<usize>> {
     let s = &character.skeleton;
+    let labels: Vec<String> = (0..s.len()).map(|i| s.joint_label(i)).collect();
     let mut by_name: HashMap<&str, (usize, usize)> = HashMap::with_capacity(s.len());
-    for (i, j) in s.joints().iter().enumerate() {
-        by_name.entry(j.name.as_str()).or_insert((i, 0)).1 += 1;
+    for (i, label) in labels.iter().enumerate() {
+        by_name.entry(label.as_str()).or_insert((i, 0)).1 += 1;
     }
     let mut owner: HashMap<usize, &Entry> = HashMap::new();
     let mut out = Vec::with_capacity(file.entries.len());
