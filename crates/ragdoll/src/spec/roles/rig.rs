@@ -397,6 +397,40 @@ mod tests {
         }
     }
 
+    /// Turning the rig is turning the character first: the same positions, tips, skin and
+    /// per-subtree facts, to rounding, without copying the character's meshes and clips.
+    #[test]
+    fn spec_roles_a_turned_rig_is_the_rig_of_the_turned_character() {
+        let mut c = crate::skeleton::humanoid();
+        c.meshes = crate::spec::bodies_mesh(
+            &c.skeleton,
+            &crate::spec::build_spec(&c, &Default::default()).unwrap(),
+        )
+        .into_iter()
+        .collect();
+        let q = glam::Quat::from_axis_angle(Vec3::new(1.0, 2.0, 0.5).normalize(), 1.3);
+        let turned = c.rotated(q);
+        let (a, b) = (Rig::new(&c).turned(q), Rig::new(&turned));
+        let near = |x: Vec3, y: Vec3| (x - y).length() < 1e-5;
+        assert!(a.pos.iter().zip(&b.pos).all(|(x, y)| near(*x, *y)));
+        assert!((a.tips.iter().zip(&b.tips)).all(|(x, y)| match (x, y) {
+            (Some(x), Some(y)) => near(*x, *y),
+            (x, y) => x.is_none() && y.is_none(),
+        }));
+        assert!(!a.verts.is_empty() && a.verts.len() == b.verts.len());
+        assert!((a.verts.iter().zip(&b.verts)).all(|(x, y)| near(x.0, y.0) && x.1 == y.1));
+        assert_eq!(a.skin_weight, b.skin_weight);
+        for (x, y) in [
+            (a.ground, b.ground),
+            (a.height, b.height),
+            (a.extent, b.extent),
+        ] {
+            assert!((x - y).abs() < 1e-5, "{x} {y}");
+        }
+        assert!((a.sub_lo.iter().zip(&b.sub_lo)).all(|(x, y)| (x - y).abs() < 1e-5));
+        assert_eq!(a.highest_sibling, b.highest_sibling);
+    }
+
     #[test]
     fn spec_roles_subtree_facts_match_the_walks_they_replace() {
         for seed in 1..20u64 {
