@@ -103,7 +103,8 @@ pub fn is_gltf(path: &Path) -> bool {
 /// [`load`], rigging a mesh without a skeleton with `rig` (ignored for files that have
 /// one).
 ///
-/// After the importer: `height_m` rescales the character, `clip` keeps one clip, and a
+/// After the importer: `height_m` rescales the character (its standing height, when it
+/// lies down in its file), `clip` keeps one clip, and a
 /// character outside [`PLAUSIBLE_HEIGHT_M`] (its size not given) gets a warning that
 /// states its height.
 pub fn load_rigged(path: &Path, opts: &ImportOptions, rig: &RigOptions) -> Result<Character> {
@@ -111,6 +112,9 @@ pub fn load_rigged(path: &Path, opts: &ImportOptions, rig: &RigOptions) -> Resul
     let mut character = read(path, opts, rig)?;
     if let Some(choice) = &opts.clip {
         choose_clip(&mut character, choice, path)?;
+    }
+    if let Some(h) = opts.height_m {
+        size::stand_to_height(&mut character, h, path)?;
     }
     if opts.height_m.is_none()
         && let Some(w) = size::implausible(&character, path)

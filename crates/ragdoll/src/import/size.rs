@@ -136,6 +136,22 @@ pub(super) fn scale_to_height(c: &mut Character, height_m: f32, path: &Path) -> 
     scale(c, s, path)
 }
 
+/// Scales a character already scaled to `height_m` as its file stands again, when it
+/// lies down in its file: its height is then its standing one, measured stood up the way
+/// role recognition stands it up ([`crate::spec::Roles::upright`]). Measured as the file
+/// stands, a figure lying on its back is as tall as it is thick, and `--height 1.8` made
+/// the Mannequiny lying 5.7 times too large.
+pub(super) fn stand_to_height(c: &mut Character, height_m: f32, path: &Path) -> Result<()> {
+    let Some(q) = crate::spec::recognise_roles(c).upright else {
+        return Ok(());
+    };
+    let s = factor_for(character_height(&c.rotated(q)), height_m, path)?;
+    if (s - 1.0).abs() < 1e-6 {
+        return Ok(());
+    }
+    scale(c, s, path)
+}
+
 /// Scales a character uniformly about the origin by `s`, in the way its source's exporter
 /// can write back (module docs). The skeleton and clips are checked again against
 /// [`MAX_REACH_M`].
@@ -266,6 +282,31 @@ mod tests {
             e.to_string().contains("flat.glb: rest pose: is flat"),
             "{e}"
         );
+    }
+
+    /// A humanoid lying in its file is scaled to its standing height, not to the
+    /// thickness its file's vertical sees; one standing is scaled as before.
+    #[test]
+    fn a_lying_humanoid_is_scaled_to_its_standing_height() {
+        let standing = crate::skeleton::humanoid();
+        let tall = character_height(&standing);
+        for (how, q) in [
+            ("standing", glam::Quat::IDENTITY),
+            (
+                "on its back",
+                glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2),
+            ),
+            (
+                "on its side",
+                glam::Quat::from_rotation_z(std::f32::consts::FRAC_PI_2),
+            ),
+        ] {
+            let mut c = standing.rotated(q);
+            scale_to_height(&mut c, 1.8, Path::new("c.glb")).unwrap();
+            stand_to_height(&mut c, 1.8, Path::new("c.glb")).unwrap();
+            let h = character_height(&c.rotated(q.inverse()));
+            assert!((h - 1.8).abs() < 1e-4, "{how}: {h} m tall (was {tall})");
+        }
     }
 
     #[test]
