@@ -203,7 +203,7 @@ fn simulate_character(
     check_finite(&character.name, metrics.nan, &track, settings.backend)?;
     let mut report = Report::new(
         input,
-        ragdoll::import::character_height(character),
+        ragdoll::import::standing_height(character),
         spec,
         &track,
         metrics,

@@ -23,9 +23,10 @@ pub struct Report {
     pub fps: f32,
     /// Simulated seconds.
     pub seconds: f32,
-    /// Height of the character's rest pose, metres (its size scale): its skin's where it
-    /// has one ([`crate::import::character_height`]), else its skeleton's, whose head joint
-    /// sits at the base of the skull (a chibi knight's is half its height).
+    /// Height of the character's rest pose standing, metres (its size scale): its skin's
+    /// where it has one ([`crate::import::standing_height`]: stood up when it lies in its
+    /// file), else its skeleton's, whose head joint sits at the base of the skull (a chibi
+    /// knight's is half its height).
     pub height_m: f32,
     /// Number of rigid bodies.
     pub bodies: usize,

@@ -25,6 +25,7 @@ mod size;
 pub use clip::{ClipChoice, choose_clip};
 pub use size::{
     MAX_HEIGHT_M, MIN_HEIGHT_M, PLAUSIBLE_HEIGHT_M, character_height, humanoid_of_height,
+    standing_height,
 };
 
 use std::path::Path;

@@ -46,17 +46,41 @@ pub(super) fn check_height(height_m: Option<f32>) -> Result<()> {
 /// any (the top of the head, not the head joint), else of its skeleton's joints and bone
 /// tips.
 pub fn character_height(c: &Character) -> f32 {
-    mesh_height(&c.meshes).unwrap_or_else(|| c.skeleton.rest_height())
+    height_along(c, Vec3::Y)
+}
+
+/// [`character_height`] of the character standing: measured along the way its roles
+/// stand it up ([`crate::spec::Roles::upright`]) when it lies down in its file, else as
+/// its file stands it. Measured as the file stands, a figure lying on its back is as tall
+/// as it is thick (the Mannequiny lying: 0.35 m).
+pub fn standing_height(c: &Character) -> f32 {
+    let up = crate::spec::recognise_roles(c)
+        .upright
+        .map_or(Vec3::Y, |q| q.inverse() * Vec3::Y);
+    height_along(c, up)
+}
+
+/// The character's extent along `up` (unit) in its rest pose: of its meshes, else of its
+/// joints and bone ends.
+fn height_along(c: &Character, up: Vec3) -> f32 {
+    let meshes = c.meshes.iter().flat_map(|m| &m.positions).copied();
+    extent_along(meshes, up).unwrap_or_else(|| {
+        let joints = c.skeleton.rest_world().into_iter().map(|t| t.translation);
+        let ends = c.skeleton.rest_bone_ends().into_iter().flatten();
+        extent_along(joints.chain(ends), up).unwrap_or(0.0)
+    })
+}
+
+fn extent_along(points: impl Iterator<Item = Vec3>, up: Vec3) -> Option<f32> {
+    let (lo, hi) = points.fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| {
+        let h = p.dot(up);
+        (lo.min(h), hi.max(h))
+    });
+    (hi >= lo).then_some(hi - lo)
 }
 
 fn mesh_height(meshes: &[SkinnedMesh]) -> Option<f32> {
-    let (lo, hi) = meshes
-        .iter()
-        .flat_map(|m| &m.positions)
-        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| {
-            (lo.min(p.y), hi.max(p.y))
-        });
-    (hi >= lo).then_some(hi - lo)
+    extent_along(meshes.iter().flat_map(|m| &m.positions).copied(), Vec3::Y)
 }
 
 /// A warning when the character's height lies outside [`PLAUSIBLE_HEIGHT_M`].
@@ -142,10 +166,7 @@ pub(super) fn scale_to_height(c: &mut Character, height_m: f32, path: &Path) -> 
 /// stands, a figure lying on its back is as tall as it is thick, and `--height 1.8` made
 /// the Mannequiny lying 5.7 times too large.
 pub(super) fn stand_to_height(c: &mut Character, height_m: f32, path: &Path) -> Result<()> {
-    let Some(q) = crate::spec::recognise_roles(c).upright else {
-        return Ok(());
-    };
-    let s = factor_for(character_height(&c.rotated(q)), height_m, path)?;
+    let s = factor_for(standing_height(c), height_m, path)?;
     if (s - 1.0).abs() < 1e-6 {
         return Ok(());
     }

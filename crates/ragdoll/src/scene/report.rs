@@ -81,7 +81,8 @@ pub struct CharacterReport {
     pub skeleton_joints: usize,
     /// Sum of its body masses, kg.
     pub total_mass_kg: f32,
-    /// Height of its rest pose, metres: its skin's where it has one, else its skeleton's.
+    /// Height of its rest pose standing (stood up when it lies in its file), metres: its
+    /// skin's where it has one, else its skeleton's.
     pub height_m: f32,
     /// Worst excursion of its joints beyond their limits while physical, degrees.
     pub max_limit_violation_deg: f32,
@@ -203,7 +204,7 @@ impl CharacterReport {
             joints: c.spec.joints.len(),
             skeleton_joints: track.frames.first().map_or(0, |f| f.len()),
             total_mass_kg: c.spec.total_mass_kg(),
-            height_m: crate::import::character_height(&c.character),
+            height_m: crate::import::standing_height(&c.character),
             // JSON has no infinity or NaN: serde_json writes those as `null`, and `nan` says
             // why.
             max_limit_violation_deg,
