@@ -323,6 +323,8 @@ mod tests {
             ),
         ] {
             let mut c = standing.rotated(q);
+            let h = standing_height(&c);
+            assert!((h - tall).abs() < 1e-4, "{how}: stands {h} m tall, not {tall}");
             scale_to_height(&mut c, 1.8, Path::new("c.glb")).unwrap();
             stand_to_height(&mut c, 1.8, Path::new("c.glb")).unwrap();
             let h = character_height(&c.rotated(q.inverse()));
