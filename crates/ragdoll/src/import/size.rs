@@ -83,9 +83,11 @@ fn mesh_height(meshes: &[SkinnedMesh]) -> Option<f32> {
     extent_along(meshes.iter().flat_map(|m| &m.positions).copied(), Vec3::Y)
 }
 
-/// A warning when the character's height lies outside [`PLAUSIBLE_HEIGHT_M`].
+/// A warning when the character's height, standing ([`standing_height`]), lies outside
+/// [`PLAUSIBLE_HEIGHT_M`]: a Z-up export in centimetres lies 1.8 m high and 0.3 m thick
+/// as its file stands it, a plausible size, while it stands 180 m tall.
 pub(super) fn implausible(c: &Character, path: &Path) -> Option<String> {
-    let h = character_height(c);
+    let h = standing_height(c);
     if PLAUSIBLE_HEIGHT_M.contains(&h) || !h.is_finite() || h <= 0.0 {
         return None;
     }
@@ -324,12 +326,32 @@ mod tests {
         ] {
             let mut c = standing.rotated(q);
             let h = standing_height(&c);
-            assert!((h - tall).abs() < 1e-4, "{how}: stands {h} m tall, not {tall}");
+            assert!(
+                (h - tall).abs() < 1e-4,
+                "{how}: stands {h} m tall, not {tall}"
+            );
             scale_to_height(&mut c, 1.8, Path::new("c.glb")).unwrap();
             stand_to_height(&mut c, 1.8, Path::new("c.glb")).unwrap();
             let h = character_height(&c.rotated(q.inverse()));
             assert!((h - 1.8).abs() < 1e-4, "{how}: {h} m tall (was {tall})");
         }
+    }
+
+    /// A centimetre file lying down (a Z-up export) is 100 times too tall standing, though
+    /// as thick as a tall person as it lies: the warning reads its standing height.
+    #[test]
+    fn a_lying_giant_is_told_its_standing_height() {
+        let lying = crate::skeleton::humanoid()
+            .rotated(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2));
+        assert_eq!(implausible(&lying, Path::new("ok.glb")), None);
+        let mut giant = lying.clone();
+        scale(&mut giant, 100.0, Path::new("cm.glb")).unwrap();
+        assert!(character_height(&giant) < PLAUSIBLE_HEIGHT_M.end() / 2.0);
+        let w = implausible(&giant, Path::new("cm.glb")).unwrap_or_default();
+        assert!(
+            w.contains("172.0 m tall") && w.contains("--units cm"),
+            "{w}"
+        );
     }
 
     #[test]
