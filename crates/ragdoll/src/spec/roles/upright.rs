@@ -12,8 +12,9 @@
 //! from the pose its file gives (lying).
 //!
 //! Without names or a table, the skeleton's shape is checked again turned by each quarter
-//! or half turn ([`stood_up_by_shape`]); it is taken only when exactly one turn stands a
-//! humanoid up, since nothing else says which way is up.
+//! or half turn, else by either end of its longest axis ([`stood_up_by_shape`]); it is
+//! taken only when exactly one way stands a humanoid up, since nothing else says which way
+//! is up.
 
 use glam::{Quat, Vec3};
 
