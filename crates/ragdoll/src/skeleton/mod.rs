@@ -321,6 +321,29 @@ impl Character {
         self.rotated(glam::Quat::from_rotation_y(yaw))
     }
 
+    /// [`Character::rotated`] with only what role recognition and the ragdoll builder read
+    /// of its animation, the first clip's first frame (the start pose): the other frames and
+    /// clips are left out rather than copied and turned, since a clip may hold 20 million
+    /// joint poses and a character lying in its file is turned several times while its
+    /// roles are checked.
+    pub(crate) fn rotated_start(&self, q: glam::Quat) -> Character {
+        let first = self.clips.first().map(|c| Clip {
+            name: c.name.clone(),
+            frame_time: c.frame_time,
+            frames: c.frames.first().cloned().into_iter().collect(),
+        });
+        let start = Character {
+            name: self.name.clone(),
+            skeleton: self.skeleton.clone(),
+            meshes: self.meshes.clone(),
+            clips: first.into_iter().collect(),
+            humanoid_bones: self.humanoid_bones.clone(),
+            warnings: self.warnings.clone(),
+            source: self.source.clone(),
+        };
+        start.rotated(q)
+    }
+
     /// The character turned by `q` about the origin, skeleton, skin and clips together.
     /// Role recognition stands a character up with it when its file has it lying down (a
     /// Z-up export read as Y-up): a ragdoll's bodies and joints are kept in its bones'

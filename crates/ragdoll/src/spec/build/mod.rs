@@ -75,7 +75,7 @@ pub fn build_spec_with_roles(
     let roles = super::roles_for(character, roles)?;
     // A character lying in its file is built stood up, as its roles were found; the spec
     // is in its bones' frames, so it fits the character as the file has it.
-    let turned = roles.upright.map(|q| character.rotated(q));
+    let turned = roles.upright.map(|q| character.rotated_start(q));
     let upright = turned.as_ref().unwrap_or(character);
     let rig = Rig::new(upright);
     let b = Builder::new(&rig, &roles, opts);

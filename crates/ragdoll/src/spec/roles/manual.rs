@@ -75,7 +75,7 @@ pub fn roles_with_file(character: &Character, file: &RoleFile) -> Result<Roles> 
         return Ok(roles);
     }
     // A character its file has lying down is checked as recognition stood it up.
-    let turned = base.upright.map(|q| character.rotated(q));
+    let turned = base.upright.map(|q| character.rotated_start(q));
     let character = turned.as_ref().unwrap_or(character);
     let rest = Rig::new(character);
     let posed = first_frame(character).map(|w| Rig::posed(character, w));

@@ -47,7 +47,7 @@ pub(super) fn stood_up(
             continue;
         }
         let q = Quat::from_rotation_arc(snapped(up), Vec3::Y);
-        let turned = character.rotated(q);
+        let turned = character.rotated_start(q);
         let Some(turned_rig) = rig_in(&turned, posed) else {
             continue;
         };
@@ -176,7 +176,7 @@ pub(super) fn level(
         return roles;
     }
     let q = Quat::from_rotation_arc(snapped(up), Vec3::Y);
-    let mut stood = again(&character.rotated(q), q);
+    let mut stood = again(&character.rotated_start(q), q);
     // The same joints must carry the same roles; only their sides may change: the side
     // checks read left and right across the vertical, so a figure tilted 41° (CesiumMan
     // turned about a diagonal) had its arms' sides swapped as it leaned, and stood up has
