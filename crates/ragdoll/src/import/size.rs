@@ -64,11 +64,7 @@ pub fn standing_height(c: &Character) -> f32 {
 /// joints and bone ends.
 fn height_along(c: &Character, up: Vec3) -> f32 {
     let meshes = c.meshes.iter().flat_map(|m| &m.positions).copied();
-    extent_along(meshes, up).unwrap_or_else(|| {
-        let joints = c.skeleton.rest_world().into_iter().map(|t| t.translation);
-        let ends = c.skeleton.rest_bone_ends().into_iter().flatten();
-        extent_along(joints.chain(ends), up).unwrap_or(0.0)
-    })
+    extent_along(meshes, up).unwrap_or_else(|| c.skeleton.rest_extent_along(up))
 }
 
 fn extent_along(points: impl Iterator<Item = Vec3>, up: Vec3) -> Option<f32> {

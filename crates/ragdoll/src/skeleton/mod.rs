@@ -207,14 +207,20 @@ impl Skeleton {
     /// Vertical extent of the rest pose over joints and bone tips, metres: the standing
     /// height of a humanoid, the size scale of anything else.
     pub fn rest_height(&self) -> f32 {
+        self.rest_extent_along(Vec3::Y)
+    }
+
+    /// [`Skeleton::rest_height`] along `up` (unit) instead of Y: the height of a
+    /// character whose file has it lying, measured the way it stands.
+    pub fn rest_extent_along(&self, up: Vec3) -> f32 {
         let world = self.rest_world();
         let ends = self.rest_bone_ends();
-        let ys = world
+        let hs = world
             .iter()
-            .map(|t| t.translation.y)
-            .chain(ends.iter().flatten().map(|p| p.y));
-        let (lo, hi) = ys.fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), y| {
-            (lo.min(y), hi.max(y))
+            .map(|t| t.translation.dot(up))
+            .chain(ends.iter().flatten().map(|p| p.dot(up)));
+        let (lo, hi) = hs.fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), h| {
+            (lo.min(h), hi.max(h))
         });
         (hi - lo).max(0.0)
     }
