@@ -108,12 +108,6 @@ impl FastBackend {
         rd.still_s = None;
     }
 
-    /// Whether body `i` moves under the solver (dynamic and awake).
-    #[inline]
-    pub(super) fn moving(&self, i: usize) -> bool {
-        !self.ragdolls[self.ragdoll_of[i]].asleep
-    }
-
     /// Recomputes which ragdolls something outside holds.
     pub(super) fn update_held(&mut self) {
         for r in &mut self.ragdolls {

@@ -101,7 +101,7 @@ impl FastBackend {
         self.holder.fill(NOTHING);
         if let Some(g) = self.settings.ground {
             for i in 0..self.pos.len() {
-                if self.moving(i) && self.inv_mass[i] > 0.0 {
+                if self.inv_mass[i] > 0.0 {
                     self.ground_contacts(i, g);
                 }
             }
@@ -109,9 +109,6 @@ impl FastBackend {
         for k in 0..self.collide.pairs.len() {
             let (a, b) = self.collide.pairs[k];
             let (a, b) = (a as usize, b as usize);
-            if !self.moving(a) && !self.moving(b) {
-                continue;
-            }
             if let Some(f) = self.pair_contact(a, b) {
                 if f.depth > -TOUCH_M && self.ragdoll_of[a] != self.ragdoll_of[b] {
                     self.collide.touching[a] = true;

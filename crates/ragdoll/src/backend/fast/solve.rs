@@ -61,7 +61,8 @@ impl FastBackend {
     }
 
     /// The substeps of one step of everything in this solver (one island's), and the
-    /// velocities the world sees.
+    /// velocities the world sees. An island holds awake ragdolls only, so nothing here
+    /// asks whether a body sleeps.
     pub(super) fn solve_step(&mut self, dt: f32) {
         let n = self.settings.substeps.max(1);
         let h = dt / n as f32;
@@ -81,14 +82,11 @@ impl FastBackend {
         self.observe_velocities(dt);
     }
 
-    /// Predicts every moving body's pose from its velocity; kinematic bodies go `frac` of
+    /// Predicts every dynamic body's pose from its velocity; kinematic bodies go `frac` of
     /// the way to their targets.
     fn integrate(&mut self, h: f32, frac: f32) {
         let g = self.settings.gravity;
         for i in 0..self.pos.len() {
-            if !self.moving(i) {
-                continue;
-            }
             self.prev_pos[i] = self.pos[i];
             self.prev_rot[i] = self.rot[i];
             if let Some(k) = self.kinematic[i] {
@@ -118,9 +116,6 @@ impl FastBackend {
     fn update_velocities(&mut self, h: f32) {
         let inv_h = 1.0 / h;
         for i in 0..self.pos.len() {
-            if !self.moving(i) {
-                continue;
-            }
             self.rot[i] = self.rot[i].normalize();
             if self.kinematic[i].is_some() {
                 self.vel[i] = (self.pos[i] - self.prev_pos[i]) * inv_h;
@@ -213,9 +208,6 @@ impl FastBackend {
     fn solve_joints(&mut self) {
         for k in 0..self.joints.len() {
             let (a, b) = (self.joints[k].a, self.joints[k].b);
-            if !self.moving(a) && !self.moving(b) {
-                continue;
-            }
             self.solve_angles(k);
             let j = &self.joints[k];
             let ra = self.rot[a] * j.frame_a.translation;
@@ -373,7 +365,7 @@ impl FastBackend {
     fn solve_pins(&mut self, h: f32, frac0: f32, frac: f32) {
         for k in 0..self.pins.len() {
             let p = self.pins[k];
-            if !p.active || !self.moving(p.body) {
+            if !p.active {
                 continue;
             }
             let target = p.from.lerp(p.to, frac);
@@ -448,9 +440,6 @@ impl FastBackend {
     fn observe_velocities(&mut self, dt: f32) {
         let inv = 1.0 / dt;
         for i in 0..self.pos.len() {
-            if !self.moving(i) {
-                continue;
-            }
             self.seen_vel[i] = (self.pos[i] - self.step_pos[i]) * inv;
             self.seen_angvel[i] = rotation_vector(self.rot[i] * self.step_rot[i].conjugate()) * inv;
         }
