@@ -70,9 +70,7 @@ impl FastBackend {
         boxes.clear();
         boxes.extend((0..self.pos.len()).map(|i| {
             let (lo, hi) = bounds(&self.shape[i], self.pos[i], self.rot[i]);
-            let travel = (self.vel[i].length() + self.angvel[i].length() * reach(&self.shape[i]))
-                * dt
-                + BROAD_MARGIN_M;
+            let travel = self.travel(i, dt);
             (lo - Vec3::splat(travel), hi + Vec3::splat(travel))
         }));
         let FastBackend {
@@ -111,8 +109,36 @@ impl FastBackend {
         }
     }
 
+    /// How far any point of body `i` may move in a step of `dt` at its present
+    /// velocities, with [`BROAD_MARGIN_M`] to spare for what the step's constraints add.
+    fn travel(&self, i: usize, dt: f32) -> f32 {
+        (self.vel[i].length() + self.angvel[i].length() * reach(&self.shape[i])) * dt
+            + BROAD_MARGIN_M
+    }
+
+    /// Keeps the candidate pairs that may come within [`TOUCH_M`] in the coming step: the
+    /// broad phase pairs bodies whose boxes, grown by their travel, overlap, and of the
+    /// substeps' distance tests of those pairs 83 % return nothing in the pile bench
+    /// (slanted capsules' boxes overlap while their surfaces stay apart). One exact
+    /// distance per pair and step drops the pairs that cannot touch before the substeps
+    /// test them 32 times.
+    pub(super) fn cull_pairs(&mut self, dt: f32) {
+        let mut pairs = std::mem::take(&mut self.collide.pairs);
+        pairs.retain(|&(a, b)| {
+            let (a, b) = (a as usize, b as usize);
+            let within = TOUCH_M + self.travel(a, dt) + self.travel(b, dt);
+            self.pair_contact_within(a, b, within).is_some()
+        });
+        self.collide.pairs = pairs;
+    }
+
     /// The closest points of bodies `a` and `b`, if they are within [`TOUCH_M`].
     pub(super) fn pair_contact(&self, a: usize, b: usize) -> Option<Found> {
+        self.pair_contact_within(a, b, TOUCH_M)
+    }
+
+    /// The closest points of bodies `a` and `b`, if they are within `within` metres.
+    fn pair_contact_within(&self, a: usize, b: usize, within: f32) -> Option<Found> {
         if let (
             Shape::Capsule {
                 radius_m: ra,
@@ -130,7 +156,7 @@ impl FastBackend {
             let (ca, cb) = (a0.lerp(a1, s), b0.lerp(b1, t));
             let d = ca - cb;
             let dist = d.length();
-            if dist > ra + rb + TOUCH_M {
+            if dist > ra + rb + within {
                 return None;
             }
             let n = if dist > 1.0e-9 {
@@ -155,10 +181,10 @@ impl FastBackend {
                 &Cuboid::new(Vec3::from_array(sa) * 0.5),
                 &pb,
                 &Cuboid::new(Vec3::from_array(sb) * 0.5),
-                TOUCH_M,
+                within,
             ),
             (Shape::Box { size_m }, Shape::Capsule { radius_m, length_m }) => {
-                let f = self.box_capsule(a, size_m, b, radius_m, length_m)?;
+                let f = self.box_capsule(a, size_m, b, radius_m, length_m, within)?;
                 return Some(Found {
                     pa: f.pb,
                     pb: f.pa,
@@ -167,7 +193,7 @@ impl FastBackend {
                 });
             }
             (Shape::Capsule { radius_m, length_m }, Shape::Box { size_m }) => {
-                return self.box_capsule(b, size_m, a, radius_m, length_m);
+                return self.box_capsule(b, size_m, a, radius_m, length_m, within);
             }
             _ => return None,
         };
@@ -181,7 +207,7 @@ impl FastBackend {
     }
 
     /// The contact of capsule body `c` (radius `r`, segment `length`) with box body `b`
-    /// (edges `size`), the capsule first, found in the box's frame
+    /// (edges `size`) if within `within` metres, the capsule first, found in the box's frame
     /// ([`box_capsule::contact_in_box_frame`]).
     fn box_capsule(
         &self,
@@ -190,13 +216,14 @@ impl FastBackend {
         c: usize,
         r: f32,
         length: f32,
+        within: f32,
     ) -> Option<Found> {
         let half = Vec3::from_array(size) * 0.5;
         let inv = self.rot[b].conjugate();
         let (e0, e1) = ends(self.pos[c], self.rot[c], length);
         let (l0, l1) = (inv * (e0 - self.pos[b]), inv * (e1 - self.pos[b]));
         let (p_local, q_local, n_local, depth) =
-            box_capsule::contact_in_box_frame(l0, l1, half, r, TOUCH_M)?;
+            box_capsule::contact_in_box_frame(l0, l1, half, r, within)?;
         let rot = self.rot[b];
         Some(Found {
             pa: self.pos[b] + rot * p_local,

@@ -67,6 +67,7 @@ impl FastBackend {
         let n = self.settings.substeps.max(1);
         let h = dt / n as f32;
         self.collide.begin_step(self.pos.len());
+        self.cull_pairs(dt);
         self.step_pos.clone_from(&self.pos);
         self.step_rot.clone_from(&self.rot);
         for s in 0..n {
