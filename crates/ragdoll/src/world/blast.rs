@@ -160,15 +160,24 @@ pub(crate) fn blast_on_part(
     ground_y: f32,
 ) -> (BlastAt, Vec3, Vec3, f64) {
     let (point, dir, share) = facing_point(state, shape, blast.position);
-    // Inside the part the charge touches its bulk: the blast of a contact charge.
-    let at_point = if share < 1.0 { blast.position } else { point };
-    let at = blast::blast_at(
+    let at = blast_at_point(blast, loaded_at(blast, point, share), ground_y);
+    (at, point, dir, share)
+}
+
+/// Where the blast is read for a part loaded at `point` with `share` of its load: there,
+/// or, with the charge inside the part, where the charge touches its bulk (the blast of a
+/// contact charge).
+fn loaded_at(blast: &Blast, point: Vec3, share: f64) -> Vec3 {
+    if share < 1.0 { blast.position } else { point }
+}
+
+fn blast_at_point(blast: &Blast, at: Vec3, ground_y: f32) -> BlastAt {
+    blast::blast_at(
         blast.tnt_kg as f64,
         blast.position.as_dvec3(),
-        at_point.as_dvec3(),
+        at.as_dvec3(),
         ground_y as f64,
-    );
-    (at, point, dir, share)
+    )
 }
 
 impl ActiveBlast {
@@ -264,13 +273,23 @@ impl super::World {
                 records.resize_with(inst.shapes.len(), Default::default);
                 for (k, shape) in inst.shapes.iter().enumerate() {
                     let state = &self.states[inst.first_body + k];
-                    let (at, point, dir, share) = blast_on_part(&b, state, shape, ground);
                     let record = &mut records[k];
-                    let arrival = det + at.arrival_s;
-                    record.passed_s = arrival + at.duration_s;
+                    let (point, dir, share) = facing_point(state, shape, b.position);
+                    let load_at = loaded_at(&b, point, share);
+                    // Most parts, most steps, are not under the positive phase: ask when it
+                    // is there before working out the whole blast.
+                    let (arrival_s, duration_s) = blast::phase_at(
+                        b.tnt_kg as f64,
+                        b.position.as_dvec3(),
+                        load_at.as_dvec3(),
+                        ground as f64,
+                    );
+                    let arrival = det + arrival_s;
+                    record.passed_s = arrival + duration_s;
                     if t1 < arrival || t0 > record.passed_s {
                         continue;
                     }
+                    let at = blast_at_point(&b, load_at, ground);
                     if record.arrival_s.is_none() {
                         record.arrival_s = Some(arrival);
                         record.peak_pressure_pa = at.reflected_pa;

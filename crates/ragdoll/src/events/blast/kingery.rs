@@ -165,48 +165,12 @@ pub(super) fn scaled(z: f64) -> Scaled {
     let z = z.max(0.0);
     let p0_kpa = AMBIENT_PRESSURE_PA * 1e-3;
     let a0_m_per_ms = SOUND_SPEED_M_S * 1e-3; // = km/s
-
-    // Arrival time.
-    let (ta_lo, ta_hi) = (kb_min(&KB_ARRIVAL), kb_max(&KB_ARRIVAL));
-    let arrival_ms = if z < ta_lo {
-        kb_fit(&KB_ARRIVAL, ta_lo) * z / ta_lo
-    } else if z > ta_hi {
-        kb_fit(&KB_ARRIVAL, ta_hi) + (z - ta_hi) / a0_m_per_ms
-    } else {
-        kb_fit(&KB_ARRIVAL, z)
-    };
-
-    // Incident overpressure: hold below, 1/Z above.
-    let p_hi = kb_max(&KB_INCIDENT);
-    let incident = |z: f64| -> f64 {
-        if z > p_hi {
-            kb_fit(&KB_INCIDENT, p_hi) * p_hi / z
-        } else {
-            kb_fit(&KB_INCIDENT, z)
-        }
-    };
+    let arrival_ms = arrival(z);
     let incident_kpa = incident(z);
-
-    // Incident impulse: hold below, 1/Z above.
-    let i_hi = kb_max(&KB_INCIDENT_IMPULSE);
-    let impulse = |z: f64| -> f64 {
-        if z > i_hi {
-            kb_fit(&KB_INCIDENT_IMPULSE, i_hi) * i_hi / z
-        } else {
-            kb_fit(&KB_INCIDENT_IMPULSE, z)
-        }
-    };
-    let incident_impulse_kpa_ms = impulse(z);
-
-    // Edge of the ranges that stop at Z = 40 (t_a, P_r, t_d, i_r, U).
+    let incident_impulse_kpa_ms = incident_impulse(z);
+    let duration_ms = duration(z, || (incident_kpa, incident_impulse_kpa_ms));
     let edge = kb_max(&KB_DURATION);
     let p_edge = incident(edge);
-    let duration_ms = if z > edge {
-        let shape = impulse(edge) / (p_edge * kb_fit(&KB_DURATION, edge));
-        incident_impulse_kpa_ms / (shape * incident_kpa)
-    } else {
-        kb_fit(&KB_DURATION, z)
-    };
 
     let reflected_kpa = if z > kb_max(&KB_REFLECTED) {
         let fit_ratio = kb_fit(&KB_REFLECTED, edge) / p_edge;
@@ -218,7 +182,7 @@ pub(super) fn scaled(z: f64) -> Scaled {
     };
 
     let reflected_impulse_kpa_ms = if z > kb_max(&KB_REFLECTED_IMPULSE) {
-        kb_fit(&KB_REFLECTED_IMPULSE, edge) * incident_impulse_kpa_ms / impulse(edge)
+        kb_fit(&KB_REFLECTED_IMPULSE, edge) * incident_impulse_kpa_ms / incident_impulse(edge)
     } else {
         kb_fit(&KB_REFLECTED_IMPULSE, z)
     };
@@ -238,5 +202,63 @@ pub(super) fn scaled(z: f64) -> Scaled {
         incident_impulse_kpa_ms,
         reflected_impulse_kpa_ms,
         shock_speed_km_s,
+    }
+}
+
+/// [`scaled`]'s arrival time and positive-phase duration alone (ms/kg^(1/3)), to the bit:
+/// all that says whether a target is under the positive phase at a given time, for a
+/// fraction of the cost of every curve.
+pub(super) fn scaled_phase(z: f64) -> (f64, f64) {
+    let z = z.max(0.0);
+    (
+        arrival(z),
+        duration(z, || (incident(z), incident_impulse(z))),
+    )
+}
+
+/// Arrival time: linear to 0 below the fits, acoustic above.
+fn arrival(z: f64) -> f64 {
+    let a0_m_per_ms = SOUND_SPEED_M_S * 1e-3; // = km/s
+    let (ta_lo, ta_hi) = (kb_min(&KB_ARRIVAL), kb_max(&KB_ARRIVAL));
+    if z < ta_lo {
+        kb_fit(&KB_ARRIVAL, ta_lo) * z / ta_lo
+    } else if z > ta_hi {
+        kb_fit(&KB_ARRIVAL, ta_hi) + (z - ta_hi) / a0_m_per_ms
+    } else {
+        kb_fit(&KB_ARRIVAL, z)
+    }
+}
+
+/// Incident overpressure: hold below, 1/Z above.
+fn incident(z: f64) -> f64 {
+    let p_hi = kb_max(&KB_INCIDENT);
+    if z > p_hi {
+        kb_fit(&KB_INCIDENT, p_hi) * p_hi / z
+    } else {
+        kb_fit(&KB_INCIDENT, z)
+    }
+}
+
+/// Incident impulse: hold below, 1/Z above.
+fn incident_impulse(z: f64) -> f64 {
+    let i_hi = kb_max(&KB_INCIDENT_IMPULSE);
+    if z > i_hi {
+        kb_fit(&KB_INCIDENT_IMPULSE, i_hi) * i_hi / z
+    } else {
+        kb_fit(&KB_INCIDENT_IMPULSE, z)
+    }
+}
+
+/// Positive-phase duration: the fit up to its edge (Z = 40), beyond it derived from the
+/// incident pressure and impulse at `z` (`at_z`, asked for only there) with the
+/// Friedlander shape of the edge.
+fn duration(z: f64, at_z: impl FnOnce() -> (f64, f64)) -> f64 {
+    let edge = kb_max(&KB_DURATION);
+    if z > edge {
+        let shape = incident_impulse(edge) / (incident(edge) * kb_fit(&KB_DURATION, edge));
+        let (incident_kpa, impulse_kpa_ms) = at_z();
+        impulse_kpa_ms / (shape * incident_kpa)
+    } else {
+        kb_fit(&KB_DURATION, z)
     }
 }

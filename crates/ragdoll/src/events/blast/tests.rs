@@ -490,3 +490,47 @@ fn blast_no_nan_or_panic_anywhere() {
     );
     assert!(part_force(&b, b.arrival_s + 1e-4, 0.5, f64::NAN, 1.2) > 0.0);
 }
+
+#[test]
+fn blast_phase_alone_is_the_whole_blasts_to_the_bit() {
+    // The world decides from `phase_at` alone whether a part is under the positive phase,
+    // so it must agree with `blast_at` exactly: over the fits, their clamps and
+    // continuations, surface and air bursts, and the inputs that give no blast.
+    let charge = DVec3::new(0.3, 0.0, -1.0);
+    let mut checked = 0;
+    for tnt in [1e-3, 0.2, 1.0, 50.0, 2.0e4] {
+        for height in [-1.0, 0.0, 0.4, 3.0, 40.0] {
+            let c = charge + DVec3::Y * height;
+            for r in log_grid(1e-4, 5e3, 400).chain([0.0]) {
+                let target = c + DVec3::new(0.6, -0.8, 0.0) * r;
+                let whole = blast_at(tnt, c, target, 0.0);
+                let (arrival, duration) = phase_at(tnt, c, target, 0.0);
+                assert_eq!(
+                    arrival.to_bits(),
+                    whole.arrival_s.to_bits(),
+                    "t_a {tnt} kg, {r} m"
+                );
+                assert_eq!(
+                    duration.to_bits(),
+                    whole.duration_s.to_bits(),
+                    "t_d {tnt} kg, {r} m"
+                );
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 10_000);
+    let nan = DVec3::new(f64::NAN, 0.0, 0.0);
+    for (tnt, target) in [
+        (0.0, DVec3::ONE),
+        (-1.0, DVec3::ONE),
+        (f64::NAN, DVec3::ONE),
+        (1.0, nan),
+    ] {
+        let whole = blast_at(tnt, charge, target, 0.0);
+        assert_eq!(
+            phase_at(tnt, charge, target, 0.0),
+            (whole.arrival_s, whole.duration_s)
+        );
+    }
+}
