@@ -2,7 +2,7 @@
 //! inverse mass at a point or about an axis, and the small moves and velocity changes
 //! every constraint is made of.
 
-use glam::{Mat3, Quat, Vec3};
+use glam::{Mat3A, Quat, Vec3, Vec3A};
 
 use super::{FastBackend, MAX_TURN_RAD};
 
@@ -11,15 +11,15 @@ impl FastBackend {
     /// the start of the substep (XPBD keeps it fixed through the position pass).
     #[inline(always)]
     pub(super) fn inv_inertia_world(&self, i: usize, v: Vec3) -> Vec3 {
-        self.inv_inertia_world[i] * v
+        (self.inv_inertia_world[i] * Vec3A::from(v)).into()
     }
 
     /// Recomputes body `i`'s world inverse inertia tensor from its rotation.
     #[inline]
     pub(super) fn refresh_inertia(&mut self, i: usize) {
-        let m = Mat3::from_quat(self.rot[i]);
+        let m = Mat3A::from_quat(self.rot[i]);
         let d = self.inv_inertia[i];
-        let scaled = Mat3::from_cols(m.x_axis * d.x, m.y_axis * d.y, m.z_axis * d.z);
+        let scaled = Mat3A::from_cols(m.x_axis * d.x, m.y_axis * d.y, m.z_axis * d.z);
         self.inv_inertia_world[i] = scaled * m.transpose();
     }
 

@@ -36,7 +36,7 @@ mod solve;
 
 use std::collections::HashSet;
 
-use glam::{Mat3, Quat, Vec3};
+use glam::{Quat, Vec3};
 
 use super::{Backend, BodyDesc, BodyState, JointDesc};
 use crate::math::Transform;
@@ -248,8 +248,10 @@ pub(crate) struct FastBackend {
     inertia: Vec<Vec3>,
     /// Their inverses, zero for a kinematic body.
     inv_inertia: Vec<Vec3>,
-    /// The inverse inertia tensors in the world, as of the start of the substep.
-    inv_inertia_world: Vec<Mat3>,
+    /// The inverse inertia tensors in the world, as of the start of the substep; with
+    /// 16-byte columns, so every product with one (a few per constraint) is three SIMD
+    /// multiply-adds.
+    inv_inertia_world: Vec<glam::Mat3A>,
     shape: Vec<Shape>,
     /// What holds each body up in this substep's contacts (see
     /// [`FastBackend::support_along`]).
@@ -353,7 +355,7 @@ impl Backend for FastBackend {
             self.inv_mass.push(1.0 / mass);
             self.inertia.push(inertia);
             self.inv_inertia.push(inertia.recip());
-            self.inv_inertia_world.push(Mat3::ZERO);
+            self.inv_inertia_world.push(glam::Mat3A::ZERO);
             self.shape.push(b.shape);
             self.kinematic.push(None);
             self.holder.push(contact::NOTHING);

@@ -244,7 +244,8 @@ impl FastBackend {
     #[inline]
     fn point_mass_matrix(&self, i: usize, r: Vec3) -> Mat3 {
         let rx = skew(r);
-        Mat3::from_diagonal(Vec3::splat(self.inv_mass[i])) - rx * self.inv_inertia_world[i] * rx
+        Mat3::from_diagonal(Vec3::splat(self.inv_mass[i]))
+            - rx * Mat3::from(self.inv_inertia_world[i]) * rx
     }
 
     /// Turns `a` relative to `b` by the rotation vector `omega`, as one constraint on the
@@ -256,7 +257,7 @@ impl FastBackend {
         if omega.length_squared() < 1.0e-18 {
             return;
         }
-        let k = self.inv_inertia_world[a] + self.inv_inertia_world[b];
+        let k = Mat3::from(self.inv_inertia_world[a] + self.inv_inertia_world[b]);
         let p = match free {
             None => {
                 if k.determinant().abs() < 1.0e-20 {
