@@ -34,6 +34,7 @@ mod shapes;
 mod weights;
 
 use glam::{Mat4, Quat, Vec3};
+use rayon::prelude::*;
 use serde_json::{Map, Value, json};
 
 use crate::error::{Error, Result};
@@ -107,10 +108,13 @@ pub fn scene_to_glb(characters: &[(&Character, &RagdollSpec, &Track)]) -> Result
             "a scene needs at least one character to export".into(),
         ));
     }
-    let docs = characters
-        .iter()
+    // Each character's document on its own, in parallel (a crowd's thousand documents
+    // are most of the encoding); the first error in character order is the one reported.
+    let docs: Vec<Result<_>> = characters
+        .par_iter()
         .map(|(character, spec, track)| document(character, spec, track))
-        .collect::<Result<Vec<_>>>()?;
+        .collect();
+    let docs = docs.into_iter().collect::<Result<Vec<_>>>()?;
     let (root, bin) = merge::merge(docs)?;
     glb(&root, &bin)
 }
