@@ -231,21 +231,22 @@ fn arrival(z: f64) -> f64 {
 
 /// Incident overpressure: hold below, 1/Z above.
 fn incident(z: f64) -> f64 {
-    let p_hi = kb_max(&KB_INCIDENT);
-    if z > p_hi {
-        kb_fit(&KB_INCIDENT, p_hi) * p_hi / z
-    } else {
-        kb_fit(&KB_INCIDENT, z)
-    }
+    held_then_acoustic(&KB_INCIDENT, z)
 }
 
 /// Incident impulse: hold below, 1/Z above.
 fn incident_impulse(z: f64) -> f64 {
-    let i_hi = kb_max(&KB_INCIDENT_IMPULSE);
-    if z > i_hi {
-        kb_fit(&KB_INCIDENT_IMPULSE, i_hi) * i_hi / z
+    held_then_acoustic(&KB_INCIDENT_IMPULSE, z)
+}
+
+/// A fit held at its lowest range's edge below it (by [`kb_fit`]'s clamp) and falling
+/// as 1/Z, spherical acoustic decay, beyond its highest.
+fn held_then_acoustic(ranges: &[KbRange], z: f64) -> f64 {
+    let hi = kb_max(ranges);
+    if z > hi {
+        kb_fit(ranges, hi) * hi / z
     } else {
-        kb_fit(&KB_INCIDENT_IMPULSE, z)
+        kb_fit(ranges, z)
     }
 }
 
