@@ -103,13 +103,37 @@ impl super::World {
                 held[inst.first_body + m.root] = true;
             }
         }
-        for inst in self.instances.iter().filter(|i| i.active) {
+        // Most ragdolls, most steps, have no joint to turn back: find those that do in
+        // parallel (reading only their own states), then turn them one at a time.
+        let tolerance = PROJECTION_TOLERANCE_DEG.to_radians();
+        let states = &self.states;
+        let past: Vec<bool> = self
+            .instances
+            .par_iter()
+            .map(|inst| {
+                let s = &states[inst.first_body..inst.first_body + inst.masses.len()];
+                inst.active
+                    && inst.joints.iter().any(|j| {
+                        // As the loop below: only a violation known to be small is
+                        // skipped.
+                        let v = j.violation(&s[j.parent].pose, &s[j.child].pose);
+                        v >= tolerance || v.is_nan()
+                    })
+            })
+            .collect();
+        let to_project = self
+            .instances
+            .iter()
+            .zip(past)
+            .filter(|(_, past)| *past)
+            .map(|(inst, _)| inst);
+        for inst in to_project {
             let base = inst.first_body;
             for &k in &inst.tree.order {
                 let j = &inst.joints[k];
                 let parent = self.states[base + j.parent].pose;
                 let child = self.states[base + j.child].pose;
-                if j.violation(&parent, &child) < PROJECTION_TOLERANCE_DEG.to_radians() {
+                if j.violation(&parent, &child) < tolerance {
                     continue;
                 }
                 let Some(rotation) = j.clamp_child_rotation(&parent, &child) else {
@@ -273,15 +297,24 @@ fn worst_joint(
 ) -> f32 {
     instances
         .par_iter()
-        .filter(|i| i.active)
-        .map(|inst| {
-            let states = &states[inst.first_body..inst.first_body + inst.masses.len()];
-            inst.joints
-                .iter()
-                .map(|j| measure(j, &states[j.parent].pose, &states[j.child].pose))
-                .fold(0.0f32, f32::max)
-        })
+        .map(|inst| worst_joint_of(inst, states, &measure))
         .reduce(|| 0.0f32, f32::max)
+}
+
+/// The largest `measure` of the joints of `inst`, 0 unless it is physical.
+fn worst_joint_of(
+    inst: &super::Instance,
+    states: &[BodyState],
+    measure: &impl Fn(&ResolvedJoint, &Transform, &Transform) -> f32,
+) -> f32 {
+    if !inst.active {
+        return 0.0;
+    }
+    let states = &states[inst.first_body..inst.first_body + inst.masses.len()];
+    inst.joints
+        .iter()
+        .map(|j| measure(j, &states[j.parent].pose, &states[j.child].pose))
+        .fold(0.0f32, f32::max)
 }
 
 fn bone_stretch(parents: &[Option<usize>], lengths: &mut Vec<f32>, frame: &[Transform]) -> f32 {
