@@ -180,6 +180,16 @@ fn blast_at_point(blast: &Blast, at: Vec3, ground_y: f32) -> BlastAt {
     )
 }
 
+/// [`blast_at_point`]'s arrival and duration alone ([`blast::phase_at`]).
+fn phase_at_point(blast: &Blast, at: Vec3, ground_y: f32) -> (f64, f64) {
+    blast::phase_at(
+        blast.tnt_kg as f64,
+        blast.position.as_dvec3(),
+        at.as_dvec3(),
+        ground_y as f64,
+    )
+}
+
 impl ActiveBlast {
     /// The report of this blast, with body and character names.
     pub(crate) fn report(&self, body_names: &[Vec<String>], names: &[String]) -> BlastReport {
@@ -278,12 +288,7 @@ impl super::World {
                     let load_at = loaded_at(&b, point, share);
                     // Most parts, most steps, are not under the positive phase: ask when it
                     // is there before working out the whole blast.
-                    let (arrival_s, duration_s) = blast::phase_at(
-                        b.tnt_kg as f64,
-                        b.position.as_dvec3(),
-                        load_at.as_dvec3(),
-                        ground as f64,
-                    );
+                    let (arrival_s, duration_s) = phase_at_point(&b, load_at, ground);
                     let arrival = det + arrival_s;
                     record.passed_s = arrival + duration_s;
                     if t1 < arrival || t0 > record.passed_s {
