@@ -605,6 +605,106 @@ fn a_rest_pose_lying_down_takes_its_units_from_the_first_frame() {
     );
 }
 
+/// A LAFAN1-style export (Ubisoft's mocap set, centimetres, Y up): offsets bone-local along
+/// +X, so the zero-rotation pose lies along X, with the hips' and shoulders' offsets across
+/// it, along Z, twice its height along Y. That once passed for a figure standing on Z: the
+/// first frame was turned on its side, lay too, and the units came from the lying pose (a
+/// character 6 m tall). A pose longer than it is tall stands on neither axis; the first
+/// frame, upright along Y, gives axis and units.
+const LAFAN_STYLE: &str = "HIERARCHY
+ROOT Hips
+{
+  OFFSET 0 95 0
+  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+  JOINT LeftUpLeg
+  {
+    OFFSET 0.1 1.9 10.5
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    JOINT LeftLeg
+    {
+      OFFSET 43.5 0 0
+      CHANNELS 3 Zrotation Xrotation Yrotation
+      End Site
+      {
+        OFFSET 42.4 0 0
+      }
+    }
+  }
+  JOINT RightUpLeg
+  {
+    OFFSET 0.1 1.9 -10.5
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    JOINT RightLeg
+    {
+      OFFSET 43.5 0 0
+      CHANNELS 3 Zrotation Xrotation Yrotation
+      End Site
+      {
+        OFFSET 42.4 0 0
+      }
+    }
+  }
+  JOINT Spine
+  {
+    OFFSET 6.9 -2.6 0
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    JOINT Neck
+    {
+      OFFSET 50.8 0 0
+      CHANNELS 3 Zrotation Xrotation Yrotation
+      End Site
+      {
+        OFFSET 11.8 0 0
+      }
+    }
+    JOINT LeftShoulder
+    {
+      OFFSET 44.7 -1.5 6
+      CHANNELS 3 Zrotation Xrotation Yrotation
+      End Site
+      {
+        OFFSET 58.2 0 0
+      }
+    }
+    JOINT RightShoulder
+    {
+      OFFSET 44.7 -1.5 -6
+      CHANNELS 3 Zrotation Xrotation Yrotation
+      End Site
+      {
+        OFFSET 58.2 0 0
+      }
+    }
+  }
+}
+MOTION
+Frames: 1
+Frame Time: 0.033333
+0 95 0 90 0 0 180 0 0 0 0 0 180 0 0 0 0 0 0 0 0 0 0 0 180 0 0 180 0 0
+";
+
+#[test]
+fn a_rest_pose_lying_along_x_with_hips_across_it_stands_on_y() {
+    let c = parse(LAFAN_STYLE).unwrap();
+    assert_eq!(layout(&c).up, UpAxis::Y);
+    assert_eq!(layout(&c).metres_per_unit, 0.01);
+    let mut world = vec![Transform::IDENTITY; c.skeleton.len()];
+    c.skeleton
+        .world_from_local(&c.clips[0].frames[0], &mut world);
+    let neck = c.skeleton.find("Neck").unwrap();
+    let knee = c.skeleton.find("LeftLeg").unwrap();
+    // Hips 0.95 m up, the neck 0.577 m above them, the knee 0.434 m below.
+    assert!(
+        (world[0].translation.y - 0.95).abs() < 1e-3,
+        "{}",
+        world[0].translation
+    );
+    let up = world[neck].translation.y - world[0].translation.y;
+    assert!((up - 0.577).abs() < 1e-3, "{up}");
+    let down = world[0].translation.y - world[knee].translation.y;
+    assert!((down - 0.434).abs() < 1e-3, "{down}");
+}
+
 /// Bone-local offsets (every bone along +X, as Rokoko writes them): the zero-rotation pose
 /// lies on the ground, the first frame stands. The skeleton takes the first frame's
 /// rotations as its rest, so the ragdoll is built standing, while every frame's world pose

@@ -37,16 +37,22 @@
 //!
 //! The detection looks at the rest pose: every joint and `End Site` position, in file units.
 //!
-//! - **Up axis**: Z when the extent along Z is more than twice the extent along Y, else Y.
-//!   A standing figure is several times taller than it is deep, so this only flips for
-//!   files that really stand on Z; ambiguous shapes (quadrupeds) keep BVH's usual Y.
+//! - **Up axis**: Z when the extent along Z is more than twice the extent along Y and at
+//!   least half the extent along X, else Y. A standing figure is several times taller than
+//!   it is deep, so this only flips for files that really stand on Z; ambiguous shapes
+//!   (quadrupeds) keep BVH's usual Y, and so does a rest pose lying along X (bone-local
+//!   offsets, as Rokoko and LAFAN1 write them), whose hips and shoulders reach across it
+//!   along Z: it stands on neither axis, and its first frame says how it stands.
 //! - **Units**: the candidate that makes the height (extent along the up axis, or the
 //!   largest extent when that one is zero) closest to 1.7 m on a log scale. The candidates
 //!   and the resulting thresholds on the height `h` in file units:
 //!   metres (`h < 7.16`), CMU units of 1/0.45 inch (`7.16 ≤ h < 44.9`, the unit of the CMU
 //!   ASF skeletons that many converted BVH files keep), inches (`44.9 ≤ h < 106.7`, the
 //!   original Biovision sample), centimetres (`106.7 ≤ h < 537.6`, most BVH), millimetres
-//!   above. A skeleton with no extent at all is taken as centimetres.
+//!   above. A skeleton with no extent at all is taken as centimetres. A rest pose lying
+//!   down (its height under half its breadth) whose first frame stands is measured again
+//!   standing, joints and End Sites, and the skeleton takes that frame's rotations as its
+//!   rest: the ragdoll is built standing.
 //!
 //! The data files give: `biovision_example_bvhio` 72.35 → inches, 1.84 m;
 //! `cmu_pirouette_threejs` 152.7 → cm, 1.53 m; `mocapbank_bvh-python` 167.3 → cm, 1.67 m;

@@ -81,8 +81,12 @@ pub fn parse(text: &str, path: &Path, opts: &ImportOptions) -> Result<Character>
     if let Some(standing) = standing_first_frame(&character) {
         character.skeleton = standing;
         if opts.units.is_none() {
-            let rest: Vec<DVec3> = (character.skeleton.rest_world().iter())
-                .map(|t| t.translation.as_dvec3() / metres_per_unit)
+            // Joints and End Sites, as the first detection measured them.
+            let world = character.skeleton.rest_world();
+            let tips = (character.skeleton.joints().iter().zip(&world))
+                .filter_map(|(j, t)| j.tip.map(|tip| t.transform_point(tip)));
+            let rest: Vec<DVec3> = (world.iter().map(|t| t.translation).chain(tips))
+                .map(|p| p.as_dvec3() / metres_per_unit)
                 .collect();
             let better = detect_metres_per_unit(&rest, UpAxis::Y);
             if better != metres_per_unit {
@@ -263,10 +267,11 @@ fn extent(points: &[DVec3]) -> DVec3 {
     }
 }
 
-/// Z up when the rest pose is more than twice as tall along Z as along Y (module docs).
+/// Z up when the rest pose is more than twice as tall along Z as along Y and stands along
+/// Z, at least half as tall as it is long (module docs).
 fn detect_up(points: &[DVec3]) -> UpAxis {
     let e = extent(points);
-    if e.z > 2.0 * e.y {
+    if e.z > 2.0 * e.y && e.z >= 0.5 * e.x {
         UpAxis::Z
     } else {
         UpAxis::Y
