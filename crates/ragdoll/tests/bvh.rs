@@ -100,7 +100,7 @@ fn bvh_data_files_parse_with_expected_counts_and_heights() {
         ),
         ("cmu_pirouette_threejs.bvh", 43, 592, true, 0.01, UpAxis::Y),
         ("mocapbank_bvh-python.bvh", 19, 455, true, 0.01, UpAxis::Y),
-        ("two_joint_bvh_anim.bvh", 2, 2, false, 0.0254, UpAxis::Z),
+        ("two_joint_bvh_anim.bvh", 2, 2, false, 0.01, UpAxis::Z),
     ];
     for (file, joints, frames, humanoid, unit, up) in expected {
         let c = bvh::load(&dir.join(file), &ImportOptions::default())
@@ -703,6 +703,146 @@ fn a_rest_pose_lying_along_x_with_hips_across_it_stands_on_y() {
     assert!((up - 0.577).abs() < 1e-3, "{up}");
     let down = world[0].translation.y - world[knee].translation.y;
     assert!((down - 0.434).abs() < 1e-3, "{down}");
+}
+
+/// A dog in centimetres, 0.72 m from its paws to the top of its head: 72 units is a person's
+/// height in inches, and was read so (a dog 1.8 m tall). Inches and CMU units are kept for
+/// people; a creature in those bands is in centimetres.
+const DOG: &str = "HIERARCHY
+ROOT spine_base
+{
+  OFFSET 0 52 0
+  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+  JOINT spine_mid
+  {
+    OFFSET 0 2 20
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    JOINT spine_neck
+    {
+      OFFSET 0 1 20
+      CHANNELS 3 Zrotation Xrotation Yrotation
+      JOINT head
+      {
+        OFFSET 0 14 10
+        CHANNELS 3 Zrotation Xrotation Yrotation
+        End Site
+        {
+          OFFSET 0 2 12
+        }
+      }
+      JOINT front_left_upper
+      {
+        OFFSET 6 -4 0
+        CHANNELS 3 Zrotation Xrotation Yrotation
+        JOINT front_left_lower
+        {
+          OFFSET 0 -17 6
+          CHANNELS 3 Zrotation Xrotation Yrotation
+          JOINT front_left_foot
+          {
+            OFFSET 0 -30 -4
+            CHANNELS 3 Zrotation Xrotation Yrotation
+            End Site
+            {
+              OFFSET 0 -3 5
+            }
+          }
+        }
+      }
+      JOINT front_right_upper
+      {
+        OFFSET -6 -4 0
+        CHANNELS 3 Zrotation Xrotation Yrotation
+        JOINT front_right_lower
+        {
+          OFFSET 0 -17 6
+          CHANNELS 3 Zrotation Xrotation Yrotation
+          JOINT front_right_foot
+          {
+            OFFSET 0 -30 -4
+            CHANNELS 3 Zrotation Xrotation Yrotation
+            End Site
+            {
+              OFFSET 0 -3 5
+            }
+          }
+        }
+      }
+    }
+  }
+  JOINT tail
+  {
+    OFFSET 0 0 -8
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    End Site
+    {
+      OFFSET 0 -10 -25
+    }
+  }
+  JOINT back_left_upper
+  {
+    OFFSET 6 -3 -2
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    JOINT back_left_lower
+    {
+      OFFSET 0 -17 6
+      CHANNELS 3 Zrotation Xrotation Yrotation
+      JOINT back_left_foot
+      {
+        OFFSET 0 -30 -4
+        CHANNELS 3 Zrotation Xrotation Yrotation
+        End Site
+        {
+          OFFSET 0 -3 5
+        }
+      }
+    }
+  }
+  JOINT back_right_upper
+  {
+    OFFSET -6 -3 -2
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    JOINT back_right_lower
+    {
+      OFFSET 0 -17 6
+      CHANNELS 3 Zrotation Xrotation Yrotation
+      JOINT back_right_foot
+      {
+        OFFSET 0 -30 -4
+        CHANNELS 3 Zrotation Xrotation Yrotation
+        End Site
+        {
+          OFFSET 0 -3 5
+        }
+      }
+    }
+  }
+}
+MOTION
+Frames: 1
+Frame Time: 0.033333
+0 52 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0
+";
+
+#[test]
+fn a_creature_as_tall_as_a_person_in_inches_is_in_centimetres() {
+    let c = parse(DOG).unwrap();
+    assert!(!ragdoll::spec::recognise_roles(&c).humanoid);
+    assert_eq!(layout(&c).metres_per_unit, 0.01);
+    let rest = c.skeleton.rest_world();
+    let head = c.skeleton.find("head").unwrap();
+    assert!(
+        (rest[head].translation.y - 0.69).abs() < 1e-4,
+        "{}",
+        rest[head].translation
+    );
+    // Units the user gives still win.
+    let opts = ImportOptions {
+        units: Some(Units::In),
+        ..Default::default()
+    };
+    let inches = bvh::parse(DOG, Path::new("dog.bvh"), &opts).unwrap();
+    assert_eq!(layout(&inches).metres_per_unit, 0.0254);
 }
 
 /// Bone-local offsets (every bone along +X, as Rokoko writes them): the zero-rotation pose

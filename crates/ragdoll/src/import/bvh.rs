@@ -49,14 +49,17 @@
 //!   metres (`h < 7.16`), CMU units of 1/0.45 inch (`7.16 ≤ h < 44.9`, the unit of the CMU
 //!   ASF skeletons that many converted BVH files keep), inches (`44.9 ≤ h < 106.7`, the
 //!   original Biovision sample), centimetres (`106.7 ≤ h < 537.6`, most BVH), millimetres
-//!   above. A skeleton with no extent at all is taken as centimetres. A rest pose lying
+//!   above. A skeleton with no extent at all is taken as centimetres. Inches and CMU units
+//!   are a person's: a skeleton that role recognition does not take for a person is read
+//!   in centimetres in those bands (a dog 80 units tall is 0.8 m, not 2 m). A rest pose lying
 //!   down (its height under half its breadth) whose first frame stands is measured again
 //!   standing, joints and End Sites, and the skeleton takes that frame's rotations as its
 //!   rest: the ragdoll is built standing.
 //!
 //! The data files give: `biovision_example_bvhio` 72.35 → inches, 1.84 m;
 //! `cmu_pirouette_threejs` 152.7 → cm, 1.53 m; `mocapbank_bvh-python` 167.3 → cm, 1.67 m;
-//! `two_joint_bvh_anim` (a chain lying along Z, so Z up) 45 → inches, 1.14 m.
+//! `two_joint_bvh_anim` (a chain lying along Z, so Z up) 45 → not a person, so
+//! centimetres, 0.45 m.
 //!
 //! # Conversion
 //!

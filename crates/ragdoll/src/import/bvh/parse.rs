@@ -14,7 +14,8 @@ use super::hierarchy::{PJoint, read_hierarchy};
 use super::text::parse_error;
 
 use super::{
-    BvhJoint, BvhLayout, Channel, TYPICAL_HEIGHT_M, UNIT_CANDIDATES, compose_rotation, up_rotation,
+    BvhJoint, BvhLayout, CMU_UNIT_M, Channel, TYPICAL_HEIGHT_M, UNIT_CANDIDATES, compose_rotation,
+    up_rotation,
 };
 use crate::error::Result;
 use crate::import::{ImportOptions, UpAxis};
@@ -95,7 +96,28 @@ pub fn parse(text: &str, path: &Path, opts: &ImportOptions) -> Result<Character>
             }
         }
     }
+    if opts.units.is_none() {
+        centimetres_unless_a_person(&mut character, path)?;
+    }
     Ok(character)
+}
+
+/// Inches and CMU units are a person's: the heights that pick them (module docs) are a
+/// person's in those units, and the files that use them are human mocap (the Biovision
+/// sample, CMU's conversions). A creature of those heights is a creature in centimetres,
+/// the common BVH unit: a dog 80 units tall is 0.8 m, not 2 m.
+fn centimetres_unless_a_person(c: &mut Character, path: &Path) -> Result<()> {
+    let Source::Bvh(layout) = &c.source else {
+        return Ok(());
+    };
+    let m = f64::from(layout.metres_per_unit);
+    let persons = [0.0254, f64::from(CMU_UNIT_M)];
+    if !persons.iter().any(|u| (m / u - 1.0).abs() < 1e-6)
+        || crate::spec::recognise_roles(c).humanoid
+    {
+        return Ok(());
+    }
+    crate::import::size::scale(c, (0.01 / m) as f32, path)
 }
 
 /// The skeleton of the HIERARCHY's joints, in metres and Y up.

@@ -213,7 +213,9 @@ fn recognise_as_is(character: &Character, helpers: &[bool], turn: Option<Quat>) 
         }
     }
     let promised = looks_humanoid(&hints);
-    let quadruped = promised && on_all_fours(&rest, &hints);
+    let named_on_fours = promised && on_all_fours(&rest, &hints);
+    let standing = limbs_standing(&rest, &hints);
+    let quadruped = named_on_fours || standing >= STANDING_LIMBS_OF_A_CREATURE;
     // A quadruped stood on its hind legs is not a person lying down.
     if !quadruped
         && turn.is_none()
@@ -230,7 +232,8 @@ fn recognise_as_is(character: &Character, helpers: &[bool], turn: Option<Quat>) 
         return roles;
     }
     let why = match doubts.first() {
-        _ if quadruped => "Not a humanoid: a quadruped, standing on the four limbs its names call legs and arms; its bones are chain links, and the leg joints it stands bent are hinges.".to_string(),
+        _ if named_on_fours => "Not a humanoid: a quadruped, standing on the four limbs its names call legs and arms; its bones are chain links, and the leg joints it stands bent are hinges.".to_string(),
+        _ if quadruped => format!("Not a humanoid: it stands on {standing} limbs, a creature, not a person lying down; its bones are chain links, and the leg joints it stands bent are hinges."),
         Some(d) if promised => format!("Not a humanoid: {d}, and no joint has two legs reaching the ground, a rising spine and two arms."),
         _ => "Not a humanoid: no joint has two legs reaching the ground, a rising spine and two arms, and the names do not say thigh, shin, upper arm and forearm on both sides.".to_string(),
     };
@@ -279,6 +282,39 @@ fn on_all_fours(rig: &Rig, hints: &[NameHint]) -> bool {
         .iter()
         .chain(&claims.arms)
         .all(|limb| limb[0].is_some_and(stands))
+}
+
+/// How many limbs `rig` stands on in its pose: each chain from a leaf reaching the ground
+/// (not a helper's: an IK target or pole lies there too) up to where it branches off
+/// something well above the ground ([`LIMB_MIN_DROP_OF_EXTENT`]), counted once per
+/// branch. A dog stands on four, a spider on eight, a person on two (fingers and toes are
+/// one limb with their arm or leg); a person lying flat on none, since nothing of them is
+/// well above the ground, so a creature on four limbs or more is not a person lying down,
+/// whatever its names.
+fn limbs_standing(rig: &Rig, hints: &[NameHint]) -> usize {
+    let reach = rig.ground + LEG_GROUND_TOLERANCE_H * rig.height;
+    let high = rig.ground + LIMB_MIN_DROP_OF_EXTENT * rig.extent;
+    let mut limbs: Vec<usize> = Vec::new();
+    let feet = (0..rig.len()).filter(|&j| {
+        rig.children[j].is_empty()
+            && !hints.get(j).is_some_and(|h| h.helper)
+            && rig.subtree_stats(j).0 <= reach
+    });
+    for foot in feet {
+        // Up to the first branching joint well above the ground, a bounded walk.
+        let mut at = foot;
+        for _ in 0..MAX_LIMB_WALK {
+            let Some(p) = rig.parent(at) else { break };
+            if rig.pos[p].y >= high && rig.children[p].len() >= 2 {
+                if !limbs.contains(&at) {
+                    limbs.push(at);
+                }
+                break;
+            }
+            at = p;
+        }
+    }
+    limbs.len()
 }
 
 /// Whether the names alone promise a humanoid: both thighs, shins, upper arms and
@@ -365,6 +401,15 @@ fn first_frame(character: &Character) -> Option<Vec<Transform>> {
 const LEG_GROUND_TOLERANCE_H: f32 = 0.15;
 /// Legs hang at least this far below the pelvis (about half of H on real people).
 const LEG_MIN_DROP_H: f32 = 0.3;
+/// A limb stood on hangs from a joint at least this fraction of the skeleton's extent
+/// above the ground: a dog's hips (a third of its 1.5 m extent), a dachshund's (0.15 m of
+/// 0.9); a person lying flat has nothing higher than about a tenth.
+const LIMB_MIN_DROP_OF_EXTENT: f32 = 0.12;
+/// A skeleton standing on this many limbs or more is a creature, not a person lying down.
+const STANDING_LIMBS_OF_A_CREATURE: usize = 4;
+/// Joints walked up from a foot (or a fingertip) looking for where its limb branches off:
+/// an arm with its fingers has eight; the bound keeps a 65,536-deep chain linear.
+const MAX_LIMB_WALK: usize = 16;
 /// Legs do not rise more than this above the pelvis joint (CMU's buttock joints sit a
 /// little above it).
 const LEG_MAX_RISE_H: f32 = 0.1;
