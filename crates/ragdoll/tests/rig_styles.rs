@@ -6,8 +6,10 @@
 //! Biped (helper bones named after the wrist and elbow), Unreal 5's mannequin (IK feet and
 //! hands under the root, twist and corrective bones), Rigify's deform bones (each limb bone
 //! split in two), Maya HumanIK (roll bones), Mixamo (collars named `LeftShoulder`, end
-//! bones) and MakeHuman (legs under side `pelvis.L` bones, every limb bone numbered in two,
-//! the hand called `wrist.L`). Each names, for every main role, the joint
+//! bones), MakeHuman (legs under side `pelvis.L` bones, every limb bone numbered in two,
+//! the hand called `wrist.L`), SMPL (joints named for where they are: `left_hip` is the
+//! thigh, `left_shoulder` the upper arm), Kinect v2 (`ShoulderLeft`, `SpineBase`) and
+//! Bandai Namco's motion dataset (`UpperLeg_L`, `Shoulder_L` the clavicle). Each names, for every main role, the joint
 //! a rigger would give it, and the helper bones that must carry no body.
 
 mod common;
@@ -913,11 +915,166 @@ fn makehuman() -> (Character, Expect) {
 /// A rig in one style with what it must come out as.
 type Style = fn() -> (Character, Expect);
 
+/// SMPL, the body model most motion datasets and pose estimators write (AMASS, and the
+/// BVH and glTF their tools export): joints named after where they are, not the bone
+/// below, so `left_hip` is the thigh, `left_knee` the shin, `left_shoulder` the upper arm
+/// and `left_wrist` the hand, with `left_collar` the clavicle and `left_foot`, `left_hand`
+/// the toes and fingers.
+fn smpl() -> (Character, Expect) {
+    let s = ["left", "right"];
+    let mut r = Rig::new("pelvis", "hips", 30.0);
+    r.add("spine1", "pelvis", "spine1")
+        .add("spine2", "spine1", "spine3")
+        .add("spine3", "spine2", "chest")
+        .add("neck", "spine3", "neck")
+        .add("head", "neck", "head")
+        .chain(
+            s,
+            "pelvis",
+            &[
+                ("{s}_hip", "hip"),
+                ("{s}_knee", "knee"),
+                ("{s}_ankle", "ankle"),
+                ("{s}_foot", "ball"),
+            ],
+        )
+        .chain(
+            s,
+            "spine3",
+            &[
+                ("{s}_collar", "clavicle"),
+                ("{s}_shoulder", "shoulder"),
+                ("{s}_elbow", "elbow"),
+                ("{s}_wrist", "wrist"),
+                ("{s}_hand", "finger"),
+            ],
+        );
+    let want = expect(
+        s,
+        &[
+            (Role::Pelvis, &["pelvis"]),
+            (Role::Chest, &["spine3", "spine2"]),
+            (Role::Head, &["head"]),
+        ],
+        &[
+            (Role::ThighL, "{s}_hip"),
+            (Role::ShinL, "{s}_knee"),
+            (Role::FootL, "{s}_ankle"),
+            (Role::UpperArmL, "{s}_shoulder"),
+            (Role::ForearmL, "{s}_elbow"),
+            (Role::HandL, "{s}_wrist"),
+        ],
+        &["{s}_collar", "{s}_hand", "{s}_foot"],
+    );
+    (r.character("smpl"), want)
+}
+
+/// Kinect v2's body tracking: the side after the part (`ShoulderLeft`, `KneeLeft`), the
+/// spine as `SpineBase`, `SpineMid`, `SpineShoulder`, and `HandLeft`, `HandTipLeft` and
+/// `ThumbLeft` past the wrist.
+fn kinect() -> (Character, Expect) {
+    let s = ["Left", "Right"];
+    let mut r = Rig::new("SpineBase", "hips", 45.0);
+    r.add("SpineMid", "SpineBase", "spine3")
+        .add("SpineShoulder", "SpineMid", "chest")
+        .add("Neck", "SpineShoulder", "neck")
+        .add("Head", "Neck", "head")
+        .chain(
+            s,
+            "SpineBase",
+            &[
+                ("Hip{s}", "hip"),
+                ("Knee{s}", "knee"),
+                ("Ankle{s}", "ankle"),
+                ("Foot{s}", "ball"),
+            ],
+        )
+        .chain(
+            s,
+            "SpineShoulder",
+            &[
+                ("Shoulder{s}", "shoulder"),
+                ("Elbow{s}", "elbow"),
+                ("Wrist{s}", "wrist"),
+                ("Hand{s}", "finger"),
+                ("HandTip{s}", "finger_end"),
+            ],
+        )
+        .both(s, "Thumb{s}", "Wrist{s}", "thumb");
+    let want = expect(
+        s,
+        &[
+            (Role::Pelvis, &["SpineBase"]),
+            (Role::Chest, &["SpineShoulder"]),
+            (Role::Head, &["Head"]),
+        ],
+        &[
+            (Role::ThighL, "Hip{s}"),
+            (Role::ShinL, "Knee{s}"),
+            (Role::FootL, "Ankle{s}"),
+            (Role::UpperArmL, "Shoulder{s}"),
+            (Role::ForearmL, "Elbow{s}"),
+            (Role::HandL, "Wrist{s}"),
+        ],
+        &["Hand{s}", "HandTip{s}", "Thumb{s}", "Foot{s}"],
+    );
+    (r.character("kinect"), want)
+}
+
+/// Bandai Namco Research's motion dataset: `_L`/`_R` after Unity-like part names,
+/// `Shoulder_L` the clavicle, `UpperLeg_L`, `LowerArm_R`, `Toes_L`.
+fn bandai_namco() -> (Character, Expect) {
+    let s = ["L", "R"];
+    let mut r = Rig::new("Hips", "hips", 0.0);
+    r.add("Spine", "Hips", "spine1")
+        .add("Chest", "Spine", "chest")
+        .add("Neck", "Chest", "neck")
+        .add("Head", "Neck", "head")
+        .chain(
+            s,
+            "Hips",
+            &[
+                ("UpperLeg_{s}", "hip"),
+                ("LowerLeg_{s}", "knee"),
+                ("Foot_{s}", "ankle"),
+                ("Toes_{s}", "ball"),
+            ],
+        )
+        .chain(
+            s,
+            "Chest",
+            &[
+                ("Shoulder_{s}", "clavicle"),
+                ("UpperArm_{s}", "shoulder"),
+                ("LowerArm_{s}", "elbow"),
+                ("Hand_{s}", "wrist"),
+            ],
+        );
+    let want = expect(
+        s,
+        &[
+            (Role::Pelvis, &["Hips"]),
+            (Role::Chest, &["Chest"]),
+            (Role::Head, &["Head"]),
+        ],
+        &[
+            (Role::ThighL, "UpperLeg_{s}"),
+            (Role::ShinL, "LowerLeg_{s}"),
+            (Role::FootL, "Foot_{s}"),
+            (Role::UpperArmL, "UpperArm_{s}"),
+            (Role::ForearmL, "LowerArm_{s}"),
+            (Role::HandL, "Hand_{s}"),
+        ],
+        &["Shoulder_{s}", "Toes_{s}"],
+    );
+    (r.character("bandai_namco"), want)
+}
+
 /// Every style, facing +Z as glTF says and turned as files converted from other tools
 /// face (+X, -Z, 135°): its roles on the joints its rigger meant, its helpers bodiless.
 #[test]
 fn rigs_in_styles_the_data_files_do_not_have_get_their_roles() {
-    let styles: [(&str, Style); 9] = [
+    let styles: [(&str, Style); 12] = [
         ("Mixamo", mixamo),
         ("MakeHuman", makehuman),
         ("Daz Genesis 8", daz_genesis8),
@@ -927,6 +1084,9 @@ fn rigs_in_styles_the_data_files_do_not_have_get_their_roles() {
         ("Unreal 5 mannequin", unreal5),
         ("Rigify deform bones", rigify_deform),
         ("Maya HumanIK", human_ik),
+        ("SMPL", smpl),
+        ("Kinect v2", kinect),
+        ("Bandai Namco", bandai_namco),
     ];
     let mut bad = Vec::new();
     for (label, make) in styles {
