@@ -294,7 +294,9 @@ fn on_all_fours(rig: &Rig, hints: &[NameHint]) -> bool {
 fn limbs_standing(rig: &Rig, hints: &[NameHint]) -> usize {
     let reach = rig.ground + LEG_GROUND_TOLERANCE_H * rig.height;
     let high = rig.ground + LIMB_MIN_DROP_OF_EXTENT * rig.extent;
-    let mut limbs: Vec<usize> = Vec::new();
+    // Marked, not searched: a star of 65,536 feet under one hub would make a list search
+    // quadratic.
+    let mut limb = vec![false; rig.len()];
     let feet = (0..rig.len()).filter(|&j| {
         rig.children[j].is_empty()
             && !hints.get(j).is_some_and(|h| h.helper)
@@ -306,15 +308,13 @@ fn limbs_standing(rig: &Rig, hints: &[NameHint]) -> usize {
         for _ in 0..MAX_LIMB_WALK {
             let Some(p) = rig.parent(at) else { break };
             if rig.pos[p].y >= high && rig.children[p].len() >= 2 {
-                if !limbs.contains(&at) {
-                    limbs.push(at);
-                }
+                limb[at] = true;
                 break;
             }
             at = p;
         }
     }
-    limbs.len()
+    limb.iter().filter(|&&l| l).count()
 }
 
 /// Whether the names alone promise a humanoid: both thighs, shins, upper arms and
