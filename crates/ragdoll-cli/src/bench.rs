@@ -63,6 +63,10 @@ pub struct BenchArgs {
     /// does: a ratio taken minutes apart on a shared machine measures the neighbours.
     #[arg(long)]
     compare: bool,
+    /// Keep every joint of the fast backend active: no joint freezing (its level of detail
+    /// below sleep), to measure what freezing saves and costs.
+    #[arg(long)]
+    no_freeze: bool,
     #[command(flatten)]
     backend: crate::BackendArgs,
 }
@@ -106,11 +110,19 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     let progress = Progress::new(0, "bench");
     for &n in &a.ragdolls {
         for &t in &threads {
-            let row = run_pile(&character, &spec, backend, n, t, a.steps, &progress)?;
+            let settings = WorldSettings {
+                backend,
+                freeze_joints: !a.no_freeze,
+                ..Default::default()
+            };
+            let row = run_pile(&character, &spec, &settings, n, t, a.steps, &progress)?;
             let base = if a.compare {
-                let rigid = BackendKind::Rigid;
+                let rigid = WorldSettings {
+                    backend: BackendKind::Rigid,
+                    ..settings
+                };
                 Some(run_pile(
-                    &character, &spec, rigid, n, t, a.steps, &progress,
+                    &character, &spec, &rigid, n, t, a.steps, &progress,
                 )?)
             } else {
                 None
@@ -132,6 +144,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                 });
             }
             let mut run = run_json(&row, backend, a.steps);
+            run["freeze_joints"] = json!(settings.freeze_joints);
             if let Some(b) = &base {
                 run["rigid"] = run_json(b, BackendKind::Rigid, a.steps);
                 run["cpu_ratio_to_rigid"] = json!(ratio);
@@ -241,7 +254,7 @@ fn placement(k: usize, n: usize) -> Transform {
 fn run_pile(
     character: &skeleton::Character,
     spec: &spec::RagdollSpec,
-    backend: BackendKind,
+    settings: &WorldSettings,
     n: usize,
     threads: usize,
     steps: usize,
@@ -255,10 +268,7 @@ fn run_pile(
     let mut worlds = Vec::new();
     let mut k = 0;
     while k < n {
-        let mut world = World::new(&WorldSettings {
-            backend,
-            ..Default::default()
-        })?;
+        let mut world = World::new(settings)?;
         for i in k..(k + per_world).min(n) {
             world.add_ragdoll(character, spec, placement(i, n))?;
             progress.inc(1);

@@ -32,6 +32,7 @@ fn world_settings(a: &RunArgs, rest_pose: bool) -> Result<WorldSettings> {
         backend: a.backend.backend,
         fps: a.fps,
         joint_damping: a.joint_damping,
+        freeze_joints: !a.no_freeze,
         start: if rest_pose {
             StartPose::Rest
         } else {

@@ -214,6 +214,12 @@ struct RunArgs {
         default_value_t = 0.0
     )]
     joint_damping: f32,
+    /// Keep every joint of the fast backend active. By default a joint whose two parts
+    /// have stopped turning against each other is frozen, and they move as one rigid body
+    /// until a blow, a landing or another ragdoll arrives (the fast backend's level of
+    /// detail below sleep).
+    #[arg(long)]
+    no_freeze: bool,
 }
 
 /// How a character's animation leads into the simulation. Only for commands that read a

@@ -163,6 +163,9 @@ fn apply_flags(a: &SimulateArgs, matches: &ArgMatches, scene: &mut Scene) -> Res
     if given(matches, "joint_damping") {
         scene.settings.joint_damping = a.sim.run.joint_damping;
     }
+    if a.sim.run.no_freeze {
+        scene.settings.freeze_joints = false;
+    }
     // A flag can make the scene's settings disagree (`--backend particle` with the file's
     // `joint_damping`): said before anything runs, naming the setting.
     scene.settings.validate().map_err(|e| match e {

@@ -156,9 +156,8 @@ pub fn frame_from_x(x: Vec3, y_hint: Vec3) -> Quat {
 /// of its covariance (unit, right-handed) with their eigenvalues (variances, m²), largest
 /// first.
 ///
-/// Cyclic Jacobi rotations on the 3×3 covariance: exact to rounding in a handful of sweeps,
-/// and, unlike power iteration, it also gives the second and third axes (a creature's
-/// up/down and left/right). Points with a non-positive or non-finite weight are skipped;
+/// The covariance's eigenvectors ([`symmetric_eigen`]) give the second and third axes
+/// too (a creature's up/down and left/right). Points with a non-positive or non-finite weight are skipped;
 /// with no usable point the result is the origin and the world axes with zero variances.
 pub fn principal_axes(points: &[Vec3], weights: &[f32]) -> (Vec3, [Vec3; 3], [f32; 3]) {
     let used = || {
@@ -186,6 +185,16 @@ pub fn principal_axes(points: &[Vec3], weights: &[f32]) -> (Vec3, [Vec3; 3], [f3
             *x /= f64::from(total);
         }
     }
+    let (axes, vars) = symmetric_eigen(a);
+    (c, axes, vars)
+}
+
+/// Eigenvectors (unit columns of a right-handed frame) and eigenvalues of the symmetric
+/// 3×3 matrix `a`, largest eigenvalue first, negative ones read as 0.
+///
+/// Cyclic Jacobi rotations: exact to rounding in a handful of sweeps, and, unlike power
+/// iteration, it also gives the second and third axes.
+pub(crate) fn symmetric_eigen(mut a: [[f64; 3]; 3]) -> ([Vec3; 3], [f32; 3]) {
     let mut v = [[1.0f64, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
     for _sweep in 0..32 {
         let off = a[0][1].abs() + a[0][2].abs() + a[1][2].abs();
@@ -222,7 +231,7 @@ pub fn principal_axes(points: &[Vec3], weights: &[f32]) -> (Vec3, [Vec3; 3], [f3
     let (x, y) = (axis(order[0]), axis(order[1]));
     let axes = [x, y, x.cross(y).normalize()];
     let vars = order.map(|k| a[k][k].max(0.0) as f32);
-    (c, axes, vars)
+    (axes, vars)
 }
 
 /// Parameters `(s, t)` of the closest points of segments `p0 p1` and `q0 q1` (Ericson,

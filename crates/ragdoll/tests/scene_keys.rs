@@ -294,3 +294,18 @@ fn joint_damping_is_a_world_setting_refused_where_it_cannot_apply() {
         assert!(m.contains("joint_damping") && m.contains(words), "{m}");
     }
 }
+
+/// `freeze_joints` reaches the world's settings (on unless the file turns it off); a value
+/// that is not a boolean is refused at its key's line.
+#[test]
+fn freeze_joints_is_a_world_setting() {
+    assert!(load("[[character]]\n").settings.freeze_joints);
+    assert!(
+        !load("freeze_joints = false\n[[character]]\n")
+            .settings
+            .freeze_joints
+    );
+    let (line, m) = failure("fps = 30\nfreeze_joints = \"no\"\n[[character]]\n", "");
+    assert_eq!(line, 2, "{m}");
+    assert!(m.contains("freeze_joints"), "{m}");
+}

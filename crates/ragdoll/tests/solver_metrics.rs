@@ -43,10 +43,18 @@ fn the_solver_reading_is_taken_before_the_clamp_on_both_backends() {
             m.max_limit_violation_solver_deg >= m.max_limit_violation_deg,
             "{backend:?}: {m:?}"
         );
-        // Here it had work to do: the solver leaves joints well past the 1° (rigid, the
-        // world's projection) or 3° (particle, its own pass) the clamps leave them at.
+        // Here it had work to do: the solver leaves joints past the 1° the world's
+        // projection allows (rigid, fast; the particle backend's own pass allows 3°), and
+        // the reading after the clamp is lower. Rigid and particle leave several degrees;
+        // fast, which holds limits inside its solver, 1.7°.
+        let allowed = if backend == BackendKind::Particle {
+            3.0
+        } else {
+            1.0
+        };
         assert!(
-            m.max_limit_violation_solver_deg > m.max_limit_violation_deg + 1.0,
+            m.max_limit_violation_solver_deg > allowed
+                && m.max_limit_violation_solver_deg > m.max_limit_violation_deg,
             "{backend:?}: the clamp did nothing in a pile? {m:?}"
         );
     }

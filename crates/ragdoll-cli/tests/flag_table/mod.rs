@@ -202,6 +202,10 @@ fn bench_json(_: &Path, o: &Output) {
     let v: serde_json::Value = serde_json::from_str(&out(o)).unwrap();
     assert_eq!(v["runs"][0]["ragdolls"], 2);
 }
+fn bench_no_freeze(_: &Path, o: &Output) {
+    let v: serde_json::Value = serde_json::from_str(&out(o)).unwrap();
+    assert_eq!(v["runs"][0]["freeze_joints"], false);
+}
 fn bench_particle(_: &Path, o: &Output) {
     assert!(out(o).contains("particle"), "{}", out(o));
 }
@@ -284,7 +288,7 @@ fn character_import_rows(sub: &'static str, base: &[&str]) -> Vec<Case> {
     t
 }
 
-/// `--backend`, `--seconds`, `--fps`, `--joint-damping`, `--preview`. clap refuses a flag given twice, so
+/// `--backend`, `--seconds`, `--fps`, `--joint-damping`, `--preview`, `--no-freeze`. clap refuses a flag given twice, so
 /// `base` has no --seconds and each row adds one.
 #[rustfmt::skip]
 fn run_rows(sub: &'static str, base: &[&str]) -> Vec<Case> {
@@ -295,6 +299,7 @@ fn run_rows(sub: &'static str, base: &[&str]) -> Vec<Case> {
         case(sub, "--fps", base, &[&S[..], &["--fps", "10"]].concat(), Some(frames_3), &[&S[..], &["--fps", "0"]].concat(), "--fps"),
         case(sub, "--joint-damping", base, &[&S[..], &["--joint-damping", "1.5"]].concat(), None, &[&S[..], &["--backend", "particle", "--joint-damping", "1"]].concat(), "--joint-damping"),
         case(sub, "--preview", base, &[&S[..], &["--preview", "p.png"]].concat(), Some(png_written), &[&S[..], &["--preview", "p.jpg"]].concat(), "--preview"),
+        case(sub, "--no-freeze", base, &[&S[..], &["--backend", "fast", "--no-freeze"]].concat(), None, &[&S[..], &["--no-freeze=yes"]].concat(), "--no-freeze"),
     ]
 }
 
@@ -424,6 +429,7 @@ fn bench() -> Vec<Case> {
         case("bench", "--threads", &["bench", "--ragdolls", "8", "--steps", "2"], &["--threads", "1,2"], Some(two_thread_counts), &["--threads", "0"], "--threads"),
         case("bench", "--json", base, &["--json"], Some(bench_json), &["--json=yes"], "--json"),
         case("bench", "--backend", base, &["--backend", "particle"], Some(bench_particle), &["--backend", "soft"], "--backend"),
+        case("bench", "--no-freeze", &[&base[..], &["--backend", "fast", "--json"]].concat(), &["--no-freeze"], Some(bench_no_freeze), &["--no-freeze=yes"], "--no-freeze"),
         case("bench", "--compare", &[&base[..], &["--backend", "particle"]].concat(), &["--compare"], Some(bench_compare), &["--compare=yes"], "--compare"),
     ]
 }

@@ -268,6 +268,9 @@ fn settings(src: &Src, raw: &RawScene) -> Result<WorldSettings> {
         joint_damping,
         ..Default::default()
     };
+    if let Some(f) = &raw.freeze_joints {
+        settings.freeze_joints = *f.get_ref();
+    }
     if let Some(g) = &raw.gravity {
         settings.gravity = top.vector(g, "gravity", MAX_GRAVITY_MPS2, " m/s²")?;
     }

@@ -21,6 +21,7 @@ pub(super) struct RawScene {
     pub(super) ground: Option<S<GroundValue>>,
     pub(super) backend: Option<S<String>>,
     pub(super) joint_damping: Option<S<f32>>,
+    pub(super) freeze_joints: Option<S<bool>>,
     pub(super) start_pose: Option<S<StartPoseName>>,
     pub(super) output: Option<RawOutput>,
     #[serde(default)]

@@ -174,6 +174,7 @@ impl World {
                 gravity: settings.gravity,
                 ground: settings.ground,
                 substeps: settings.fast_substeps,
+                freeze_joints: settings.freeze_joints,
             }))),
         };
         Ok(Self::with_any(settings, backend))

@@ -70,6 +70,10 @@ pub struct WorldSettings {
     /// fast a limp limb swinging from a still body loses its speed relative to it, so its
     /// swing's amplitude decays as `exp(-c t / 2)`. Rigid and fast backends for now.
     pub joint_damping: f32,
+    /// Whether the fast backend freezes joints that have stopped moving (default true):
+    /// the bodies they link move as one until a blow arrives, and cost as one (its level
+    /// of detail below sleep; see the README's Backends). The other backends ignore it.
+    pub freeze_joints: bool,
 }
 
 /// Default of [`WorldSettings::fast_substeps`]: 32 substeps of 1/1920 s. Measured on six
@@ -109,6 +113,7 @@ impl Default for WorldSettings {
             particle_iterations: 1,
             fast_substeps: DEFAULT_FAST_SUBSTEPS,
             joint_damping: DEFAULT_JOINT_DAMPING,
+            freeze_joints: true,
         }
     }
 }

@@ -14,6 +14,20 @@ impl FastBackend {
         (self.inv_inertia_world[i] * Vec3A::from(v)).into()
     }
 
+    /// Where shape `c` is now: its body's pose, or for a part of a compound, the pose of
+    /// that part.
+    #[inline(always)]
+    pub(super) fn shape_pose(&self, c: usize) -> (Vec3, Quat) {
+        let o = self.owner[c] as usize;
+        match &self.attach[c] {
+            None => (self.pos[o], self.rot[o]),
+            Some(t) => (
+                self.pos[o] + self.rot[o] * t.translation,
+                self.rot[o] * t.rotation,
+            ),
+        }
+    }
+
     /// Recomputes body `i`'s world inverse inertia tensor from its rotation.
     #[inline]
     pub(super) fn refresh_inertia(&mut self, i: usize) {
@@ -40,7 +54,9 @@ impl FastBackend {
     /// Moves body `i` by the positional impulse `p` at offset `r`.
     #[inline(always)]
     pub(super) fn shift(&mut self, i: usize, r: Vec3, p: Vec3) {
-        self.pos[i] += p * self.inv_mass[i];
+        let d = p * self.inv_mass[i];
+        self.pos[i] += d;
+        self.moved[i] += d;
         let w = self.inv_inertia_world(i, r.cross(p));
         self.turn_by(i, w);
     }
@@ -89,6 +105,7 @@ impl FastBackend {
     /// to the velocities the world sees too, so it reads the blow at once.
     pub(super) fn kick(&mut self, i: usize, dv: Vec3, dw: Vec3) {
         self.wake_body(i);
+        self.thaw_on_kick(i, dv, dw);
         self.vel[i] += dv;
         self.angvel[i] += dw;
         self.seen_vel[i] += dv;
@@ -102,7 +119,12 @@ impl FastBackend {
         }
     }
 
+    /// Wakes ragdoll `r`, with every joint thawed: what woke it may move any of them.
     pub(super) fn wake(&mut self, r: usize) {
+        let rd = &mut self.ragdolls[r];
+        if rd.asleep {
+            self.thaw(r);
+        }
         let rd = &mut self.ragdolls[r];
         rd.asleep = false;
         rd.still_s = None;

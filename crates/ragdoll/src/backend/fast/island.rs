@@ -9,6 +9,7 @@
 use rayon::prelude::*;
 
 use super::{FastBackend, Pin, Ragdoll};
+use crate::math::Transform;
 
 /// No island: the ragdoll sleeps.
 pub(super) const NO_ISLAND: u32 = u32::MAX;
@@ -46,7 +47,7 @@ impl FastBackend {
         subs[..count]
             .par_iter_mut()
             .for_each(|sub| sub.solve_step(dt));
-        self.scatter(&subs[..count]);
+        self.scatter(&subs[..count], dt);
         self.island_pool = subs;
     }
 
@@ -92,7 +93,7 @@ impl FastBackend {
             rot,
             prev_pos,
             prev_rot,
-            pred_pos,
+            moved,
             pred_rot,
             vel,
             angvel,
@@ -106,18 +107,22 @@ impl FastBackend {
             inv_inertia,
             inv_inertia_world,
             shape,
+            owner,
+            attach,
             holder,
             kinematic,
             ragdoll_of,
             ragdolls,
             joints,
-            pins
+            pins,
+            compounds
         );
         self.collide.pairs.clear();
     }
 
     /// Copies each island's ragdolls, joints, pins and pairs into its solver, with body
-    /// indices renumbered from 0 in each.
+    /// indices renumbered from 0 in each; the bodies a ragdoll's frozen joints link become
+    /// one compound body there (`freeze.rs`).
     fn gather(&mut self, subs: &mut [FastBackend]) {
         let mut local = std::mem::take(&mut self.local_of);
         local.clear();
@@ -129,52 +134,37 @@ impl FastBackend {
             }
             let sub = &mut subs[island as usize];
             let first = sub.pos.len();
-            let bodies = self.ragdolls[r].bodies.clone();
-            for i in bodies.clone() {
-                local[i] = sub.pos.len() as u32;
-                macro_rules! copy {
-                    ($($f:ident),*) => { $( sub.$f.push(self.$f[i]); )* };
+            if self.ragdolls[r].frozen == 0 {
+                for i in self.ragdolls[r].bodies.clone() {
+                    sub.push_body_of(self, i, sub.ragdolls.len());
+                    local[i] = sub.shape.len() as u32 - 1;
                 }
-                copy!(
-                    pos,
-                    rot,
-                    prev_pos,
-                    prev_rot,
-                    pred_pos,
-                    pred_rot,
-                    vel,
-                    angvel,
-                    step_pos,
-                    step_rot,
-                    seen_vel,
-                    seen_angvel,
-                    mass,
-                    inv_mass,
-                    inertia,
-                    inv_inertia,
-                    inv_inertia_world,
-                    shape,
-                    holder,
-                    kinematic
-                );
-                sub.ragdoll_of.push(sub.ragdolls.len());
+            } else {
+                self.gather_compounds(r, sub, &mut local);
             }
             sub.ragdolls.push(Ragdoll {
-                bodies: first..first + bodies.len(),
+                bodies: first..sub.pos.len(),
                 ..self.ragdolls[r].clone()
             });
             for j in self.ragdolls[r].joints.clone() {
+                if self.joints[j].frozen {
+                    continue;
+                }
                 let mut joint = self.joints[j].clone();
-                joint.a = local[joint.a] as usize;
-                joint.b = local[joint.b] as usize;
+                (joint.a, joint.frame_a) = sub.on_owner(local[joint.a], joint.frame_a);
+                (joint.b, joint.frame_b) = sub.on_owner(local[joint.b], joint.frame_b);
                 sub.joints.push(joint);
             }
         }
         for p in self.pins.iter().filter(|p| p.active) {
             let island = self.island_of[self.ragdoll_of[p.body]];
             if island != NO_ISLAND {
-                subs[island as usize].pins.push(Pin {
-                    body: local[p.body] as usize,
+                let sub = &mut subs[island as usize];
+                let (body, at) =
+                    sub.on_owner(local[p.body], Transform::new(p.local, glam::Quat::IDENTITY));
+                sub.pins.push(Pin {
+                    body,
+                    local: at.translation,
                     ..*p
                 });
             }
@@ -191,8 +181,52 @@ impl FastBackend {
         self.local_of = local;
     }
 
+    /// Adds body `i` of `world` (the whole world's solver) to this island's solver as it
+    /// is, with its shape, in the island's ragdoll `ragdoll`.
+    pub(super) fn push_body_of(&mut self, world: &FastBackend, i: usize, ragdoll: usize) {
+        macro_rules! copy {
+            ($($f:ident),*) => { $( self.$f.push(world.$f[i]); )* };
+        }
+        copy!(
+            pos,
+            rot,
+            prev_pos,
+            prev_rot,
+            moved,
+            pred_rot,
+            vel,
+            angvel,
+            step_pos,
+            step_rot,
+            seen_vel,
+            seen_angvel,
+            mass,
+            inv_mass,
+            inertia,
+            inv_inertia,
+            inv_inertia_world,
+            shape,
+            holder,
+            kinematic
+        );
+        self.owner.push(self.pos.len() as u32 - 1);
+        self.attach.push(None);
+        self.ragdoll_of.push(ragdoll);
+    }
+
+    /// The body that carries shape `c` and `frame` (in the shape's body's frame) in that
+    /// body's frame.
+    fn on_owner(&self, c: u32, frame: Transform) -> (usize, Transform) {
+        let c = c as usize;
+        let frame = match self.attach[c] {
+            Some(t) => t.mul(&frame),
+            None => frame,
+        };
+        (self.owner[c] as usize, frame)
+    }
+
     /// Copies the islands' bodies back, with what their contacts saw.
-    fn scatter(&mut self, subs: &[FastBackend]) {
+    fn scatter(&mut self, subs: &[FastBackend], dt: f32) {
         for r in 0..self.ragdolls.len() {
             let island = self.island_of[r];
             if island == NO_ISLAND {
@@ -200,7 +234,13 @@ impl FastBackend {
             }
             let sub = &subs[island as usize];
             for i in self.ragdolls[r].bodies.clone() {
-                let l = self.local_of[i] as usize;
+                let c = self.local_of[i] as usize;
+                self.collide.touching[i] = sub.collide.touching[c];
+                if sub.attach[c].is_some() {
+                    self.part_from_compound(i, sub, c, dt);
+                    continue;
+                }
+                let l = sub.owner[c] as usize;
                 macro_rules! back {
                     ($($f:ident),*) => { $( self.$f[i] = sub.$f[l]; )* };
                 }
@@ -213,8 +253,10 @@ impl FastBackend {
                     seen_angvel,
                     inv_inertia_world
                 );
-                self.collide.touching[i] = sub.collide.touching[l];
             }
+            let k = sub.ragdoll_of
+                [sub.owner[self.local_of[self.ragdolls[r].bodies.start] as usize] as usize];
+            self.ragdolls[r].jolted |= sub.ragdolls[k].jolted;
         }
         for sub in subs {
             self.collide.max_penetration = self

@@ -24,12 +24,17 @@
 //! contacts are found once per step with the shared broad phase and their points again
 //! every substep. Ragdolls that may touch form islands; an island whose bodies all stay
 //! within [`SLEEP_DRIFT_M`] of where they were for [`SLEEP_AFTER_S`] sleeps (costs
-//! nothing) until something touches or pushes it (`sleep.rs`).
+//! nothing) until something touches or pushes it (`sleep.rs`). Below sleep, a joint that
+//! has stopped moving freezes and the parts it links are one body in their island's
+//! solver until a blow arrives (`freeze.rs`): a ragdoll in flight or settling costs a
+//! fraction of one whose every joint moves.
 
 mod body;
 mod box_capsule;
 mod contact;
+mod freeze;
 mod island;
+mod limits;
 mod narrow;
 mod sleep;
 mod solve;
@@ -41,6 +46,7 @@ use glam::{Quat, Vec3};
 use super::{Backend, BodyDesc, BodyState, JointDesc};
 use crate::math::Transform;
 use crate::spec::{JointKind, Shape};
+use limits::{Limits, Twist};
 
 /// Static and dynamic friction of every contact: skin and clothing on a hard floor are
 /// around 0.5-0.8 (the rigid backend's value).
@@ -66,74 +72,8 @@ pub(crate) struct FastSettings {
     pub ground: Option<f32>,
     /// Substeps per step.
     pub substeps: usize,
-}
-
-/// A joint's limits, in radians, with what tells cheaply whether they are crossed.
-#[derive(Clone, Copy, Debug)]
-enum Limits {
-    Ball,
-    Fixed,
-    Hinge(Twist),
-    SwingTwist {
-        swing: f32,
-        /// `cos(swing)`: the cone is crossed when the axes' dot product is below it.
-        cos_swing: f32,
-        twist: Twist,
-    },
-}
-
-/// A twist range `[min, max]` about the frames' X axis, with the sine and cosine of each
-/// half angle: the twist `2·atan2(x, w)` of a relative rotation (w ≥ 0) passes `max` when
-/// `x·cos(max/2) − w·sin(max/2) > 0`, a test without the arctangent the solver would
-/// otherwise take for every joint in every substep. A bound at ±180° or beyond is never
-/// crossed.
-#[derive(Clone, Copy, Debug)]
-struct Twist {
-    min: f32,
-    max: f32,
-    min_half: Option<(f32, f32)>,
-    max_half: Option<(f32, f32)>,
-}
-
-impl Twist {
-    fn new(min: f32, max: f32) -> Self {
-        let half = |a: f32| (a.abs() < std::f32::consts::PI).then(|| (0.5 * a).sin_cos());
-        Twist {
-            min,
-            max,
-            min_half: half(min),
-            max_half: half(max),
-        }
-    }
-
-    /// Whether the relative rotation `rel` (about X) is past either bound.
-    #[inline]
-    fn crossed(&self, rel: Quat) -> bool {
-        let rel = if rel.w < 0.0 { -rel } else { rel };
-        let past = |(s, c): (f32, f32)| rel.x * c - rel.w * s;
-        self.max_half.is_some_and(|h| past(h) > 0.0) || self.min_half.is_some_and(|h| past(h) < 0.0)
-    }
-}
-
-impl Limits {
-    fn of(kind: &JointKind) -> Self {
-        match *kind {
-            JointKind::Ball => Limits::Ball,
-            JointKind::Fixed => Limits::Fixed,
-            JointKind::Hinge { min_deg, max_deg } => {
-                Limits::Hinge(Twist::new(min_deg.to_radians(), max_deg.to_radians()))
-            }
-            JointKind::SwingTwist {
-                swing_deg,
-                twist_deg,
-                ..
-            } => Limits::SwingTwist {
-                swing: swing_deg.to_radians(),
-                cos_swing: swing_deg.to_radians().cos(),
-                twist: Twist::new(twist_deg[0].to_radians(), twist_deg[1].to_radians()),
-            },
-        }
-    }
+    /// Whether quiet joints freeze (`freeze.rs`).
+    pub freeze_joints: bool,
 }
 
 /// A drive toward a relative rotation (see [`Backend::drive_joint`]).
@@ -157,6 +97,12 @@ struct Joint {
     /// Share of its correction a substep's pass applies: the lighter hub's of its two
     /// bodies (see [`crate::backend::hub::hub_relaxation`]).
     relax: f32,
+    /// Whether it is frozen: its two bodies move as one (`freeze.rs`).
+    frozen: bool,
+    /// How long it has stayed quiet, seconds, and its relative rotation when the quiet
+    /// spell began.
+    quiet_s: f32,
+    quiet_rel: Quat,
 }
 
 /// A point of a body tied to a moving world point.
@@ -192,6 +138,11 @@ struct Ragdoll {
     held: bool,
     /// How many times the world's substeps its island takes ([`substep_factor`]).
     substep_factor: f32,
+    /// How many of its joints are frozen (`freeze.rs`).
+    frozen: usize,
+    /// Set by an island's solver when one of the ragdoll's compounds took a blow this
+    /// step: its joints thaw.
+    jolted: bool,
 }
 
 /// The ragdoll's whole mass over its lightest body's, up to which the world's substeps
@@ -226,8 +177,9 @@ pub(crate) struct FastBackend {
     rot: Vec<Quat>,
     prev_pos: Vec<Vec3>,
     prev_rot: Vec<Quat>,
-    /// Where each body's velocity alone put it in this substep, before the constraints.
-    pred_pos: Vec<Vec3>,
+    /// How far the constraints moved each body in this substep, summed as they move it
+    /// (see [`FastBackend::update_velocities`]), and where its velocity alone turned it.
+    moved: Vec<Vec3>,
     pred_rot: Vec<Quat>,
     vel: Vec<Vec3>,
     angvel: Vec<Vec3>,
@@ -252,8 +204,15 @@ pub(crate) struct FastBackend {
     /// 16-byte columns, so every product with one (a few per constraint) is three SIMD
     /// multiply-adds.
     inv_inertia_world: Vec<glam::Mat3A>,
+    /// Shapes, one per body of the world; in an island's solver, one per body of the
+    /// world it holds, with the solver body that carries it ([`FastBackend::owner`]).
     shape: Vec<Shape>,
-    /// What holds each body up in this substep's contacts (see
+    /// Which body carries each shape, and where in that body's frame where the body is a
+    /// compound of parts whose joints are frozen (`freeze.rs`); `None`: the shape is the
+    /// body's own, at its centre. Outside an island's solver every shape is its own body's.
+    owner: Vec<u32>,
+    attach: Vec<Option<Transform>>,
+    /// What holds each shape up in this substep's contacts (see
     /// [`FastBackend::support_along`]).
     holder: Vec<u32>,
     kinematic: Vec<Option<Kinematic>>,
@@ -273,6 +232,8 @@ pub(crate) struct FastBackend {
     island_of: Vec<u32>,
     local_of: Vec<u32>,
     island_pool: Vec<FastBackend>,
+    /// An island solver's compounds of bodies linked by frozen joints (`freeze.rs`).
+    compounds: Vec<freeze::Compound>,
 }
 
 impl FastBackend {
@@ -283,7 +244,7 @@ impl FastBackend {
             rot: Vec::new(),
             prev_pos: Vec::new(),
             prev_rot: Vec::new(),
-            pred_pos: Vec::new(),
+            moved: Vec::new(),
             pred_rot: Vec::new(),
             vel: Vec::new(),
             angvel: Vec::new(),
@@ -299,6 +260,8 @@ impl FastBackend {
             inv_inertia: Vec::new(),
             inv_inertia_world: Vec::new(),
             shape: Vec::new(),
+            owner: Vec::new(),
+            attach: Vec::new(),
             holder: Vec::new(),
             kinematic: Vec::new(),
             ragdoll_of: Vec::new(),
@@ -312,6 +275,7 @@ impl FastBackend {
             island_of: Vec::new(),
             local_of: Vec::new(),
             island_pool: Vec::new(),
+            compounds: Vec::new(),
         }
     }
 }
@@ -341,7 +305,7 @@ impl Backend for FastBackend {
             self.rot.push(b.pose.rotation.normalize());
             self.prev_pos.push(b.pose.translation);
             self.prev_rot.push(b.pose.rotation.normalize());
-            self.pred_pos.push(b.pose.translation);
+            self.moved.push(Vec3::ZERO);
             self.pred_rot.push(b.pose.rotation.normalize());
             self.vel.push(b.linvel);
             self.angvel.push(b.angvel);
@@ -357,6 +321,8 @@ impl Backend for FastBackend {
             self.inv_inertia.push(inertia.recip());
             self.inv_inertia_world.push(glam::Mat3A::ZERO);
             self.shape.push(b.shape);
+            self.owner.push(self.pos.len() as u32 - 1);
+            self.attach.push(None);
             self.kinematic.push(None);
             self.holder.push(contact::NOTHING);
             self.ragdoll_of.push(r);
@@ -377,6 +343,9 @@ impl Backend for FastBackend {
                 limits: Limits::of(&j.kind),
                 drive: None,
                 relax: hub[j.parent].min(hub[j.child]),
+                frozen: false,
+                quiet_s: 0.0,
+                quiet_rel: Quat::IDENTITY,
             });
             self.disabled.insert(pair(j.parent, j.child));
         }
@@ -390,6 +359,8 @@ impl Backend for FastBackend {
             still_s: None,
             held: false,
             substep_factor: substep_factor(&self.mass[first..]),
+            frozen: 0,
+            jolted: false,
         });
         first
     }
@@ -451,7 +422,7 @@ impl Backend for FastBackend {
             self.ragdolls
                 .iter()
                 .filter(|r| !r.asleep)
-                .map(|r| r.joints.len())
+                .map(|r| r.joints.len() - r.frozen)
                 .sum(),
         )
     }
@@ -463,6 +434,7 @@ impl Backend for FastBackend {
             to: pose,
         });
         self.set_mass_of(index, kinematic);
+        self.thaw(self.ragdoll_of[index]);
         self.update_held();
         self.wake_body(index);
     }
@@ -475,6 +447,7 @@ impl Backend for FastBackend {
 
     fn set_body_velocity(&mut self, index: usize, linvel: Vec3, angvel: Vec3) {
         self.wake_body(index);
+        self.thaw(self.ragdoll_of[index]);
         self.vel[index] = linvel;
         self.angvel[index] = angvel;
         self.seen_vel[index] = linvel;
@@ -486,6 +459,7 @@ impl Backend for FastBackend {
         j.frame_a = *frame;
         let b = j.b;
         self.wake_body(b);
+        self.thaw(self.ragdoll_of[b]);
     }
 
     fn set_joint_child_frame(&mut self, index: usize, frame: &Transform) {
@@ -493,6 +467,7 @@ impl Backend for FastBackend {
         j.frame_b = *frame;
         let b = j.b;
         self.wake_body(b);
+        self.thaw(self.ragdoll_of[b]);
     }
 
     // Drives are implicit springs on the substeps' velocities, stable at any stiffness:
@@ -504,6 +479,7 @@ impl Backend for FastBackend {
         j.limits = Limits::of(kind);
         let b = j.b;
         self.wake_body(b);
+        self.thaw(self.ragdoll_of[b]);
     }
 
     fn set_gravity(&mut self, gravity: Vec3) {

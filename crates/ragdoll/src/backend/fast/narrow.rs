@@ -26,7 +26,7 @@ pub(super) fn reach(shape: &Shape) -> f32 {
 }
 
 /// World bounds of a shape at a pose.
-fn bounds(shape: &Shape, pos: Vec3, rot: Quat) -> (Vec3, Vec3) {
+pub(super) fn bounds(shape: &Shape, pos: Vec3, rot: Quat) -> (Vec3, Vec3) {
     match *shape {
         Shape::Capsule { radius_m, length_m } => {
             let h = rot * Vec3::new(0.0, 0.5 * length_m, 0.0);
@@ -60,6 +60,31 @@ pub(super) fn ends(pos: Vec3, rot: Quat, length_m: f32) -> (Vec3, Vec3) {
 
 fn parry_pose(pos: Vec3, rot: Quat) -> Pose {
     Pose::from_parts(pos, rot)
+}
+
+/// The contact of a capsule at pose `c` (radius `r`, segment `length`) with a box at pose
+/// `b` (edges `size`) if within `within` metres, the capsule first, found in the box's
+/// frame ([`box_capsule::contact_in_box_frame`]).
+fn box_capsule(
+    (box_pos, box_rot): (Vec3, Quat),
+    size: [f32; 3],
+    (pos, rot): (Vec3, Quat),
+    r: f32,
+    length: f32,
+    within: f32,
+) -> Option<Found> {
+    let half = Vec3::from_array(size) * 0.5;
+    let inv = box_rot.conjugate();
+    let (e0, e1) = ends(pos, rot, length);
+    let (l0, l1) = (inv * (e0 - box_pos), inv * (e1 - box_pos));
+    let (p_local, q_local, n_local, depth) =
+        box_capsule::contact_in_box_frame(l0, l1, half, r, within)?;
+    Some(Found {
+        pa: box_pos + box_rot * p_local,
+        pb: box_pos + box_rot * q_local,
+        n: box_rot * n_local,
+        depth,
+    })
 }
 
 impl FastBackend {
@@ -109,11 +134,12 @@ impl FastBackend {
         }
     }
 
-    /// How far any point of body `i` may move in a step of `dt` at its present
+    /// How far any point of shape `c` may move in a step of `dt` at its body's present
     /// velocities, with [`BROAD_MARGIN_M`] to spare for what the step's constraints add.
-    fn travel(&self, i: usize, dt: f32) -> f32 {
-        (self.vel[i].length() + self.angvel[i].length() * reach(&self.shape[i])) * dt
-            + BROAD_MARGIN_M
+    pub(super) fn travel(&self, c: usize, dt: f32) -> f32 {
+        let o = self.owner[c] as usize;
+        let lever = reach(&self.shape[c]) + self.attach[c].map_or(0.0, |t| t.translation.length());
+        (self.vel[o].length() + self.angvel[o].length() * lever) * dt + BROAD_MARGIN_M
     }
 
     /// Keeps the candidate pairs that may come within [`TOUCH_M`] in the coming step: the
@@ -132,13 +158,15 @@ impl FastBackend {
         self.collide.pairs = pairs;
     }
 
-    /// The closest points of bodies `a` and `b`, if they are within [`TOUCH_M`].
+    /// The closest points of shapes `a` and `b`, if they are within [`TOUCH_M`].
     pub(super) fn pair_contact(&self, a: usize, b: usize) -> Option<Found> {
         self.pair_contact_within(a, b, TOUCH_M)
     }
 
-    /// The closest points of bodies `a` and `b`, if they are within `within` metres.
+    /// The closest points of shapes `a` and `b`, if they are within `within` metres.
     fn pair_contact_within(&self, a: usize, b: usize, within: f32) -> Option<Found> {
+        let (pos_a, rot_a) = self.shape_pose(a);
+        let (pos_b, rot_b) = self.shape_pose(b);
         if let (
             Shape::Capsule {
                 radius_m: ra,
@@ -150,8 +178,8 @@ impl FastBackend {
             },
         ) = (self.shape[a], self.shape[b])
         {
-            let (a0, a1) = ends(self.pos[a], self.rot[a], la);
-            let (b0, b1) = ends(self.pos[b], self.rot[b], lb);
+            let (a0, a1) = ends(pos_a, rot_a, la);
+            let (b0, b1) = ends(pos_b, rot_b, lb);
             let (s, t) = crate::math::closest_segment_params(a0, a1, b0, b1);
             let (ca, cb) = (a0.lerp(a1, s), b0.lerp(b1, t));
             let d = ca - cb;
@@ -162,9 +190,7 @@ impl FastBackend {
             let n = if dist > 1.0e-9 {
                 d / dist
             } else {
-                (self.pos[a] - self.pos[b])
-                    .try_normalize()
-                    .unwrap_or(Vec3::Y)
+                (pos_a - pos_b).try_normalize().unwrap_or(Vec3::Y)
             };
             return Some(Found {
                 pa: ca - n * ra,
@@ -173,18 +199,23 @@ impl FastBackend {
                 depth: ra + rb - dist,
             });
         }
-        let pa = parry_pose(self.pos[a], self.rot[a]);
-        let pb = parry_pose(self.pos[b], self.rot[b]);
         let c = match (self.shape[a], self.shape[b]) {
             (Shape::Box { size_m: sa }, Shape::Box { size_m: sb }) => query::contact(
-                &pa,
+                &parry_pose(pos_a, rot_a),
                 &Cuboid::new(Vec3::from_array(sa) * 0.5),
-                &pb,
+                &parry_pose(pos_b, rot_b),
                 &Cuboid::new(Vec3::from_array(sb) * 0.5),
                 within,
             ),
             (Shape::Box { size_m }, Shape::Capsule { radius_m, length_m }) => {
-                let f = self.box_capsule(a, size_m, b, radius_m, length_m, within)?;
+                let f = box_capsule(
+                    (pos_a, rot_a),
+                    size_m,
+                    (pos_b, rot_b),
+                    radius_m,
+                    length_m,
+                    within,
+                )?;
                 return Some(Found {
                     pa: f.pb,
                     pb: f.pa,
@@ -193,7 +224,14 @@ impl FastBackend {
                 });
             }
             (Shape::Capsule { radius_m, length_m }, Shape::Box { size_m }) => {
-                return self.box_capsule(b, size_m, a, radius_m, length_m, within);
+                return box_capsule(
+                    (pos_b, rot_b),
+                    size_m,
+                    (pos_a, rot_a),
+                    radius_m,
+                    length_m,
+                    within,
+                );
             }
             _ => return None,
         };
@@ -203,33 +241,6 @@ impl FastBackend {
             pb: c.point2,
             n: -c.normal1,
             depth: -c.dist,
-        })
-    }
-
-    /// The contact of capsule body `c` (radius `r`, segment `length`) with box body `b`
-    /// (edges `size`) if within `within` metres, the capsule first, found in the box's frame
-    /// ([`box_capsule::contact_in_box_frame`]).
-    fn box_capsule(
-        &self,
-        b: usize,
-        size: [f32; 3],
-        c: usize,
-        r: f32,
-        length: f32,
-        within: f32,
-    ) -> Option<Found> {
-        let half = Vec3::from_array(size) * 0.5;
-        let inv = self.rot[b].conjugate();
-        let (e0, e1) = ends(self.pos[c], self.rot[c], length);
-        let (l0, l1) = (inv * (e0 - self.pos[b]), inv * (e1 - self.pos[b]));
-        let (p_local, q_local, n_local, depth) =
-            box_capsule::contact_in_box_frame(l0, l1, half, r, within)?;
-        let rot = self.rot[b];
-        Some(Found {
-            pa: self.pos[b] + rot * p_local,
-            pb: self.pos[b] + rot * q_local,
-            n: rot * n_local,
-            depth,
         })
     }
 
@@ -264,6 +275,7 @@ mod tests {
             gravity: Vec3::ZERO,
             ground: None,
             substeps: 1,
+            freeze_joints: false,
         });
         let body = |pose, shape| BodyDesc {
             pose,
