@@ -200,6 +200,7 @@ fn simulate_character(
     let metrics = world.metrics();
     let blast_reports = world.blast_reports();
     let world_projectiles = world.projectile_reports();
+    let active_joints = world.active_joints_per_frame().map(<[u32]>::to_vec);
     let track = world.into_track();
     check_finite(&character.name, metrics.nan, &track, settings.backend)?;
     let mut report = Report::new(
@@ -214,6 +215,7 @@ fn simulate_character(
     report.backend = settings.backend.as_str().into();
     report.blasts = blast_reports;
     report.projectiles = world_projectiles;
+    report.active_joints_per_frame = active_joints;
     Ok((track, report))
 }
 

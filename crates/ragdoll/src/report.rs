@@ -45,6 +45,11 @@ pub struct Report {
     pub blasts: Vec<BlastReport>,
     /// What each projectile hit (empty without projectiles).
     pub projectiles: Vec<ProjectileReport>,
+    /// How many joints the solver worked on at each output frame: all but those of a
+    /// character at rest (asleep) and, on the fast backend, those frozen. `null` where
+    /// the backend does not say (particle) or the caller did not set it.
+    #[serde(default)]
+    pub active_joints_per_frame: Option<Vec<u32>>,
 }
 
 impl Report {
@@ -74,6 +79,7 @@ impl Report {
             wall_seconds,
             blasts: Vec::new(),
             projectiles: Vec::new(),
+            active_joints_per_frame: None,
         }
     }
 

@@ -38,8 +38,8 @@ pub struct SceneReport {
     /// exporting).
     pub wall_seconds: f64,
     /// How many joints the solver worked on at each output frame: all but those of
-    /// characters at rest (asleep until something touches them). `null` on the particle
-    /// backend, which never rests.
+    /// characters at rest (asleep until something touches them) and, on the fast
+    /// backend, those frozen. `null` on the particle backend, which never rests.
     pub active_joints_per_frame: Option<Vec<u32>>,
     /// Per character, in scene order (the `character` indices of the event reports).
     pub characters: Vec<CharacterReport>,
