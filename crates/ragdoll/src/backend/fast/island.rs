@@ -11,6 +11,36 @@ use rayon::prelude::*;
 use super::{FastBackend, Pin, Ragdoll};
 use crate::math::Transform;
 
+/// Calls the macro `$m` with every array of the solver that holds one entry per body of
+/// the world (per body or shape in an island's solver), so clearing and copying a body
+/// name them in one place.
+macro_rules! per_body {
+    ($m:ident) => {
+        $m!(
+            pos,
+            rot,
+            prev_pos,
+            prev_rot,
+            moved,
+            pred_rot,
+            vel,
+            angvel,
+            step_pos,
+            step_rot,
+            seen_vel,
+            seen_angvel,
+            mass,
+            inv_mass,
+            inertia,
+            inv_inertia,
+            inv_inertia_world,
+            shape,
+            holder,
+            kinematic
+        )
+    };
+}
+
 /// No island: the ragdoll sleeps.
 pub(super) const NO_ISLAND: u32 = u32::MAX;
 
@@ -88,35 +118,8 @@ impl FastBackend {
         macro_rules! clear {
             ($($f:ident),*) => { $( self.$f.clear(); )* };
         }
-        clear!(
-            pos,
-            rot,
-            prev_pos,
-            prev_rot,
-            moved,
-            pred_rot,
-            vel,
-            angvel,
-            step_pos,
-            step_rot,
-            seen_vel,
-            seen_angvel,
-            mass,
-            inv_mass,
-            inertia,
-            inv_inertia,
-            inv_inertia_world,
-            shape,
-            owner,
-            attach,
-            holder,
-            kinematic,
-            ragdoll_of,
-            ragdolls,
-            joints,
-            pins,
-            compounds
-        );
+        per_body!(clear);
+        clear!(owner, attach, ragdoll_of, ragdolls, joints, pins, compounds);
         self.collide.pairs.clear();
     }
 
@@ -187,28 +190,7 @@ impl FastBackend {
         macro_rules! copy {
             ($($f:ident),*) => { $( self.$f.push(world.$f[i]); )* };
         }
-        copy!(
-            pos,
-            rot,
-            prev_pos,
-            prev_rot,
-            moved,
-            pred_rot,
-            vel,
-            angvel,
-            step_pos,
-            step_rot,
-            seen_vel,
-            seen_angvel,
-            mass,
-            inv_mass,
-            inertia,
-            inv_inertia,
-            inv_inertia_world,
-            shape,
-            holder,
-            kinematic
-        );
+        per_body!(copy);
         self.owner.push(self.pos.len() as u32 - 1);
         self.attach.push(None);
         self.ragdoll_of.push(ragdoll);
