@@ -156,9 +156,10 @@ pub fn frame_from_x(x: Vec3, y_hint: Vec3) -> Quat {
 /// of its covariance (unit, right-handed) with their eigenvalues (variances, m²), largest
 /// first.
 ///
-/// The covariance's eigenvectors ([`symmetric_eigen`]) give the second and third axes
-/// too (a creature's up/down and left/right). Points with a non-positive or non-finite weight are skipped;
-/// with no usable point the result is the origin and the world axes with zero variances.
+/// The covariance's eigenvectors (cyclic Jacobi rotations) give the second and third
+/// axes too (a creature's up/down and left/right). Points with a non-positive or
+/// non-finite weight are skipped; with no usable point the result is the origin and the
+/// world axes with zero variances.
 pub fn principal_axes(points: &[Vec3], weights: &[f32]) -> (Vec3, [Vec3; 3], [f32; 3]) {
     let used = || {
         points
