@@ -43,6 +43,8 @@ pub const MAX_RAGDOLL_STEPS: u64 = 10_000_000;
 /// Ragdoll-steps a second on one core, rigid backend, as measured for [`MAX_RAGDOLL_STEPS`]:
 /// only for the estimate in the refusal.
 const RIGID_STEPS_PER_SECOND: f64 = 2000.0;
+/// Most passes a substep `--fast-iterations` takes: past a few, substeps buy more.
+const MAX_FAST_ITERATIONS: usize = 8;
 
 #[derive(Args, Debug)]
 pub struct BenchArgs {
@@ -67,6 +69,15 @@ pub struct BenchArgs {
     /// below sleep), to measure what freezing saves and costs.
     #[arg(long)]
     no_freeze: bool,
+    /// Passes of the fast backend's joints and contacts per substep (1 to 8; default 1):
+    /// two hold limits and joints tighter for about 1.5 times the time.
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        default_value_t = 1,
+        value_name = "N"
+    )]
+    fast_iterations: usize,
     #[command(flatten)]
     backend: crate::BackendArgs,
 }
@@ -98,6 +109,12 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     if threads.iter().any(|&t| t == 0 || t > 1024) {
         bail!("--threads: each count must be between 1 and 1024");
     }
+    if !(1..=MAX_FAST_ITERATIONS).contains(&a.fast_iterations) {
+        bail!(
+            "--fast-iterations: must be between 1 and {MAX_FAST_ITERATIONS}, not {}",
+            a.fast_iterations
+        );
+    }
     let character = skeleton::humanoid();
     let spec = spec::build_spec(&character, &BuildOptions::default())?;
     let backend = a.backend.backend;
@@ -113,6 +130,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             let settings = WorldSettings {
                 backend,
                 freeze_joints: !a.no_freeze,
+                fast_iterations: a.fast_iterations,
                 ..Default::default()
             };
             let row = run_pile(&character, &spec, &settings, n, t, a.steps, &progress)?;
@@ -145,6 +163,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             }
             let mut run = run_json(&row, backend, a.steps);
             run["freeze_joints"] = json!(settings.freeze_joints);
+            run["fast_iterations"] = json!(settings.fast_iterations);
             if let Some(b) = &base {
                 run["rigid"] = run_json(b, BackendKind::Rigid, a.steps);
                 run["cpu_ratio_to_rigid"] = json!(ratio);

@@ -420,3 +420,38 @@ fn every_data_character_runs_on_the_fast_backend_without_coming_apart() {
         assert!(m.max_joint_separation_m < 0.05, "{what}: {m:?}");
     }
 }
+
+#[test]
+fn two_passes_a_substep_hold_piles_tighter_than_one() {
+    // `fast_iterations = 2` solves the joints and contacts twice a substep: in each of
+    // four piles of four (turned differently), the worst limit violation the solver
+    // leaves and the worst gap at a joint are smaller than with one pass.
+    let (character, spec) = humanoid();
+    for k in 0..4 {
+        let worst = |iterations: usize| {
+            let mut world = World::new(&WorldSettings {
+                fast_iterations: iterations,
+                ..fast()
+            })
+            .unwrap();
+            for level in 0..4 {
+                let yaw = (0.7 + 0.17 * k as f32) * level as f32;
+                let place = Transform::new(
+                    Vec3::new(0.0, 0.3 + 0.6 * level as f32, 0.0),
+                    Quat::from_rotation_y(yaw)
+                        * Quat::from_rotation_z(-std::f32::consts::FRAC_PI_2),
+                );
+                world.add_ragdoll(&character, &spec, place).unwrap();
+            }
+            world.run(3.0);
+            world.metrics()
+        };
+        let (one, two) = (worst(1), worst(2));
+        assert!(!two.nan && two.energy_drift < 0.005, "{two:?}");
+        assert!(
+            two.max_limit_violation_solver_deg < one.max_limit_violation_solver_deg
+                && two.max_joint_separation_m < one.max_joint_separation_m,
+            "pile {k}: two passes {two:?}\none pass {one:?}"
+        );
+    }
+}

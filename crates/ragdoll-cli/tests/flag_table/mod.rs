@@ -206,6 +206,10 @@ fn bench_no_freeze(_: &Path, o: &Output) {
     let v: serde_json::Value = serde_json::from_str(&out(o)).unwrap();
     assert_eq!(v["runs"][0]["freeze_joints"], false);
 }
+fn bench_two_passes(_: &Path, o: &Output) {
+    let v: serde_json::Value = serde_json::from_str(&out(o)).unwrap();
+    assert_eq!(v["runs"][0]["fast_iterations"], 2);
+}
 fn bench_particle(_: &Path, o: &Output) {
     assert!(out(o).contains("particle"), "{}", out(o));
 }
@@ -430,6 +434,7 @@ fn bench() -> Vec<Case> {
         case("bench", "--json", base, &["--json"], Some(bench_json), &["--json=yes"], "--json"),
         case("bench", "--backend", base, &["--backend", "particle"], Some(bench_particle), &["--backend", "soft"], "--backend"),
         case("bench", "--no-freeze", &[&base[..], &["--backend", "fast", "--json"]].concat(), &["--no-freeze"], Some(bench_no_freeze), &["--no-freeze=yes"], "--no-freeze"),
+        case("bench", "--fast-iterations", &[&base[..], &["--backend", "fast", "--json"]].concat(), &["--fast-iterations", "2"], Some(bench_two_passes), &["--fast-iterations", "0"], "--fast-iterations"),
         case("bench", "--compare", &[&base[..], &["--backend", "particle"]].concat(), &["--compare"], Some(bench_compare), &["--compare=yes"], "--compare"),
     ]
 }

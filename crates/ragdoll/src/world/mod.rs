@@ -174,6 +174,7 @@ impl World {
                 gravity: settings.gravity,
                 ground: settings.ground,
                 substeps: settings.fast_substeps,
+                iterations: settings.fast_iterations,
                 freeze_joints: settings.freeze_joints,
             }))),
         };

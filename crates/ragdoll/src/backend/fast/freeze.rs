@@ -353,6 +353,7 @@ mod tests {
             gravity: Vec3::ZERO,
             ground: None,
             substeps: 4,
+            iterations: 1,
             freeze_joints: true,
         });
         let shape = crate::spec::Shape::Capsule {

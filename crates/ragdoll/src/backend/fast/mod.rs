@@ -72,6 +72,8 @@ pub(crate) struct FastSettings {
     pub ground: Option<f32>,
     /// Substeps per step.
     pub substeps: usize,
+    /// Passes of the joints and contacts per substep.
+    pub iterations: usize,
     /// Whether quiet joints freeze (`freeze.rs`).
     pub freeze_joints: bool,
 }

@@ -275,6 +275,7 @@ mod tests {
             gravity: Vec3::ZERO,
             ground: None,
             substeps: 1,
+            iterations: 1,
             freeze_joints: false,
         });
         let body = |pose, shape| BodyDesc {

@@ -1,6 +1,7 @@
 //! One step of the fast backend: candidate pairs, then island by island the substeps
-//! (prediction, one constraint pass on positions, velocities read back, the contacts'
-//! normal velocity taken away: Müller et al. 2020, algorithm 2), and sleeping at the end.
+//! (prediction, one constraint pass on positions or `iterations` of them, velocities read
+//! back, the contacts' normal velocity taken away: Müller et al. 2020, algorithm 2), and
+//! sleeping at the end.
 
 use glam::{Mat3, Quat, Vec3};
 
@@ -78,9 +79,15 @@ impl FastBackend {
             let (frac0, frac) = (s as f32 / n as f32, (s + 1) as f32 / n as f32);
             self.apply_drives(h);
             self.integrate(h, frac);
-            self.solve_joints();
-            self.solve_pins(h, frac0, frac);
-            self.solve_contacts();
+            for pass in 0..self.settings.iterations.max(1) {
+                self.solve_joints();
+                // Once a substep: a soft pin's compliance is per pass (no multiplier is
+                // kept between passes), so a second pass would stiffen its spring.
+                if pass == 0 {
+                    self.solve_pins(h, frac0, frac);
+                }
+                self.solve_contacts();
+            }
             self.update_velocities(h);
             self.solve_contact_velocities();
         }
