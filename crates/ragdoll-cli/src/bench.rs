@@ -15,7 +15,7 @@ use ragdoll::math::Transform;
 use ragdoll::skeleton;
 use ragdoll::spec::{self, BuildOptions};
 use ragdoll::track::Metrics;
-use ragdoll::world::{BackendKind, World, WorldSettings};
+use ragdoll::world::{BackendKind, MAX_FAST_ITERATIONS, World, WorldSettings};
 use rayon::prelude::*;
 use serde_json::json;
 
@@ -43,8 +43,6 @@ pub const MAX_RAGDOLL_STEPS: u64 = 10_000_000;
 /// Ragdoll-steps a second on one core, rigid backend, as measured for [`MAX_RAGDOLL_STEPS`]:
 /// only for the estimate in the refusal.
 const RIGID_STEPS_PER_SECOND: f64 = 2000.0;
-/// Most passes a substep `--fast-iterations` takes: past a few, substeps buy more.
-const MAX_FAST_ITERATIONS: usize = 8;
 
 #[derive(Args, Debug)]
 pub struct BenchArgs {

@@ -309,3 +309,23 @@ fn freeze_joints_is_a_world_setting() {
     assert_eq!(line, 2, "{m}");
     assert!(m.contains("freeze_joints"), "{m}");
 }
+
+/// `fast_iterations` reaches the world's settings (1 unless given); 0 or more than the
+/// most passes a substep takes is refused at its key's line.
+#[test]
+fn fast_iterations_is_a_world_setting_refused_out_of_range() {
+    assert_eq!(load("[[character]]\n").settings.fast_iterations, 1);
+    let s = load("backend = \"fast\"\nfast_iterations = 2\n[[character]]\n");
+    assert_eq!(s.settings.fast_iterations, 2);
+    for bad in ["0", "9"] {
+        let (line, m) = failure(
+            &format!("fps = 30\nfast_iterations = {bad}\n[[character]]\n"),
+            "",
+        );
+        assert_eq!(line, 2, "{m}");
+        assert!(
+            m.contains("fast_iterations") && m.contains("between 1 and 8"),
+            "{m}"
+        );
+    }
+}

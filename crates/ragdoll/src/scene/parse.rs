@@ -271,6 +271,14 @@ fn settings(src: &Src, raw: &RawScene) -> Result<WorldSettings> {
     if let Some(f) = &raw.freeze_joints {
         settings.freeze_joints = *f.get_ref();
     }
+    if let Some(n) = &raw.fast_iterations {
+        settings.fast_iterations = *n.get_ref() as usize;
+        if let Err(Error::Setting { setting, message }) = settings.validate()
+            && setting == "fast_iterations"
+        {
+            return Err(top.err(&n.span(), "fast_iterations", message));
+        }
+    }
     if let Some(g) = &raw.gravity {
         settings.gravity = top.vector(g, "gravity", MAX_GRAVITY_MPS2, " m/s²")?;
     }

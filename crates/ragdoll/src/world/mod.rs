@@ -26,7 +26,8 @@ pub use forces::DragId;
 pub use motors::Motors;
 pub use playback::Activation;
 pub use settings::{
-    DEFAULT_FAST_SUBSTEPS, DEFAULT_JOINT_DAMPING, MAX_JOINT_DAMPING, StartPose, WorldSettings,
+    DEFAULT_FAST_SUBSTEPS, DEFAULT_JOINT_DAMPING, MAX_FAST_ITERATIONS, MAX_JOINT_DAMPING,
+    StartPose, WorldSettings,
 };
 pub use start::MAX_COORDINATE_M;
 use start::{beyond_world, within_world};

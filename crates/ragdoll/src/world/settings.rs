@@ -66,10 +66,11 @@ pub struct WorldSettings {
     /// finds contact pairs once per step and ignores `collision_substeps`: its substeps
     /// find the contact points themselves.
     pub fast_substeps: usize,
-    /// Passes of the fast backend's joints and contacts per substep (default 1). Two hold
-    /// a pile's limits within 2° (1.3° / 1.6° at 16 / 256 ragdolls in the bench, against
-    /// 2.2° / 4.0°) and its joints closer (6 mm against 8) for about 1.5 times the time;
-    /// fewer substeps of two passes lose it (24 substeps: 3.5° at 256).
+    /// Passes of the fast backend's joints and contacts per substep (default 1, at most
+    /// [`MAX_FAST_ITERATIONS`]). Two hold a pile's limits within 2° (1.3° / 1.6° at 16 /
+    /// 256 ragdolls in the bench, against 2.2° / 4.0°) and its joints closer (6 mm
+    /// against 8) for about 1.5 times the time; fewer substeps of two passes lose it (24
+    /// substeps: 3.5° at 256).
     pub fast_iterations: usize,
     /// Passive joint damping, per second (default [`DEFAULT_JOINT_DAMPING`], off): how
     /// fast a limp limb swinging from a still body loses its speed relative to it, so its
@@ -87,6 +88,10 @@ pub struct WorldSettings {
 /// 16 mm, 27 mm, 8°; 32 left 14 mm, 23 mm, 5.5°, where the rigid backend leaves 16 mm,
 /// 38 mm, 8.5° (its solver's reading, before the world's clamp).
 pub const DEFAULT_FAST_SUBSTEPS: usize = 32;
+
+/// Most passes a substep [`WorldSettings::fast_iterations`] takes: past a few, substeps
+/// buy more for the time.
+pub const MAX_FAST_ITERATIONS: usize = 8;
 
 /// Default of [`WorldSettings::joint_damping`]: off, so runs match earlier releases.
 ///
@@ -154,6 +159,15 @@ impl WorldSettings {
                 check_within(self.joint_damping, 0.0, MAX_JOINT_DAMPING, " per second"),
             ),
         ];
+        if !(1..=MAX_FAST_ITERATIONS).contains(&self.fast_iterations) {
+            checks.push((
+                "fast_iterations",
+                Err(format!(
+                    "must be between 1 and {MAX_FAST_ITERATIONS}, not {}",
+                    self.fast_iterations
+                )),
+            ));
+        }
         for (name, v) in [
             ("collision_substeps", self.collision_substeps),
             ("substeps", self.substeps),
@@ -161,7 +175,6 @@ impl WorldSettings {
             ("particle_substeps", self.particle_substeps),
             ("particle_iterations", self.particle_iterations),
             ("fast_substeps", self.fast_substeps),
-            ("fast_iterations", self.fast_iterations),
         ] {
             if !(1..=MAX_SUBSTEPS).contains(&v) {
                 checks.push((
