@@ -121,8 +121,7 @@ impl FastBackend {
 
     /// Wakes ragdoll `r`, with every joint thawed: what woke it may move any of them.
     pub(super) fn wake(&mut self, r: usize) {
-        let rd = &mut self.ragdolls[r];
-        if rd.asleep {
+        if self.ragdolls[r].asleep {
             self.thaw(r);
         }
         let rd = &mut self.ragdolls[r];
