@@ -89,6 +89,12 @@ struct Row {
     /// say): on a shared machine, wall time says as much about the neighbours as about us.
     cpu_seconds: Option<f64>,
     metrics: Metrics,
+    /// After the last step, when the piles have settled: the deepest overlap in the poses
+    /// (bodies in each other or in the ground, measured from the shapes, not the solver's
+    /// contacts: [`World::overlap_now`]), metres, and the fastest body's speed, m/s (how
+    /// much at rest the piles are).
+    end_overlap_m: f32,
+    end_fastest_mps: f32,
 }
 
 impl Row {
@@ -214,6 +220,8 @@ fn run_json(r: &Row, backend: BackendKind, steps: usize) -> serde_json::Value {
         "ragdoll_steps_per_cpu_second": r.cpu_seconds.map(|c| r.per_second(steps, c)),
         "stable": stable(&r.metrics),
         "metrics": r.metrics,
+        "end_overlap_m": r.end_overlap_m,
+        "end_fastest_body_mps": r.end_fastest_mps,
     })
 }
 
@@ -236,7 +244,7 @@ fn print_row(r: &Row, backend: &str, steps: usize) {
         None => "CPU time unknown".into(),
     };
     outln!(
-        "pile  {backend:<8} N={:<5} threads={:<2} {:>9.0} ragdoll-steps/s ({:.2} s wall)  {cpu}  stable={}  limit {:.1}° (solver {:.1}°)  penetration {:.1} mm  separation {:.1} mm  energy gain {:.2} % (most in a frame)",
+        "pile  {backend:<8} N={:<5} threads={:<2} {:>9.0} ragdoll-steps/s ({:.2} s wall)  {cpu}  stable={}  limit {:.1}° (solver {:.1}°)  penetration {:.1} mm (at the end {:.1} mm, fastest body {:.2} m/s)  separation {:.1} mm  energy gain {:.2} % (most in a frame)",
         r.ragdolls,
         r.threads,
         r.per_second(steps, r.seconds),
@@ -245,6 +253,8 @@ fn print_row(r: &Row, backend: &str, steps: usize) {
         m.max_limit_violation_deg,
         m.max_limit_violation_solver_deg,
         m.max_penetration_m * 1000.0,
+        r.end_overlap_m * 1000.0,
+        r.end_fastest_mps,
         m.max_joint_separation_m * 1000.0,
         m.energy_drift * 100.0,
     );
@@ -286,11 +296,12 @@ fn run_pile(
     let mut k = 0;
     while k < n {
         let mut world = World::new(settings)?;
+        let mut ids = Vec::new();
         for i in k..(k + per_world).min(n) {
-            world.add_ragdoll(character, spec, placement(i, n))?;
+            ids.push(world.add_ragdoll(character, spec, placement(i, n))?);
             progress.inc(1);
         }
-        worlds.push(world);
+        worlds.push((world, ids));
         k += per_world;
     }
     let pool = rayon::ThreadPoolBuilder::new()
@@ -303,7 +314,7 @@ fn run_pile(
     let started = Instant::now();
     let cpu_started = ProcessTime::try_now().ok();
     pool.install(|| {
-        worlds.par_iter_mut().for_each(|w| {
+        worlds.par_iter_mut().for_each(|(w, _)| {
             crate::fatal::debug_panic_point("worker");
             for _ in 0..steps {
                 w.step();
@@ -314,7 +325,14 @@ fn run_pile(
     let seconds = started.elapsed().as_secs_f64();
     let cpu_seconds = cpu_started.map(|t| t.elapsed().as_secs_f64());
     let mut metrics = Metrics::default();
-    for w in &worlds {
+    let (mut end_overlap_m, mut end_fastest_mps) = (0.0f32, 0.0f32);
+    for (w, ids) in &worlds {
+        end_overlap_m = end_overlap_m.max(w.overlap_now());
+        for &id in ids {
+            for (v, _) in w.body_velocities(id) {
+                end_fastest_mps = end_fastest_mps.max(v.length());
+            }
+        }
         let m = w.metrics();
         metrics.max_limit_violation_deg = metrics
             .max_limit_violation_deg
@@ -335,5 +353,7 @@ fn run_pile(
         seconds,
         cpu_seconds,
         metrics,
+        end_overlap_m,
+        end_fastest_mps,
     })
 }

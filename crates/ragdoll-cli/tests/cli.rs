@@ -701,3 +701,33 @@ fn bench_reports_cpu_seconds_and_both_limit_readings() {
         "{run}"
     );
 }
+
+/// Issue 12's "1 cm at rest", apart from impacts: after 10 s the fast backend's piles lie
+/// still, and no body lies deeper than 1 cm in another or in the ground, measured from
+/// the shapes rather than from the solver's contacts.
+#[test]
+fn bench_measures_a_settled_pile_apart_from_its_impacts() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = ragdoll(
+        tmp.path(),
+        &[
+            "bench",
+            "--backend",
+            "fast",
+            "--ragdolls",
+            "8",
+            "--steps",
+            "600",
+            "--threads",
+            "1",
+            "--json",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out: Value = serde_json::from_slice(&o.stdout).unwrap();
+    let run = &out["runs"][0];
+    let fastest = run["end_fastest_body_mps"].as_f64().unwrap();
+    let overlap = run["end_overlap_m"].as_f64().unwrap();
+    assert!(fastest < 0.05, "not at rest: {run}");
+    assert!((0.0..=0.01).contains(&overlap), "{run}");
+}

@@ -11,6 +11,7 @@ use glam::Vec3;
 
 mod blast;
 mod damping;
+mod depth;
 mod forces;
 mod motors;
 mod overlap;
@@ -96,6 +97,9 @@ struct Instance {
     tree: JointTree,
     /// Each body's shape.
     shapes: Vec<Shape>,
+    /// Pairs of this ragdoll's bodies that do not collide (lower index first, sorted):
+    /// the spec's, those that start inside each other, and those a hand-over found so.
+    exempt_pairs: Vec<(usize, usize)>,
     masses: Vec<f32>,
     joints: Vec<ResolvedJoint>,
     riders: Vec<Rider>,

@@ -364,9 +364,13 @@ impl super::World {
             }
         });
         pairs.sort_unstable();
-        for (a, b) in pairs {
+        for &(a, b) in &pairs {
             self.backend
                 .disable_pair(inst.first_body + a, inst.first_body + b);
         }
+        let exempt = &mut self.instances[c].exempt_pairs;
+        exempt.extend(pairs.iter().map(|&(a, b)| (a.min(b), a.max(b))));
+        exempt.sort_unstable();
+        exempt.dedup();
     }
 }

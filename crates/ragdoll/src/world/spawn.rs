@@ -78,6 +78,12 @@ impl World {
             })
             .collect();
         let first_body = self.backend.add_ragdoll(&bodies, &joint_descs, &disabled);
+        let mut exempt_pairs: Vec<(usize, usize)> = disabled
+            .iter()
+            .map(|&(a, b)| (a.min(b), a.max(b)))
+            .collect();
+        exempt_pairs.sort_unstable();
+        exempt_pairs.dedup();
         self.start_index.insert(&solids);
         let playback = playback_of(character, &resolved, placement, lift);
         let joints = resolved.joints;
@@ -101,6 +107,7 @@ impl World {
             first_body,
             tree,
             shapes: spec.bodies.iter().map(|b| b.shape).collect(),
+            exempt_pairs,
             masses: spec.bodies.iter().map(|b| b.mass_kg).collect(),
             joints,
             riders,

@@ -1,0 +1,122 @@
+//! How deep bodies lie in each other and in the ground now, measured from the shapes
+//! themselves with parry's exact contact queries, not read from any backend's contacts.
+//!
+//! A backend reports the deepest contact its own solver saw
+//! ([`crate::track::Metrics::max_penetration_m`]), which mixes impacts with rest and
+//! trusts the solver's narrow phase; a sleeping island reports none at all. This reading
+//! asks the geometry alone, in whatever poses the bodies are in, so it can be taken
+//! after a pile has settled (issue 12's 1 cm at rest, apart from its 3 cm in impacts) and
+//! compared across backends.
+
+use rapier3d::parry::math::Pose;
+use rapier3d::parry::query;
+use rapier3d::parry::shape::SharedShape;
+
+use super::World;
+use super::overlap::loose_bounds;
+use crate::backend::broad::BroadPhase;
+use crate::math::Transform;
+use crate::spec::Shape;
+
+impl World {
+    /// The deepest overlap in the current poses, metres (0 when nothing overlaps): of any
+    /// body below the ground, and between any two bodies that collide (of two ragdolls,
+    /// or of one whose pair the spec, the start or a hand-over did not exempt).
+    ///
+    /// ```
+    /// use ragdoll::{skeleton::humanoid, spec, world::{World, WorldSettings}, math::Transform};
+    ///
+    /// let character = humanoid();
+    /// let spec = spec::build_spec(&character, &spec::BuildOptions::default()).unwrap();
+    /// let mut world = World::new(&WorldSettings::default()).unwrap();
+    /// world.add_ragdoll(&character, &spec, Transform::IDENTITY).unwrap();
+    /// // Standing on the ground as placed: nothing inside anything.
+    /// assert!(world.overlap_now() < 1e-4);
+    /// ```
+    pub fn overlap_now(&self) -> f32 {
+        let mut poses = Vec::new();
+        let mut shapes = Vec::new();
+        let mut solids = Vec::new();
+        let mut owner = Vec::new();
+        for (r, inst) in self.instances.iter().enumerate() {
+            for (b, shape) in inst.shapes.iter().enumerate() {
+                poses.push(self.states[inst.first_body + b].pose);
+                shapes.push(*shape);
+                solids.push(solid(shape));
+                owner.push((r, b));
+            }
+        }
+        let mut deepest = 0.0f32;
+        if let Some(ground) = self.settings.ground {
+            for (p, s) in poses.iter().zip(&shapes) {
+                deepest = deepest.max(ground - s.lowest_y(p));
+            }
+        }
+        let boxes: Vec<_> = poses
+            .iter()
+            .zip(&shapes)
+            .map(|(p, s)| loose_bounds(p, s))
+            .collect();
+        BroadPhase::default().find(&boxes, |i, j| {
+            let ((ri, bi), (rj, bj)) = (owner[i], owner[j]);
+            if ri == rj && self.instances[ri].exempt(bi, bj) {
+                return;
+            }
+            let depth = depth_between(&poses[i], &solids[i], &poses[j], &solids[j]);
+            deepest = deepest.max(depth);
+        });
+        deepest
+    }
+}
+
+impl super::Instance {
+    /// Whether this ragdoll's bodies `a` and `b` do not collide.
+    fn exempt(&self, a: usize, b: usize) -> bool {
+        self.exempt_pairs
+            .binary_search(&(a.min(b), a.max(b)))
+            .is_ok()
+    }
+}
+
+/// The shape as parry measures it.
+fn solid(s: &Shape) -> SharedShape {
+    match *s {
+        Shape::Capsule { radius_m, length_m } => SharedShape::capsule_y(0.5 * length_m, radius_m),
+        Shape::Box { size_m } => {
+            SharedShape::cuboid(size_m[0] * 0.5, size_m[1] * 0.5, size_m[2] * 0.5)
+        }
+    }
+}
+
+/// How deep two shapes lie in each other, metres; 0 when apart or when parry cannot say.
+fn depth_between(pa: &Transform, a: &SharedShape, pb: &Transform, b: &SharedShape) -> f32 {
+    let pose = |p: &Transform| Pose::from_parts(p.translation, p.rotation);
+    match query::contact(&pose(pa), &*a.0, &pose(pb), &*b.0, 0.0) {
+        Ok(Some(c)) => (-c.dist).max(0.0),
+        _ => 0.0,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{Quat, Vec3};
+
+    #[test]
+    fn depth_is_how_far_two_shapes_overlap() {
+        let ball = solid(&Shape::Capsule {
+            radius_m: 0.1,
+            length_m: 0.0,
+        });
+        let at = |x: f32| Transform::new(Vec3::new(x, 0.0, 0.0), Quat::IDENTITY);
+        // Two 0.1 m balls 0.15 m apart overlap by 5 cm; 0.25 m apart they do not.
+        assert!((depth_between(&at(0.0), &ball, &at(0.15), &ball) - 0.05).abs() < 1e-5);
+        assert_eq!(depth_between(&at(0.0), &ball, &at(0.25), &ball), 0.0);
+        // A ball 2 cm into the face of a box 0.4 m wide.
+        let cube = solid(&Shape::Box {
+            size_m: [0.4, 0.4, 0.4],
+        });
+        assert!((depth_between(&at(0.0), &cube, &at(0.28), &ball) - 0.02).abs() < 1e-5);
+        assert!((depth_between(&at(0.28), &ball, &at(0.0), &cube) - 0.02).abs() < 1e-5);
+    }
+}
