@@ -635,24 +635,7 @@ fn bench_compare_needs_a_backend_other_than_the_reference() {
         stderr(&o)
     );
     // With one, the rigid run comes in the same output, and the ratio is of the two.
-    let o = ragdoll(
-        tmp.path(),
-        &[
-            "bench",
-            "--compare",
-            "--backend",
-            "particle",
-            "--ragdolls",
-            "2",
-            "--steps",
-            "20",
-            "--threads",
-            "1",
-            "--json",
-        ],
-    );
-    assert!(o.status.success(), "{}", stderr(&o));
-    let run = &serde_json::from_slice::<Value>(&o.stdout).unwrap()["runs"][0];
+    let run = &bench_run("particle --compare --ragdolls 2 --steps 20 --threads 1");
     assert_eq!(run["backend"], "particle");
     assert_eq!(run["rigid"]["backend"], "rigid");
     let per_cpu = |r: &Value| r["ragdoll_steps_per_cpu_second"].as_f64().unwrap();
@@ -665,23 +648,7 @@ fn bench_compare_needs_a_backend_other_than_the_reference() {
 
 #[test]
 fn bench_reports_cpu_seconds_and_both_limit_readings() {
-    let tmp = tempfile::tempdir().unwrap();
-    let o = ragdoll(
-        tmp.path(),
-        &[
-            "bench",
-            "--ragdolls",
-            "4",
-            "--steps",
-            "30",
-            "--threads",
-            "1",
-            "--json",
-        ],
-    );
-    assert!(o.status.success(), "{}", stderr(&o));
-    let out: Value = serde_json::from_slice(&o.stdout).unwrap();
-    let run = &out["runs"][0];
+    let run = &bench_run("rigid --ragdolls 4 --steps 30 --threads 1");
     let (wall, cpu) = (
         run["wall_seconds"].as_f64().unwrap(),
         run["cpu_seconds"].as_f64().unwrap(),
@@ -707,27 +674,21 @@ fn bench_reports_cpu_seconds_and_both_limit_readings() {
 /// the shapes rather than from the solver's contacts.
 #[test]
 fn bench_measures_a_settled_pile_apart_from_its_impacts() {
-    let tmp = tempfile::tempdir().unwrap();
-    let o = ragdoll(
-        tmp.path(),
-        &[
-            "bench",
-            "--backend",
-            "fast",
-            "--ragdolls",
-            "8",
-            "--steps",
-            "600",
-            "--threads",
-            "1",
-            "--json",
-        ],
-    );
-    assert!(o.status.success(), "{}", stderr(&o));
-    let out: Value = serde_json::from_slice(&o.stdout).unwrap();
-    let run = &out["runs"][0];
+    let run = bench_run("fast --ragdolls 8 --steps 600 --threads 1");
     let fastest = run["end_fastest_body_mps"].as_f64().unwrap();
     let overlap = run["end_overlap_m"].as_f64().unwrap();
     assert!(fastest < 0.05, "not at rest: {run}");
     assert!((0.0..=0.01).contains(&overlap), "{run}");
+}
+
+/// The first run of `ragdoll bench --json --backend ARGS` (a backend, then the rest of the
+/// arguments, space-separated).
+fn bench_run(args: &str) -> Value {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut all = vec!["bench", "--json", "--backend"];
+    all.extend(args.split_whitespace());
+    let o = ragdoll(tmp.path(), &all);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut out: Value = serde_json::from_slice(&o.stdout).unwrap();
+    out["runs"][0].take()
 }
