@@ -15,7 +15,9 @@ use ragdoll::math::Transform;
 use ragdoll::skeleton;
 use ragdoll::spec::{self, BuildOptions};
 use ragdoll::track::Metrics;
-use ragdoll::world::{BackendKind, MAX_FAST_ITERATIONS, World, WorldSettings};
+use ragdoll::world::{
+    BackendKind, DEFAULT_FAST_IMPACT_PASSES, MAX_FAST_ITERATIONS, World, WorldSettings,
+};
 use rayon::prelude::*;
 use serde_json::json;
 
@@ -76,6 +78,15 @@ pub struct BenchArgs {
         value_name = "N"
     )]
     fast_iterations: usize,
+    /// Passes the fast backend adds in a step where a ragdoll strikes something at more
+    /// than 2 m/s (0 to 8; default 3): 0 measures the solver without them
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        default_value_t = DEFAULT_FAST_IMPACT_PASSES,
+        value_name = "N"
+    )]
+    impact_passes: usize,
     #[command(flatten)]
     backend: crate::BackendArgs,
 }
@@ -119,6 +130,12 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             a.fast_iterations
         );
     }
+    if a.impact_passes > MAX_FAST_ITERATIONS {
+        bail!(
+            "--impact-passes: must be between 0 and {MAX_FAST_ITERATIONS}, not {}",
+            a.impact_passes
+        );
+    }
     let character = skeleton::humanoid();
     let spec = spec::build_spec(&character, &BuildOptions::default())?;
     let backend = a.backend.backend;
@@ -135,6 +152,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                 backend,
                 freeze_joints: !a.no_freeze,
                 fast_iterations: a.fast_iterations,
+                fast_impact_passes: a.impact_passes,
                 ..Default::default()
             };
             let row = run_pile(&character, &spec, &settings, n, t, a.steps, &progress)?;
@@ -168,6 +186,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             let mut run = run_json(&row, backend, a.steps);
             run["freeze_joints"] = json!(settings.freeze_joints);
             run["fast_iterations"] = json!(settings.fast_iterations);
+            run["fast_impact_passes"] = json!(settings.fast_impact_passes);
             if let Some(b) = &base {
                 run["rigid"] = run_json(b, BackendKind::Rigid, a.steps);
                 run["cpu_ratio_to_rigid"] = json!(ratio);

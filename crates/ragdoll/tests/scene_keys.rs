@@ -329,3 +329,24 @@ fn fast_iterations_is_a_world_setting_refused_out_of_range() {
         );
     }
 }
+
+/// `fast_impact_passes` reaches the world's settings (the default unless given; 0 turns
+/// them off); more than the most passes a substep takes is refused at its key's line.
+#[test]
+fn fast_impact_passes_is_a_world_setting_refused_out_of_range() {
+    assert_eq!(
+        load("[[character]]\n").settings.fast_impact_passes,
+        ragdoll::world::DEFAULT_FAST_IMPACT_PASSES
+    );
+    let s = load("backend = \"fast\"\nfast_impact_passes = 0\n[[character]]\n");
+    assert_eq!(s.settings.fast_impact_passes, 0);
+    let (line, m) = failure("fps = 30\nfast_impact_passes = 9\n[[character]]\n", "");
+    assert_eq!(line, 2, "{m}");
+    assert!(
+        m.contains("fast_impact_passes") && m.contains("between 0 and 8"),
+        "{m}"
+    );
+    // A negative count is not a count at all: refused where it is read.
+    let (line, m) = failure("fps = 30\nfast_impact_passes = -1\n[[character]]\n", "");
+    assert_eq!(line, 2, "{m}");
+}

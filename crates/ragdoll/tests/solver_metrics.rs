@@ -34,8 +34,12 @@ fn pile(settings: &WorldSettings) -> Metrics {
 #[test]
 fn the_solver_reading_is_taken_before_the_clamp_on_both_backends() {
     for backend in BackendKind::ALL {
+        // Fast with its passes added in impacts holds this pile within 0.6°, under what
+        // the clamp allows, so the clamp would have nothing to turn back: without them it
+        // leaves 1.7°, and the two readings can be told apart.
         let m = pile(&WorldSettings {
             backend,
+            fast_impact_passes: 0,
             ..Default::default()
         });
         // The clamp only turns joints back toward their limits.

@@ -279,6 +279,14 @@ fn settings(src: &Src, raw: &RawScene) -> Result<WorldSettings> {
             return Err(top.err(&n.span(), "fast_iterations", message));
         }
     }
+    if let Some(n) = &raw.fast_impact_passes {
+        settings.fast_impact_passes = *n.get_ref() as usize;
+        if let Err(Error::Setting { setting, message }) = settings.validate()
+            && setting == "fast_impact_passes"
+        {
+            return Err(top.err(&n.span(), "fast_impact_passes", message));
+        }
+    }
     if let Some(g) = &raw.gravity {
         settings.gravity = top.vector(g, "gravity", MAX_GRAVITY_MPS2, " m/s²")?;
     }

@@ -27,8 +27,8 @@ pub use forces::DragId;
 pub use motors::Motors;
 pub use playback::Activation;
 pub use settings::{
-    DEFAULT_FAST_SUBSTEPS, DEFAULT_JOINT_DAMPING, MAX_FAST_ITERATIONS, MAX_JOINT_DAMPING,
-    StartPose, WorldSettings,
+    DEFAULT_FAST_IMPACT_PASSES, DEFAULT_FAST_SUBSTEPS, DEFAULT_JOINT_DAMPING, MAX_FAST_ITERATIONS,
+    MAX_JOINT_DAMPING, StartPose, WorldSettings,
 };
 pub use start::MAX_COORDINATE_M;
 use start::{beyond_world, within_world};
@@ -180,6 +180,7 @@ impl World {
                 ground: settings.ground,
                 substeps: settings.fast_substeps,
                 iterations: settings.fast_iterations,
+                impact_passes: settings.fast_impact_passes,
                 freeze_joints: settings.freeze_joints,
             }))),
         };

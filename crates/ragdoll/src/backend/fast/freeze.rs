@@ -91,30 +91,10 @@ impl FastBackend {
     /// taken whole by one rigid body, and the parts then set free with that blow's spin
     /// pulled their joints 14-19° past their limits and 10-15 mm apart in the pile bench
     /// (5.9° and 9 mm with no freezing).
-    pub(super) fn thaw_before_impacts(&mut self, dt: f32) {
-        if !self.ragdolls.iter().any(|r| r.frozen > 0) {
-            return;
-        }
-        if let Some(g) = self.settings.ground {
-            for i in 0..self.pos.len() {
-                let r = self.ragdoll_of[i];
-                if self.ragdolls[r].frozen == 0 || -self.vel[i].y <= THAW_MPS {
-                    continue;
-                }
-                let (lo, _) = super::narrow::bounds(&self.shape[i], self.pos[i], self.rot[i]);
-                if lo.y - self.travel(i, dt) < g {
-                    self.thaw(r);
-                }
-            }
-        }
-        for k in 0..self.collide.pairs.len() {
-            let (i, j) = self.collide.pairs[k];
-            let (i, j) = (i as usize, j as usize);
-            let (ri, rj) = (self.ragdoll_of[i], self.ragdoll_of[j]);
-            let frozen = self.ragdolls[ri].frozen + self.ragdolls[rj].frozen;
-            if frozen > 0 && (self.vel[i] - self.vel[j]).length() > THAW_MPS {
-                self.thaw(ri);
-                self.thaw(rj);
+    pub(super) fn thaw_before_impacts(&mut self) {
+        for r in 0..self.ragdolls.len() {
+            if self.ragdolls[r].closing_mps > THAW_MPS {
+                self.thaw(r);
             }
         }
     }
@@ -354,6 +334,7 @@ mod tests {
             ground: None,
             substeps: 4,
             iterations: 1,
+            impact_passes: 0,
             freeze_joints: true,
         });
         let shape = crate::spec::Shape::Capsule {

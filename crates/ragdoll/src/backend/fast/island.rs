@@ -61,16 +61,23 @@ impl FastBackend {
         while subs.len() < count {
             subs.push(FastBackend::new(self.settings));
         }
-        // Each island takes the substeps its most demanding ragdoll needs.
+        // Each island takes the substeps its most demanding ragdoll needs, and the passes
+        // of an impact where one of its ragdolls may strike something hard this step.
         let mut factor = vec![1.0f32; count];
+        let mut impact = vec![false; count];
         for (r, ragdoll) in self.ragdolls.iter().enumerate() {
             if let Some(f) = factor.get_mut(self.island_of[r] as usize) {
                 *f = f.max(ragdoll.substep_factor);
+                impact[self.island_of[r] as usize] |=
+                    ragdoll.closing_mps > super::impact::IMPACT_MPS;
             }
         }
-        for (sub, f) in subs[..count].iter_mut().zip(&factor) {
+        for ((sub, f), hit) in subs[..count].iter_mut().zip(&factor).zip(&impact) {
             sub.settings = self.settings;
             sub.settings.substeps = (self.settings.substeps as f32 * f).ceil() as usize;
+            if *hit {
+                sub.settings.iterations = self.settings.iterations + self.settings.impact_passes;
+            }
             sub.clear_bodies();
         }
         self.gather(&mut subs[..count]);

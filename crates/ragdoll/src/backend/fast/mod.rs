@@ -12,8 +12,10 @@
 //! Where it departs from the paper, each for a measured reason given where it is done: a
 //! joint's anchor and a hinge's axis are solved as one 3×3 or 2×2 constraint rather than
 //! along their error (`solve.rs`), a resting body answers a push down into what holds it
-//! as a heavier one (shock propagation, `contact.rs`), limits have friction, and the world
-//! sees each body's motion over the whole step rather than its last substep's velocity.
+//! as a heavier one (shock propagation, `contact.rs`), limits have friction, an island in
+//! which something is about to strike hard takes more passes that step (`impact.rs`),
+//! and the world sees each body's motion over the whole step rather than its last
+//! substep's velocity.
 //!
 //! Unlike the rigid backend, limits are constraints on positions inside the solver, so a
 //! torso landing on an arm cannot push an elbow far past its limit for a frame; unlike the
@@ -33,6 +35,7 @@ mod body;
 mod box_capsule;
 mod contact;
 mod freeze;
+mod impact;
 mod island;
 mod limits;
 mod narrow;
@@ -74,6 +77,8 @@ pub(crate) struct FastSettings {
     pub substeps: usize,
     /// Passes of the joints and contacts per substep.
     pub iterations: usize,
+    /// Passes added in a step with an impact (`impact.rs`).
+    pub impact_passes: usize,
     /// Whether quiet joints freeze (`freeze.rs`).
     pub freeze_joints: bool,
 }
@@ -145,6 +150,9 @@ struct Ragdoll {
     /// Set by an island's solver when one of the ragdoll's compounds took a blow this
     /// step: its joints thaw.
     jolted: bool,
+    /// The fastest one of its parts may strike the ground or another body in the coming
+    /// step, m/s (`impact.rs`).
+    closing_mps: f32,
 }
 
 /// The ragdoll's whole mass over its lightest body's, up to which the world's substeps
@@ -363,6 +371,7 @@ impl Backend for FastBackend {
             substep_factor: substep_factor(&self.mass[first..]),
             frozen: 0,
             jolted: false,
+            closing_mps: 0.0,
         });
         first
     }

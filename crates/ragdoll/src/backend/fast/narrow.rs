@@ -276,6 +276,7 @@ mod tests {
             ground: None,
             substeps: 1,
             iterations: 1,
+            impact_passes: 0,
             freeze_joints: false,
         });
         let body = |pose, shape| BodyDesc {
