@@ -421,32 +421,37 @@ fn every_data_character_runs_on_the_fast_backend_without_coming_apart() {
     }
 }
 
+/// The worst the solver leaves in a pile of four humanoids dropped lying onto each
+/// other for 3 s, each `turn` radians further round than the one below.
+fn pile_of_four(settings: &WorldSettings, turn: f32) -> ragdoll::track::Metrics {
+    let (character, spec) = humanoid();
+    let mut world = World::new(settings).unwrap();
+    for level in 0..4 {
+        let place = Transform::new(
+            Vec3::new(0.0, 0.3 + 0.6 * level as f32, 0.0),
+            Quat::from_rotation_y(turn * level as f32)
+                * Quat::from_rotation_z(-std::f32::consts::FRAC_PI_2),
+        );
+        world.add_ragdoll(&character, &spec, place).unwrap();
+    }
+    world.run(3.0);
+    world.metrics()
+}
+
 #[test]
 fn two_passes_a_substep_hold_piles_tighter_than_one() {
     // `fast_iterations = 2` solves the joints and contacts twice a substep: in each of
     // four piles of four (turned differently), the worst limit violation the solver
     // leaves and the worst gap at a joint are smaller than with one pass (no passes added
     // in impacts, which would take the worst moments of both).
-    let (character, spec) = humanoid();
     for k in 0..4 {
         let worst = |iterations: usize| {
-            let mut world = World::new(&WorldSettings {
+            let settings = WorldSettings {
                 fast_iterations: iterations,
                 fast_impact_passes: 0,
                 ..fast()
-            })
-            .unwrap();
-            for level in 0..4 {
-                let yaw = (0.7 + 0.17 * k as f32) * level as f32;
-                let place = Transform::new(
-                    Vec3::new(0.0, 0.3 + 0.6 * level as f32, 0.0),
-                    Quat::from_rotation_y(yaw)
-                        * Quat::from_rotation_z(-std::f32::consts::FRAC_PI_2),
-                );
-                world.add_ragdoll(&character, &spec, place).unwrap();
-            }
-            world.run(3.0);
-            world.metrics()
+            };
+            pile_of_four(&settings, 0.7 + 0.17 * k as f32)
         };
         let (one, two) = (worst(1), worst(2));
         assert!(!two.nan && two.energy_drift < 0.005, "{two:?}");
@@ -464,25 +469,13 @@ fn passes_added_in_impacts_hold_landings_together() {
     // ground hands the blow on one joint per pass): with the default passes added in
     // impacts, each of four piles of four keeps every joint within issue 12's 5 mm and
     // the solver's limits within its 2°, tighter than without them, and gains no energy.
-    let (character, spec) = humanoid();
     for k in 0..4 {
         let worst = |impact_passes: usize| {
-            let mut world = World::new(&WorldSettings {
+            let settings = WorldSettings {
                 fast_impact_passes: impact_passes,
                 ..fast()
-            })
-            .unwrap();
-            for level in 0..4 {
-                let yaw = (0.5 + 0.29 * k as f32) * level as f32;
-                let place = Transform::new(
-                    Vec3::new(0.0, 0.3 + 0.6 * level as f32, 0.0),
-                    Quat::from_rotation_y(yaw)
-                        * Quat::from_rotation_z(-std::f32::consts::FRAC_PI_2),
-                );
-                world.add_ragdoll(&character, &spec, place).unwrap();
-            }
-            world.run(3.0);
-            world.metrics()
+            };
+            pile_of_four(&settings, 0.5 + 0.29 * k as f32)
         };
         let (none, added) = (worst(0), worst(WorldSettings::default().fast_impact_passes));
         assert!(!added.nan && added.energy_drift < 0.005, "{added:?}");
