@@ -21,8 +21,9 @@ pub(super) const IMPACT_MPS: f32 = 2.0;
 impl FastBackend {
     /// Sets each ragdoll's `closing_mps`: the fastest any of its parts may close on the
     /// ground (falling, with the ground within its reach this step) or on the other body
-    /// of a candidate pair (their relative speed), 0 when nothing is within reach.
-    pub(super) fn find_closing(&mut self, dt: f32) {
+    /// of a candidate pair (their relative speed), 0 when nothing is within reach. Runs
+    /// after [`FastBackend::find_pairs`], whose boxes it reads.
+    pub(super) fn find_closing(&mut self) {
         for r in &mut self.ragdolls {
             r.closing_mps = 0.0;
         }
@@ -33,8 +34,8 @@ impl FastBackend {
                 if falling <= self.ragdolls[r].closing_mps {
                     continue;
                 }
-                let (lo, _) = super::narrow::bounds(&self.shape[i], self.pos[i], self.rot[i]);
-                if lo.y - self.travel(i, dt) < g {
+                // The broad phase's box of this step, grown by how far it may travel.
+                if self.collide.boxes[i].0.y < g {
                     self.ragdolls[r].closing_mps = falling;
                 }
             }

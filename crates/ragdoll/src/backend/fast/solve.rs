@@ -50,7 +50,7 @@ pub(super) fn rotation_vector(q: Quat) -> Vec3 {
 impl FastBackend {
     pub(super) fn step_impl(&mut self, dt: f32) {
         self.find_pairs(dt);
-        self.find_closing(dt);
+        self.find_closing();
         self.thaw_before_impacts();
         self.collide
             .begin_step(self.pos.len(), self.settings.gravity);
