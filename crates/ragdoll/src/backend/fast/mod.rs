@@ -32,6 +32,7 @@
 //! fraction of one whose every joint moves.
 
 mod body;
+mod box_box;
 mod box_capsule;
 mod contact;
 mod freeze;

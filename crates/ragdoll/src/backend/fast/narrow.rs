@@ -1,14 +1,12 @@
 //! Where the fast backend's bodies touch: candidate pairs once per step from the shared
 //! broad phase (each body's box grown by how far it can move in the step), the contact
 //! points of two shapes every substep (capsule pairs in closed form, a box and a capsule in
-//! the box's frame, two boxes by parry), and rays against the shapes.
+//! the box's frame, two boxes by their separating axes, `box_box.rs`), and rays against the shapes.
 
 use glam::{Mat3, Quat, Vec3};
-use rapier3d::parry::math::Pose;
-use rapier3d::parry::query;
-use rapier3d::parry::shape::Cuboid;
 
 use super::FastBackend;
+use super::box_box::box_box;
 use super::box_capsule;
 use super::contact::TOUCH_M;
 use crate::backend::geom::{nearest_hit, ray_shape};
@@ -56,10 +54,6 @@ pub(super) struct Found {
 pub(super) fn ends(pos: Vec3, rot: Quat, length_m: f32) -> (Vec3, Vec3) {
     let h = rot * Vec3::new(0.0, 0.5 * length_m, 0.0);
     (pos - h, pos + h)
-}
-
-fn parry_pose(pos: Vec3, rot: Quat) -> Pose {
-    Pose::from_parts(pos, rot)
 }
 
 /// The contact of a capsule at pose `c` (radius `r`, segment `length`) with a box at pose
@@ -199,14 +193,11 @@ impl FastBackend {
                 depth: ra + rb - dist,
             });
         }
-        let c = match (self.shape[a], self.shape[b]) {
-            (Shape::Box { size_m: sa }, Shape::Box { size_m: sb }) => query::contact(
-                &parry_pose(pos_a, rot_a),
-                &Cuboid::new(Vec3::from_array(sa) * 0.5),
-                &parry_pose(pos_b, rot_b),
-                &Cuboid::new(Vec3::from_array(sb) * 0.5),
-                within,
-            ),
+        match (self.shape[a], self.shape[b]) {
+            (Shape::Box { size_m: sa }, Shape::Box { size_m: sb }) => {
+                let half = |s: [f32; 3]| Vec3::from_array(s) * 0.5;
+                box_box((pos_a, rot_a), half(sa), (pos_b, rot_b), half(sb), within)
+            }
             (Shape::Box { size_m }, Shape::Capsule { radius_m, length_m }) => {
                 let f = box_capsule(
                     (pos_a, rot_a),
@@ -216,32 +207,23 @@ impl FastBackend {
                     length_m,
                     within,
                 )?;
-                return Some(Found {
+                Some(Found {
                     pa: f.pb,
                     pb: f.pa,
                     n: -f.n,
                     depth: f.depth,
-                });
+                })
             }
-            (Shape::Capsule { radius_m, length_m }, Shape::Box { size_m }) => {
-                return box_capsule(
-                    (pos_b, rot_b),
-                    size_m,
-                    (pos_a, rot_a),
-                    radius_m,
-                    length_m,
-                    within,
-                );
-            }
-            _ => return None,
-        };
-        let c = c.ok().flatten()?;
-        Some(Found {
-            pa: c.point1,
-            pb: c.point2,
-            n: -c.normal1,
-            depth: -c.dist,
-        })
+            (Shape::Capsule { radius_m, length_m }, Shape::Box { size_m }) => box_capsule(
+                (pos_b, rot_b),
+                size_m,
+                (pos_a, rot_a),
+                radius_m,
+                length_m,
+                within,
+            ),
+            _ => None,
+        }
     }
 
     /// The first body a ray meets, against each body's own shape.
@@ -266,6 +248,13 @@ impl FastBackend {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rapier3d::parry::math::Pose;
+    use rapier3d::parry::query;
+    use rapier3d::parry::shape::Cuboid;
+
+    fn parry_pose(pos: Vec3, rot: Quat) -> Pose {
+        Pose::from_parts(pos, rot)
+    }
     use crate::backend::{Backend, BodyDesc};
     use crate::math::Transform;
 
