@@ -140,9 +140,15 @@ fn as_text(
     }
     writeln!(out, "\nbodies:")?;
     for b in &spec.bodies {
+        // Skin its own shape does not reach, held by shapes of its own (a creature's).
+        let extras = match b.extra_shapes.len() {
+            0 => String::new(),
+            1 => ", 1 extra shape".to_string(),
+            n => format!(", {n} extra shapes"),
+        };
         writeln!(
             out,
-            "  {:<16} on {:<16} {}, {:.2} kg",
+            "  {:<16} on {:<16} {}, {:.2} kg{extras}",
             b.name,
             b.bone,
             shape_words(&b.shape),

@@ -126,6 +126,7 @@ fn capsule(name: &str, at: Vec3, radius_m: f32, length_m: f32) -> (Character, Ra
             center_m: [0.0; 3],
             rotation: [0.0, 0.0, 0.0, 1.0],
             mass_kg: 1.0,
+            extra_shapes: Vec::new(),
         }],
         joints: vec![],
         collision: Default::default(),

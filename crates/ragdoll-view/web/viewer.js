@@ -131,7 +131,10 @@ function onScene(m) {
 function onSpecs(m) {
   viewer.specs = m;
   $('backend').value = m.backend;
-  if (gl) for (const r of m.ragdolls) r.capsules = r.spec.bodies.map((b) => makeShapeMesh(b.shape));
+  if (gl) for (const r of m.ragdolls) {
+    r.capsules = r.spec.bodies.map((b) => makeShapeMesh(b.shape));
+    r.extras = r.spec.bodies.map((b) => extraShapes(b).map((e) => ({ mesh: makeShapeMesh(e.shape), at: e.at })));
+  }
   showSelected();
 }
 
@@ -180,6 +183,13 @@ function onConfirmOverwrite(m) {
 }
 
 // Poses of ragdoll r's bodies in the current frame, as {t, q}.
+// A body's extra shapes, each with its place in the body frame: the spec places them, as
+// the body's own shape, in the bone's rest frame.
+function extraShapes(b) {
+  const own = { t: b.center_m, q: b.rotation };
+  const inv = { t: Q.rotate(Q.conj(own.q), V.scale(own.t, -1)), q: Q.conj(own.q) };
+  return (b.extra_shapes || []).map((e) => ({ shape: e.shape, at: T.mul(inv, { t: e.center_m, q: e.rotation }) }));
+}
 function bodyPose(r, b) {
   const f = viewer.frame;
   if (!f || !f.ragdolls[r]) return null;
@@ -509,10 +519,14 @@ function drawScene(p, ps, uniforms, depthOnly) {
       const selected = viewer.selected && viewer.selected.ragdoll === ri && viewer.selected.body === bi;
       if (!(show.bodies || !hasMesh || !show.mesh || selected)) return;
       if (depthOnly && hasMesh && show.mesh) return;
-      gl.uniformMatrix4fv(p.u.uModel, false, M4.fromTr(bodyPose(ri, bi)));
+      const pose = bodyPose(ri, bi);
       if (p.u.uColor) gl.uniform3fv(p.u.uColor, selected ? [0.95, 0.62, 0.2] : [0.55, 0.68, 0.8]);
-      gl.bindVertexArray(mesh.vao);
-      gl.drawElements(gl.TRIANGLES, mesh.count, gl.UNSIGNED_INT, 0);
+      const shapes = [{ mesh, at: null }].concat((r.extras && r.extras[bi]) || []);
+      for (const e of shapes) {
+        gl.uniformMatrix4fv(p.u.uModel, false, M4.fromTr(e.at ? T.mul(pose, e.at) : pose));
+        gl.bindVertexArray(e.mesh.vao);
+        gl.drawElements(gl.TRIANGLES, e.mesh.count, gl.UNSIGNED_INT, 0);
+      }
     });
   });
   if (!show.mesh) return;
@@ -718,11 +732,16 @@ function pick(ray) {
   if (s && viewer.frame) s.ragdolls.forEach((r, ri) => r.spec.bodies.forEach((b, bi) => {
     const pose = bodyPose(ri, bi);
     if (!pose) return;
-    const qi = Q.conj(pose.q), ro = Q.rotate(qi, V.sub(ray.o, pose.t)), rd = Q.rotate(qi, ray.d);
-    const t = b.shape.kind === 'box' ? hitBox(ro, rd, b.shape.size_m.map((x) => x / 2))
-      : hitCapsule(ro, rd, b.shape.length_m / 2, b.shape.radius_m);
-    if (t !== null && (!best || t < best.t)) {
-      best = { t, ragdoll: ri, body: bi, local: V.add(ro, V.scale(rd, t)) };
+    for (const e of [{ shape: b.shape, at: null }].concat(extraShapes(b))) {
+      const at = e.at ? T.mul(pose, e.at) : pose;
+      const qi = Q.conj(at.q), ro = Q.rotate(qi, V.sub(ray.o, at.t)), rd = Q.rotate(qi, ray.d);
+      const t = e.shape.kind === 'box' ? hitBox(ro, rd, e.shape.size_m.map((x) => x / 2))
+        : hitCapsule(ro, rd, e.shape.length_m / 2, e.shape.radius_m);
+      if (t !== null && (!best || t < best.t)) {
+        // The grab point in the body's own frame, where a drag holds it.
+        const hit = T.apply(at, V.add(ro, V.scale(rd, t)));
+        best = { t, ragdoll: ri, body: bi, local: Q.rotate(Q.conj(pose.q), V.sub(hit, pose.t)) };
+      }
     }
   }));
   return best;

@@ -361,6 +361,7 @@ fn hand_made_spec(c: &Character) -> RagdollSpec {
             center_m: (d * 0.5).to_array(),
             rotation: Quat::from_rotation_arc(Vec3::Y, d.normalize_or(Vec3::Y)).to_array(),
             mass_kg: 1.0,
+            extra_shapes: Vec::new(),
         });
     }
     spec

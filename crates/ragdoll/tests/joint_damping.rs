@@ -44,6 +44,7 @@ fn pendulum(dir: Vec3) -> (Character, RagdollSpec) {
             center_m: (dirs[i] * (0.5 * LEN)).to_array(),
             rotation: Quat::from_rotation_arc(Vec3::Y, dirs[i]).to_array(),
             mass_kg,
+            extra_shapes: Vec::new(),
         })
         .collect();
     let spec = RagdollSpec {

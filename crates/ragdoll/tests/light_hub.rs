@@ -38,6 +38,7 @@ fn star(arms: usize, hub_kg: f32) -> (Character, RagdollSpec) {
         center_m: [0.0; 3],
         rotation: [0.0, 0.0, 0.0, 1.0],
         mass_kg: hub_kg,
+        extra_shapes: Vec::new(),
     }];
     let mut links = Vec::new();
     for k in 0..arms {
@@ -61,6 +62,7 @@ fn star(arms: usize, hub_kg: f32) -> (Character, RagdollSpec) {
             center_m: (dir * 0.5 * ARM).to_array(),
             rotation: Quat::from_rotation_arc(Vec3::Y, dir).to_array(),
             mass_kg: 1.0,
+            extra_shapes: Vec::new(),
         });
         links.push(JointSpec {
             name: name.clone(),

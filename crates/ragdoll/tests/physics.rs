@@ -37,6 +37,7 @@ fn capsule_body(name: &str, bone: &str, center: [f32; 3]) -> BodySpec {
         center_m: center,
         rotation: [0.0, 0.0, 0.0, 1.0],
         mass_kg: 2.0,
+        extra_shapes: Vec::new(),
     }
 }
 

@@ -333,6 +333,12 @@ pub struct BodyDesc {
     pub pose: Transform,
     /// Collision shape.
     pub shape: crate::spec::Shape,
+    /// More shapes it collides with, each with its place in the body frame
+    /// ([`crate::spec::BodySpec::extra_shapes`]): they meet the ground, other ragdolls and
+    /// rays, not the bodies of their own ragdoll, and the mass is spread over them and
+    /// `shape` by volume for the inertia (about `shape`'s centre, which stays the centre of
+    /// mass).
+    pub extra_shapes: Vec<(crate::spec::Shape, Transform)>,
     /// Mass, kg.
     pub mass: f32,
     /// Initial linear velocity, m/s.

@@ -24,6 +24,9 @@ const FRICTION: f32 = 0.7;
 pub(crate) const GROUND_HALF_EXTENT_M: f32 = 500.0;
 /// Collider user data of the ground, distinct from any ragdoll body key.
 const GROUND_KEY: u128 = u128::MAX;
+/// Set in the user data of an extra shape's collider, above its body's index: extra
+/// shapes never meet their own ragdoll's bodies.
+const EXTRA_BIT: u128 = 1 << 64;
 
 /// Settings the rigid backend takes from the world.
 #[derive(Clone, Copy, Debug)]
@@ -38,10 +41,13 @@ pub(crate) struct RigidSettings {
     pub iterations: usize,
 }
 
-/// Filters contacts between pairs of bodies the spec says never collide.
+/// Filters contacts between pairs of bodies the spec says never collide, and between an
+/// extra shape and its own ragdoll.
 struct PairFilter {
     /// Unordered pairs of global body keys.
     disabled: HashSet<(u32, u32)>,
+    /// Each body's ragdoll (insertion order).
+    ragdoll_of: Vec<u32>,
 }
 
 impl PhysicsHooks for PairFilter {
@@ -51,6 +57,10 @@ impl PhysicsHooks for PairFilter {
         if k1 != GROUND_KEY && k2 != GROUND_KEY {
             let (a, b) = (k1 as u32, k2 as u32);
             if self.disabled.contains(&(a.min(b), a.max(b))) {
+                return None;
+            }
+            let extra = (k1 | k2) & EXTRA_BIT != 0;
+            if extra && self.ragdoll_of.get(a as usize) == self.ragdoll_of.get(b as usize) {
                 return None;
             }
         }
@@ -71,8 +81,6 @@ pub(crate) struct RigidBackend {
     drives: Vec<Option<ImpulseJointHandle>>,
     /// Whether rapier has quarantined a body (its state went non-finite; rapier froze it).
     quarantined: bool,
-    /// Each body's ragdoll (insertion order).
-    ragdoll_of: Vec<u32>,
     /// Whether there is a ground (a box [`GROUND_HALF_EXTENT_M`] each way).
     has_ground: bool,
 }
@@ -104,10 +112,10 @@ impl RigidBackend {
             bodies: Vec::new(),
             filter: PairFilter {
                 disabled: HashSet::new(),
+                ragdoll_of: Vec::new(),
             },
             drives: Vec::new(),
             quarantined: false,
-            ragdoll_of: Vec::new(),
             has_ground: settings.ground.is_some(),
         }
     }
@@ -120,33 +128,41 @@ impl RigidBackend {
         disabled_pairs: &[(usize, usize)],
     ) -> usize {
         let first = self.bodies.len();
-        let ragdoll = self.ragdoll_of.last().map_or(0, |r| r + 1);
-        self.ragdoll_of.resize(first + bodies.len(), ragdoll);
+        let ragdoll = self.filter.ragdoll_of.last().map_or(0, |r| r + 1);
+        self.filter.ragdoll_of.resize(first + bodies.len(), ragdoll);
         for (i, b) in bodies.iter().enumerate() {
-            let rb = RigidBodyBuilder::dynamic()
+            let mut rb = RigidBodyBuilder::dynamic()
                 .pose(pose(&b.pose))
                 .linvel(b.linvel)
                 .angvel(b.angvel)
                 .build();
-            let handle = self.world.bodies.insert(rb);
-            let builder = match b.shape {
-                Shape::Capsule { radius_m, length_m } => {
-                    ColliderBuilder::capsule_y(0.5 * length_m, radius_m)
-                }
-                Shape::Box { size_m } => {
-                    ColliderBuilder::cuboid(0.5 * size_m[0], 0.5 * size_m[1], 0.5 * size_m[2])
-                }
+            let key = (first + i) as u128;
+            let collider = if b.extra_shapes.is_empty() {
+                collider_of(&b.shape, key).mass(b.mass).build()
+            } else {
+                // The mass spread over every shape, its centre at the own shape's (as the
+                // other backends have it: `geom::body_inertia`), set on the body; the
+                // colliders then carry none.
+                let inertia = crate::backend::geom::body_inertia(&b.shape, &b.extra_shapes, b.mass);
+                rb.set_additional_mass_properties(
+                    MassProperties::new(Vec3::ZERO, b.mass, inertia.diagonal()),
+                    false,
+                );
+                collider_of(&b.shape, key).density(0.0).build()
             };
-            let collider = builder
-                .mass(b.mass)
-                .friction(FRICTION)
-                .restitution(0.0)
-                .user_data((first + i) as u128)
-                .active_hooks(ActiveHooks::FILTER_CONTACT_PAIRS)
-                .build();
+            let handle = self.world.bodies.insert(rb);
             self.world
                 .colliders
                 .insert_with_parent(collider, handle, &mut self.world.bodies);
+            for (shape, at) in &b.extra_shapes {
+                let collider = collider_of(shape, key | EXTRA_BIT)
+                    .position(pose(at))
+                    .density(0.0)
+                    .build();
+                self.world
+                    .colliders
+                    .insert_with_parent(collider, handle, &mut self.world.bodies);
+            }
             self.bodies.push(handle);
         }
         for j in joints {
@@ -165,6 +181,24 @@ impl RigidBackend {
         }
         first
     }
+}
+
+/// A collider of `shape` for the body of global index `key` (its user data, which the
+/// contact filter and the queries read), with the ragdoll's contact material.
+fn collider_of(shape: &Shape, key: u128) -> ColliderBuilder {
+    let builder = match *shape {
+        Shape::Capsule { radius_m, length_m } => {
+            ColliderBuilder::capsule_y(0.5 * length_m, radius_m)
+        }
+        Shape::Box { size_m } => {
+            ColliderBuilder::cuboid(0.5 * size_m[0], 0.5 * size_m[1], 0.5 * size_m[2])
+        }
+    };
+    builder
+        .friction(FRICTION)
+        .restitution(0.0)
+        .user_data(key)
+        .active_hooks(ActiveHooks::FILTER_CONTACT_PAIRS)
 }
 
 fn make_joint(j: &JointDesc) -> GenericJoint {
@@ -395,7 +429,7 @@ impl Backend for RigidBackend {
                 continue;
             }
             let (a, b) = (k1 as usize, k2 as usize);
-            if self.ragdoll_of.get(a) == self.ragdoll_of.get(b) {
+            if self.filter.ragdoll_of.get(a) == self.filter.ragdoll_of.get(b) {
                 continue;
             }
             let PairContacts::Rigid(contacts) = &pair.contacts else {

@@ -16,7 +16,7 @@
 
 use std::f32::consts::{FRAC_PI_2, TAU};
 
-use glam::{Quat, Vec3, Vec4};
+use glam::{Vec3, Vec4};
 
 use super::{RagdollSpec, Shape};
 use crate::error::{Error, Result};
@@ -128,29 +128,28 @@ pub fn bodies_mesh(skeleton: &Skeleton, spec: &RagdollSpec) -> Result<SkinnedMes
             })?;
         let w = rest_world[joint];
         let bone_frame = Transform::new(w.translation, w.rotation);
-        let local = Transform::new(
-            Vec3::from_array(body.center_m),
-            Quat::from_array(body.rotation).normalize(),
-        );
-        let body_world = bone_frame.mul(&local);
-        let (pos, nrm, idx) = match body.shape {
-            Shape::Capsule { radius_m, length_m } => capsule(radius_m, length_m),
-            Shape::Box { size_m } => cuboid(size_m),
-        };
-        let base = out.positions.len() as u32;
+        let body_world = bone_frame.mul(&body.frame());
         // A skeleton too big for u16 joint indices cannot be written as a glTF skin either.
         let slot = u16::try_from(joint).map_err(|_| Error::Spec {
             place: format!("body \"{}\".bone", body.name),
             message: format!("joint {joint} is beyond the 65536 a skin can name"),
         })?;
-        out.joints
-            .extend(std::iter::repeat_n([slot, 0, 0, 0], pos.len()));
-        out.weights.extend(std::iter::repeat_n(Vec4::X, pos.len()));
-        out.positions
-            .extend(pos.iter().map(|&p| body_world.transform_point(p)));
-        out.normals
-            .extend(nrm.iter().map(|&n| body_world.transform_dir(n)));
-        out.indices.extend(idx.iter().map(|i| i + base));
+        let extras = body.extra_offsets();
+        let extras = extras.iter().map(|(s, at)| (s, body_world.mul(at)));
+        for (shape, at) in std::iter::once((&body.shape, body_world)).chain(extras) {
+            let (pos, nrm, idx) = match *shape {
+                Shape::Capsule { radius_m, length_m } => capsule(radius_m, length_m),
+                Shape::Box { size_m } => cuboid(size_m),
+            };
+            let base = out.positions.len() as u32;
+            out.joints
+                .extend(std::iter::repeat_n([slot, 0, 0, 0], pos.len()));
+            out.weights.extend(std::iter::repeat_n(Vec4::X, pos.len()));
+            out.positions
+                .extend(pos.iter().map(|&p| at.transform_point(p)));
+            out.normals.extend(nrm.iter().map(|&n| at.transform_dir(n)));
+            out.indices.extend(idx.iter().map(|i| i + base));
+        }
     }
     Ok(out)
 }

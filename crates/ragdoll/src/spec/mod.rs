@@ -160,6 +160,52 @@ pub struct BodySpec {
     pub rotation: [f32; 4],
     /// Mass, kilograms. Inertia follows from the shape with uniform density.
     pub mass_kg: f32,
+    /// More shapes the body collides with, each placed in the bone's rest frame as
+    /// [`BodySpec::shape`] is: skin this body moves that its own shape does not reach (a
+    /// creature's foot whose weight three spine bones share, a sword in a hand). They meet
+    /// the ground, other ragdolls and shots, not their own ragdoll's bodies; the body's
+    /// mass is spread over all its shapes by volume for its inertia, its centre of mass
+    /// staying its own shape's centre. At most [`MAX_EXTRA_SHAPES`].
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub extra_shapes: Vec<ExtraShape>,
+}
+
+impl BodySpec {
+    /// The body frame in its bone's rest frame: where the body's shape is.
+    pub fn frame(&self) -> crate::math::Transform {
+        crate::math::Transform::new(
+            glam::Vec3::from_array(self.center_m),
+            glam::Quat::from_array(self.rotation).normalize(),
+        )
+    }
+
+    /// Each extra shape with its place in the body frame (the frame of [`BodySpec::shape`]),
+    /// as the backends take them.
+    pub fn extra_offsets(&self) -> Vec<(Shape, crate::math::Transform)> {
+        let inv = self.frame().inverse();
+        self.extra_shapes
+            .iter()
+            .map(|e| {
+                let at = crate::math::Transform::new(
+                    glam::Vec3::from_array(e.center_m),
+                    glam::Quat::from_array(e.rotation).normalize(),
+                );
+                (e.shape, inv.mul(&at))
+            })
+            .collect()
+    }
+}
+
+/// A shape a body carries beside its own (see [`BodySpec::extra_shapes`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExtraShape {
+    /// The collision shape, long axis along its frame's Y.
+    pub shape: Shape,
+    /// Its centre in the bone's rest frame, metres.
+    pub center_m: [f32; 3],
+    /// Its orientation in the bone's rest frame, quaternion `[x, y, z, w]`.
+    pub rotation: [f32; 4],
 }
 
 /// How a joint may move.
@@ -305,9 +351,9 @@ pub use roles::{
     MAX_ROLE_FILE_ENTRIES, RoleFile, Roles, recognise_roles, roles_for, roles_with_file,
 };
 pub use validate::{
-    MAX_BODIES, MAX_BODY_KG, MAX_CONE_TILT_DEG, MAX_DISABLED_PAIRS, MAX_JOINT_MASS_RATIO,
-    MAX_JOINTS, MAX_LIMIT_END_DEG, MAX_NAME_BYTES, MAX_OFFSET_M, MAX_SHAPE_M, MAX_SWING_DEG,
-    MIN_BODY_KG, MIN_SHAPE_M, UNIT_QUATERNION_TOLERANCE,
+    MAX_BODIES, MAX_BODY_KG, MAX_CONE_TILT_DEG, MAX_DISABLED_PAIRS, MAX_EXTRA_SHAPES,
+    MAX_JOINT_MASS_RATIO, MAX_JOINTS, MAX_LIMIT_END_DEG, MAX_NAME_BYTES, MAX_OFFSET_M, MAX_SHAPE_M,
+    MAX_SWING_DEG, MIN_BODY_KG, MIN_SHAPE_M, UNIT_QUATERNION_TOLERANCE,
 };
 
 pub(crate) use file::line_at;

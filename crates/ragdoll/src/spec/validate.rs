@@ -6,7 +6,7 @@
 
 use std::collections::HashMap;
 
-use super::{BodySpec, JointKind, JointSpec, RagdollSpec, SPEC_FORMAT_VERSION, Shape};
+use super::{BodySpec, ExtraShape, JointKind, JointSpec, RagdollSpec, SPEC_FORMAT_VERSION, Shape};
 
 /// Most bodies in one ragdoll.
 ///
@@ -16,6 +16,9 @@ use super::{BodySpec, JointKind, JointSpec, RagdollSpec, SPEC_FORMAT_VERSION, Sh
 /// 2.1 GB of memory for 0.2 simulated seconds on rapier, and came apart on the particle
 /// backend.
 pub const MAX_BODIES: usize = 512;
+/// Most extra shapes one body may carry ([`super::BodySpec::extra_shapes`]): each is a
+/// contact shape of its own in every backend.
+pub const MAX_EXTRA_SHAPES: usize = 16;
 
 /// Most joints in one ragdoll: as many as bodies (a tree of them has one fewer).
 pub const MAX_JOINTS: usize = MAX_BODIES;
@@ -220,21 +223,7 @@ fn body_problem(b: &BodySpec) -> Option<(&'static str, String)> {
     let fail = |key: &'static str, r: Result<(), String>| r.err().map(|m| (key, m));
     fail("name", check_name(&b.name))
         .or_else(|| fail("bone", check_name(&b.bone)))
-        .or_else(|| match b.shape {
-            Shape::Capsule { radius_m, length_m } => fail(
-                "shape.radius_m",
-                check_within(radius_m, MIN_SHAPE_M, MAX_SHAPE_M, M),
-            )
-            .or_else(|| {
-                fail(
-                    "shape.length_m",
-                    check_within(length_m, 0.0, MAX_SHAPE_M, M),
-                )
-            }),
-            Shape::Box { size_m } => size_m
-                .iter()
-                .find_map(|&s| fail("shape.size_m", check_within(s, MIN_SHAPE_M, MAX_SHAPE_M, M))),
-        })
+        .or_else(|| shape_problem(&b.shape))
         .or_else(|| fail("center_m", check_length(b.center_m, MAX_OFFSET_M, M)))
         .or_else(|| fail("rotation", check_quaternion(b.rotation)))
         .or_else(|| {
@@ -243,6 +232,51 @@ fn body_problem(b: &BodySpec) -> Option<(&'static str, String)> {
                 check_within(b.mass_kg, MIN_BODY_KG, MAX_BODY_KG, KG),
             )
         })
+        .or_else(|| extras_problem(&b.extra_shapes))
+}
+
+/// The first value of `shape` out of bounds, with its key under `shape.`.
+fn shape_problem(shape: &Shape) -> Option<(&'static str, String)> {
+    let fail = |key: &'static str, r: Result<(), String>| r.err().map(|m| (key, m));
+    match *shape {
+        Shape::Capsule { radius_m, length_m } => fail(
+            "shape.radius_m",
+            check_within(radius_m, MIN_SHAPE_M, MAX_SHAPE_M, M),
+        )
+        .or_else(|| {
+            fail(
+                "shape.length_m",
+                check_within(length_m, 0.0, MAX_SHAPE_M, M),
+            )
+        }),
+        Shape::Box { size_m } => size_m
+            .iter()
+            .find_map(|&s| fail("shape.size_m", check_within(s, MIN_SHAPE_M, MAX_SHAPE_M, M))),
+    }
+}
+
+/// The first problem of a body's extra shapes: too many, or a value out of the bounds its
+/// own shape has. The key is `extra_shapes` (the line of the list); the message says which.
+fn extras_problem(extras: &[ExtraShape]) -> Option<(&'static str, String)> {
+    if extras.len() > MAX_EXTRA_SHAPES {
+        return Some((
+            "extra_shapes",
+            format!(
+                "{} extra shapes, more than the {MAX_EXTRA_SHAPES} a body may carry",
+                extras.len()
+            ),
+        ));
+    }
+    extras.iter().enumerate().find_map(|(k, e)| {
+        let problem = shape_problem(&e.shape)
+            .or_else(|| {
+                check_length(e.center_m, MAX_OFFSET_M, M)
+                    .err()
+                    .map(|m| ("center_m", m))
+            })
+            .or_else(|| check_quaternion(e.rotation).err().map(|m| ("rotation", m)));
+        problem.map(|(key, m)| ("extra_shapes", format!("[{k}].{key}: {m}")))
+    })
 }
 
 fn kind_problem(kind: &JointKind) -> Option<(&'static str, String)> {

@@ -47,7 +47,14 @@ impl World {
                 };
                 let anchor = child.pose.transform_point(j.frame_child.translation);
                 let about = |b: usize| {
-                    let own = principal_inertia(&inst.shapes[b], inst.masses[b]);
+                    // The body's inertia with its extra shapes' skin, as the backends
+                    // have it.
+                    let own = if inst.extras[b].is_empty() {
+                        principal_inertia(&inst.shapes[b], inst.masses[b])
+                    } else {
+                        let (shape, extras) = (&inst.shapes[b], &inst.extras[b]);
+                        crate::backend::geom::body_inertia(shape, extras, inst.masses[b]).diagonal()
+                    };
                     inertia_about(&states[b].pose, own, inst.masses[b], anchor, n)
                 };
                 let inertia = effective_inertia(about(j.child), Some(about(j.parent)));

@@ -21,7 +21,8 @@ use crate::spec::Shape;
 impl World {
     /// The deepest overlap in the current poses, metres (0 when nothing overlaps): of any
     /// body below the ground, and between any two bodies that collide (of two ragdolls,
-    /// or of one whose pair the spec, the start or a hand-over did not exempt).
+    /// or of one whose pair the spec, the start or a hand-over did not exempt), each body
+    /// with its extra shapes (which meet the ground and other ragdolls only).
     ///
     /// ```
     /// use ragdoll::{skeleton::humanoid, spec, world::{World, WorldSettings}, math::Transform};
@@ -40,10 +41,16 @@ impl World {
         let mut owner = Vec::new();
         for (r, inst) in self.instances.iter().enumerate() {
             for (b, shape) in inst.shapes.iter().enumerate() {
-                poses.push(self.states[inst.first_body + b].pose);
-                shapes.push(*shape);
-                solids.push(solid(shape));
-                owner.push((r, b));
+                let pose = self.states[inst.first_body + b].pose;
+                let extras = inst.extras[b]
+                    .iter()
+                    .map(|(s, at)| (*s, pose.mul(at), true));
+                for (shape, pose, extra) in std::iter::once((*shape, pose, false)).chain(extras) {
+                    poses.push(pose);
+                    shapes.push(shape);
+                    solids.push(solid(&shape));
+                    owner.push((r, b, extra));
+                }
             }
         }
         let mut deepest = 0.0f32;
@@ -58,8 +65,9 @@ impl World {
             .map(|(p, s)| loose_bounds(p, s))
             .collect();
         BroadPhase::default().find(&boxes, |i, j| {
-            let ((ri, bi), (rj, bj)) = (owner[i], owner[j]);
-            if ri == rj && self.instances[ri].exempt(bi, bj) {
+            let ((ri, bi, xi), (rj, bj, xj)) = (owner[i], owner[j]);
+            // Extra shapes never meet their own ragdoll.
+            if ri == rj && (xi || xj || self.instances[ri].exempt(bi, bj)) {
                 return;
             }
             let depth = depth_between(&poses[i], &solids[i], &poses[j], &solids[j]);

@@ -97,6 +97,8 @@ struct Instance {
     tree: JointTree,
     /// Each body's shape.
     shapes: Vec<Shape>,
+    /// Each body's extra shapes, each at its place in the body frame.
+    extras: Vec<Vec<(Shape, Transform)>>,
     /// Pairs of this ragdoll's bodies that do not collide (lower index first, sorted):
     /// the spec's, those that start inside each other, and those a hand-over found so.
     exempt_pairs: Vec<(usize, usize)>,

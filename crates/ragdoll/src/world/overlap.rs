@@ -40,22 +40,41 @@ const START_CELL_M: f64 = 2.0;
 /// ragdoll instead (a giant is rare; filing it would cost its volume in cells).
 const START_MAX_CELLS_PER_AXIS: i64 = 4;
 
-/// One body's capsule in world space at the start.
+/// One shape's capsule in world space at the start, and the body (index in its spec)
+/// it is a shape of: a body with extra shapes has several.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Solid {
     a: Vec3,
     b: Vec3,
     r: f32,
+    body: usize,
+    /// Whether it is one of the body's extra shapes, which never meet their own ragdoll.
+    extra: bool,
 }
 
 impl Solid {
-    pub(super) fn new(pose: &Transform, shape: &Shape) -> Self {
+    fn new(pose: &Transform, shape: &Shape, body: usize, extra: bool) -> Self {
         let ([e0, e1], r) = capsule_of(shape);
         Solid {
             a: pose.transform_point(e0),
             b: pose.transform_point(e1),
             r,
+            body,
+            extra,
         }
+    }
+
+    /// Every shape of the bodies of `spec` at `poses` (body frames, spec order): each
+    /// body's own, then its extra shapes.
+    pub(super) fn of_spec(spec: &crate::spec::RagdollSpec, poses: &[Transform]) -> Vec<Solid> {
+        let mut solids = Vec::with_capacity(spec.bodies.len());
+        for (i, (b, p)) in spec.bodies.iter().zip(poses).enumerate() {
+            solids.push(Solid::new(p, &b.shape, i, false));
+            for (shape, at) in b.extra_offsets() {
+                solids.push(Solid::new(&p.mul(&at), &shape, i, true));
+            }
+        }
+        solids
     }
 
     fn bounds(&self) -> (Vec3, Vec3) {
@@ -170,9 +189,9 @@ impl StartIndex {
                 let (sa, sb) = (&solids[a], &others[b - n]);
                 if let Some(gap) = sa.deep(sb) {
                     let clash = Clash {
-                        body: a,
+                        body: sa.body,
                         other: r as usize,
-                        other_body: b - n,
+                        other_body: sb.body,
                         gap_m: gap,
                         radius_m: sa.r.max(sb.r),
                     };
@@ -235,26 +254,41 @@ pub(super) fn loose_bounds(pose: &Transform, shape: &Shape) -> (Vec3, Vec3) {
     (pose.translation - reach, pose.translation + reach)
 }
 
-/// Pairs of one ragdoll's bodies (indices in its spec, `a < b`) that start overlapping,
-/// in order; or `Err((body, count))` for a body deep inside more than
-/// [`MAX_DEEP_OVERLAPS`] others.
+/// Pairs of one ragdoll's bodies (indices in its spec, `a < b`) that start overlapping
+/// (their own shapes: extra shapes never meet their own ragdoll), in order; or
+/// `Err((body, count))` for a body deep inside more than [`MAX_DEEP_OVERLAPS`] others.
 pub(super) fn overlapping_pairs(solids: &[Solid]) -> Result<Vec<(usize, usize)>, (usize, usize)> {
     let boxes: Vec<(Vec3, Vec3)> = solids.iter().map(Solid::bounds).collect();
     let mut pairs = Vec::new();
-    let mut count = vec![0usize; solids.len()];
+    let mut deep = Vec::new();
     BroadPhase::default().find(&boxes, |a, b| {
         let (sa, sb) = (&solids[a], &solids[b]);
+        if sa.body == sb.body || sa.extra || sb.extra {
+            return;
+        }
+        let key = (sa.body.min(sb.body), sa.body.max(sb.body));
         let gap = sa.axis_gap(sb);
         if gap < sa.r.max(sb.r) {
-            count[a] += 1;
-            count[b] += 1;
+            deep.push(key);
         }
         // Memory stays within the bodies' own pairs: a spec holds at most
-        // `spec::validate::MAX_BODIES` bodies.
+        // `spec::validate::MAX_BODIES` bodies, each with at most
+        // `spec::validate::MAX_EXTRA_SHAPES` extra shapes.
         if gap < sa.r + sb.r {
-            pairs.push((a, b));
+            pairs.push(key);
         }
     });
+    // Each pair of bodies once, however many of their shapes overlap.
+    deep.sort_unstable();
+    deep.dedup();
+    let bodies = solids.iter().map(|s| s.body + 1).max().unwrap_or(0);
+    let mut count = vec![0usize; bodies];
+    for &(a, b) in &deep {
+        count[a] += 1;
+        count[b] += 1;
+    }
+    pairs.sort_unstable();
+    pairs.dedup();
     if let Some((body, &n)) = count
         .iter()
         .enumerate()
@@ -263,7 +297,6 @@ pub(super) fn overlapping_pairs(solids: &[Solid]) -> Result<Vec<(usize, usize)>,
     {
         return Err((body, n));
     }
-    pairs.sort_unstable();
     Ok(pairs)
 }
 
@@ -273,7 +306,22 @@ mod tests {
 
     fn ball(x: f32, r: f32) -> Solid {
         let p = Vec3::new(x, 1.0, 0.0);
-        Solid { a: p, b: p, r }
+        Solid {
+            a: p,
+            b: p,
+            r,
+            body: 0,
+            extra: false,
+        }
+    }
+
+    /// Balls as the bodies of one ragdoll, body `k` the `k`-th.
+    fn bodies(balls: impl IntoIterator<Item = Solid>) -> Vec<Solid> {
+        balls
+            .into_iter()
+            .enumerate()
+            .map(|(k, s)| Solid { body: k, ..s })
+            .collect()
     }
 
     #[test]
@@ -289,7 +337,7 @@ mod tests {
 
     #[test]
     fn a_pile_of_one_ragdolls_bodies_is_refused_past_the_limit() {
-        let pile: Vec<Solid> = (0..MAX_DEEP_OVERLAPS + 2).map(|_| ball(0.0, 0.1)).collect();
+        let pile = bodies((0..MAX_DEEP_OVERLAPS + 2).map(|_| ball(0.0, 0.1)));
         assert_eq!(overlapping_pairs(&pile), Err((0, MAX_DEEP_OVERLAPS + 1)));
         let small = &pile[..MAX_DEEP_OVERLAPS + 1];
         assert_eq!(
@@ -308,6 +356,8 @@ mod tests {
             a: Vec3::new(-1.0e4, 0.0, 0.0),
             b: Vec3::new(1.0e4, 0.0, 0.0),
             r: 5.0,
+            body: 0,
+            extra: false,
         }];
         let c = index.clash(&giant).expect("the giant holds every ball");
         assert_eq!((c.body, c.other, c.other_body), (0, 0, 0));

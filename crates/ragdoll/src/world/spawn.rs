@@ -72,6 +72,7 @@ impl World {
             .map(|(b, p)| BodyDesc {
                 pose: *p,
                 shape: b.shape,
+                extra_shapes: b.extra_offsets(),
                 mass: b.mass_kg,
                 linvel: Vec3::ZERO,
                 angvel: Vec3::ZERO,
@@ -107,6 +108,7 @@ impl World {
             first_body,
             tree,
             shapes: spec.bodies.iter().map(|b| b.shape).collect(),
+            extras: bodies.iter().map(|b| b.extra_shapes.clone()).collect(),
             exempt_pairs,
             masses: spec.bodies.iter().map(|b| b.mass_kg).collect(),
             joints,
@@ -127,10 +129,17 @@ impl World {
         let Some(ground) = self.settings.ground else {
             return Vec3::ZERO;
         };
+        // Every shape of every body, the extra ones too.
         let lowest = body_start
             .iter()
             .zip(&spec.bodies)
-            .map(|(p, b)| b.shape.lowest_y(p))
+            .flat_map(|(p, b)| {
+                let extras = b
+                    .extra_offsets()
+                    .into_iter()
+                    .map(|(s, at)| s.lowest_y(&p.mul(&at)));
+                std::iter::once(b.shape.lowest_y(p)).chain(extras)
+            })
             .fold(f32::INFINITY, f32::min);
         Vec3::Y * (ground - lowest).max(0.0)
     }

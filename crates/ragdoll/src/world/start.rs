@@ -79,11 +79,7 @@ impl super::World {
                 ));
             }
         }
-        let solids: Vec<Solid> = body_start
-            .iter()
-            .zip(&spec.bodies)
-            .map(|(p, b)| overlap::Solid::new(p, &b.shape))
-            .collect();
+        let solids = Solid::of_spec(spec, body_start);
         if let Some(c) = self.start_index.clash(&solids) {
             let other = &self.instances[c.other];
             return Err(Error::Setting {

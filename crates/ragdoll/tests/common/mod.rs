@@ -117,6 +117,7 @@ pub fn one_capsule(
             center_m: [0.0; 3],
             rotation: [0.0, 0.0, 0.0, 1.0],
             mass_kg,
+            extra_shapes: Vec::new(),
         }],
         joints: vec![],
         collision: Default::default(),
@@ -175,6 +176,7 @@ pub fn chain(
             center_m: (dir * (0.5 * len)).to_array(),
             rotation,
             mass_kg: 1.0,
+            extra_shapes: Vec::new(),
         })
         .collect();
     let frame = Quat::from_rotation_arc(Vec3::X, dir).to_array();

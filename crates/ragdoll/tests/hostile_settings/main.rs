@@ -54,6 +54,7 @@ pub(crate) fn pair(shape: Shape, mass_kg: f32) -> (Character, RagdollSpec) {
         center_m: [0.0; 3],
         rotation: [0.0, 0.0, 0.0, 1.0],
         mass_kg,
+        extra_shapes: Vec::new(),
     };
     let spec = RagdollSpec {
         format_version: SPEC_FORMAT_VERSION,

@@ -24,7 +24,6 @@
 
 use glam::{Quat, Vec3};
 
-use super::narrow::reach;
 use super::solve::rotation_vector;
 use super::{FastBackend, MIN_INERTIA};
 use crate::math::Transform;
@@ -136,7 +135,7 @@ impl FastBackend {
     /// Thaws the ragdoll of body `i` if an event's velocity change `dv`, `dw` there is a
     /// blow.
     pub(super) fn thaw_on_kick(&mut self, i: usize, dv: Vec3, dw: Vec3) {
-        if dv.length() + dw.length() * reach(&self.shape[i]) > THAW_MPS {
+        if dv.length() + dw.length() * self.body_reach(i) > THAW_MPS {
             self.thaw(self.ragdoll_of[i]);
         }
     }
@@ -176,6 +175,7 @@ impl FastBackend {
             if let [i] = members[..] {
                 sub.push_body_of(self, i, ragdoll);
                 local[i] = sub.shape.len() as u32 - 1;
+                self.push_extras_of(i, sub, sub.pos.len() - 1, None, local);
             } else {
                 self.push_compound(&members, sub, ragdoll, local);
             }
@@ -243,12 +243,13 @@ impl FastBackend {
                 rot.conjugate() * (self.pos[i] - centre),
                 (rot.conjugate() * self.rot[i]).normalize(),
             );
-            lever = lever.max(attach.translation.length() + reach(&self.shape[i]));
+            lever = lever.max(attach.translation.length() + self.body_reach(i));
             local[i] = sub.shape.len() as u32;
             sub.shape.push(self.shape[i]);
             sub.owner.push(body as u32);
             sub.attach.push(Some(attach));
             sub.holder.push(super::contact::NOTHING);
+            self.push_extras_of(i, sub, body, Some(attach), local);
         }
         sub.compounds.push(Compound {
             body,

@@ -28,21 +28,26 @@ impl FastBackend {
             r.closing_mps = 0.0;
         }
         if let Some(g) = self.settings.ground {
-            for i in 0..self.pos.len() {
+            // Every shape of the world, the extra ones after the bodies' own.
+            for k in 0..self.world_shapes() {
+                let i = self.body_of_shape(k);
                 let r = self.ragdoll_of[i];
                 let falling = -self.vel[i].y;
                 if falling <= self.ragdolls[r].closing_mps {
                     continue;
                 }
                 // The broad phase's box of this step, grown by how far it may travel.
-                if self.collide.boxes[i].0.y < g {
+                if self.collide.boxes[k].0.y < g {
                     self.ragdolls[r].closing_mps = falling;
                 }
             }
         }
         for k in 0..self.collide.pairs.len() {
-            let (i, j) = self.collide.pairs[k];
-            let (i, j) = (i as usize, j as usize);
+            let (a, b) = self.collide.pairs[k];
+            let (i, j) = (
+                self.body_of_shape(a as usize),
+                self.body_of_shape(b as usize),
+            );
             let speed = (self.vel[i] - self.vel[j]).length();
             for r in [self.ragdoll_of[i], self.ragdoll_of[j]] {
                 let c = &mut self.ragdolls[r].closing_mps;

@@ -95,8 +95,12 @@ impl FastBackend {
         let mut parent = std::mem::take(&mut self.islands);
         parent.clear();
         parent.extend(0..n);
-        for &(i, j) in &self.collide.pairs {
-            let (ri, rj) = (self.ragdoll_of[i as usize], self.ragdoll_of[j as usize]);
+        for &(a, b) in &self.collide.pairs {
+            let (i, j) = (
+                self.body_of_shape(a as usize),
+                self.body_of_shape(b as usize),
+            );
+            let (ri, rj) = (self.ragdoll_of[i], self.ragdoll_of[j]);
             if ri != rj && !self.ragdolls[ri].asleep && !self.ragdolls[rj].asleep {
                 let (a, b) = (find(&mut parent, ri), find(&mut parent, rj));
                 parent[a.max(b)] = a.min(b);
@@ -136,7 +140,7 @@ impl FastBackend {
     fn gather(&mut self, subs: &mut [FastBackend]) {
         let mut local = std::mem::take(&mut self.local_of);
         local.clear();
-        local.resize(self.pos.len(), u32::MAX);
+        local.resize(self.world_shapes(), u32::MAX);
         for r in 0..self.ragdolls.len() {
             let island = self.island_of[r];
             if island == NO_ISLAND {
@@ -148,6 +152,7 @@ impl FastBackend {
                 for i in self.ragdolls[r].bodies.clone() {
                     sub.push_body_of(self, i, sub.ragdolls.len());
                     local[i] = sub.shape.len() as u32 - 1;
+                    self.push_extras_of(i, sub, sub.pos.len() - 1, None, &mut local);
                 }
             } else {
                 self.gather_compounds(r, sub, &mut local);
@@ -180,7 +185,7 @@ impl FastBackend {
             }
         }
         for &(i, j) in &self.collide.pairs {
-            let island = self.island_of[self.ragdoll_of[i as usize]];
+            let island = self.island_of[self.ragdoll_of[self.body_of_shape(i as usize)]];
             if island != NO_ISLAND {
                 subs[island as usize]
                     .collide
@@ -224,7 +229,13 @@ impl FastBackend {
             let sub = &subs[island as usize];
             for i in self.ragdolls[r].bodies.clone() {
                 let c = self.local_of[i] as usize;
-                self.collide.touching[i] = sub.collide.touching[c];
+                self.collide.touching[i] = sub.collide.touching[c]
+                    || self.extras.of.get(i).is_some_and(|e| {
+                        e.clone().any(|e| {
+                            let k = self.local_of[self.pos.len() + e as usize] as usize;
+                            sub.collide.touching[k]
+                        })
+                    });
                 if sub.attach[c].is_some() {
                     self.part_from_compound(i, sub, c, dt);
                     continue;

@@ -35,6 +35,7 @@ mod body;
 mod box_box;
 mod box_capsule;
 mod contact;
+mod extras;
 mod freeze;
 mod impact;
 mod island;
@@ -245,6 +246,8 @@ pub(crate) struct FastBackend {
     island_pool: Vec<FastBackend>,
     /// An island solver's compounds of bodies linked by frozen joints (`freeze.rs`).
     compounds: Vec<freeze::Compound>,
+    /// The whole world's bodies' extra shapes (`extras.rs`).
+    extras: extras::Extras,
 }
 
 impl FastBackend {
@@ -287,6 +290,7 @@ impl FastBackend {
             local_of: Vec::new(),
             island_pool: Vec::new(),
             compounds: Vec::new(),
+            extras: extras::Extras::default(),
         }
     }
 }
@@ -309,7 +313,7 @@ impl Backend for FastBackend {
         let r = self.ragdolls.len();
         for b in bodies {
             let mass = b.mass.max(1.0e-6);
-            let i = crate::backend::geom::inertia_of(&b.shape, mass);
+            let i = crate::backend::geom::body_inertia(&b.shape, &b.extra_shapes, mass);
             let inertia =
                 Vec3::new(i.x_axis.x, i.y_axis.y, i.z_axis.z).max(Vec3::splat(MIN_INERTIA));
             self.pos.push(b.pose.translation);
@@ -338,6 +342,7 @@ impl Backend for FastBackend {
             self.holder.push(contact::NOTHING);
             self.ragdoll_of.push(r);
             self.refresh_inertia(self.pos.len() - 1);
+            self.add_extras(self.pos.len() - 1, &b.extra_shapes);
         }
         let pair = |a: usize, b: usize| {
             let (a, b) = ((first + a) as u32, (first + b) as u32);

@@ -87,28 +87,41 @@ impl FastBackend {
     pub(super) fn find_pairs(&mut self, dt: f32) {
         let mut boxes = std::mem::take(&mut self.collide.boxes);
         boxes.clear();
-        boxes.extend((0..self.pos.len()).map(|i| {
-            let (lo, hi) = bounds(&self.shape[i], self.pos[i], self.rot[i]);
-            let travel = self.travel(i, dt);
+        boxes.extend((0..self.world_shapes()).map(|k| {
+            let (pos, rot) = self.world_shape_pose(k);
+            let (lo, hi) = bounds(&self.world_shape(k).0, pos, rot);
+            let travel = self.world_travel(k, dt);
             (lo - Vec3::splat(travel), hi + Vec3::splat(travel))
         }));
+        let bodies = self.pos.len();
         let FastBackend {
             collide,
             disabled,
             ragdoll_of,
             ragdolls,
             inv_mass,
+            extras,
             ..
         } = self;
         collide.pairs.clear();
         collide.wake.clear();
         let (pairs, wake) = (&mut collide.pairs, &mut collide.wake);
-        collide.broad.find(&boxes, |i, j| {
-            let key = (i as u32, j as u32);
-            if disabled.contains(&key) || (inv_mass[i] == 0.0 && inv_mass[j] == 0.0) {
+        let body_of = |k: usize| {
+            k.checked_sub(bodies)
+                .map_or(k, |e| extras.owner[e] as usize)
+        };
+        collide.broad.find(&boxes, |a, b| {
+            // Shapes `a` and `b`, of bodies `i` and `j`.
+            let (i, j) = (body_of(a), body_of(b));
+            let key = (i.min(j) as u32, i.max(j) as u32);
+            if i == j || disabled.contains(&key) || (inv_mass[i] == 0.0 && inv_mass[j] == 0.0) {
                 return;
             }
             let (ri, rj) = (ragdoll_of[i], ragdoll_of[j]);
+            // Extra shapes never meet their own ragdoll (`extras.rs`).
+            if ri == rj && a.max(b) >= bodies {
+                return;
+            }
             let (si, sj) = (ragdolls[ri].asleep, ragdolls[rj].asleep);
             if si && sj {
                 return;
@@ -119,7 +132,7 @@ impl FastBackend {
             if sj {
                 wake.push(rj);
             }
-            pairs.push(key);
+            pairs.push((a as u32, b as u32));
         });
         self.collide.boxes = boxes;
         for k in 0..self.collide.wake.len() {
@@ -131,8 +144,19 @@ impl FastBackend {
     /// How far any point of shape `c` may move in a step of `dt` at its body's present
     /// velocities, with [`BROAD_MARGIN_M`] to spare for what the step's constraints add.
     pub(super) fn travel(&self, c: usize, dt: f32) -> f32 {
-        let o = self.owner[c] as usize;
         let lever = reach(&self.shape[c]) + self.attach[c].map_or(0.0, |t| t.translation.length());
+        self.travel_of(self.owner[c] as usize, lever, dt)
+    }
+
+    /// [`FastBackend::travel`] of the whole world's shape `k` (`extras.rs`).
+    fn world_travel(&self, k: usize, dt: f32) -> f32 {
+        let (shape, at) = self.world_shape(k);
+        let lever = reach(&shape) + at.map_or(0.0, |t| t.translation.length());
+        self.travel_of(self.body_of_shape(k), lever, dt)
+    }
+
+    /// How far a point `lever` from body `o`'s centre may move in `dt`, with the margin.
+    fn travel_of(&self, o: usize, lever: f32, dt: f32) -> f32 {
         (self.vel[o].length() + self.angvel[o].length() * lever) * dt + BROAD_MARGIN_M
     }
 
@@ -226,22 +250,23 @@ impl FastBackend {
         }
     }
 
-    /// The first body a ray meets, against each body's own shape.
+    /// The first body a ray meets, against each of its shapes.
     pub(super) fn cast_ray_impl(
         &self,
         origin: Vec3,
         dir: Vec3,
         max_dist: f32,
     ) -> Option<(usize, f32)> {
-        let hits = (0..self.pos.len()).map(|i| {
-            let length = match self.shape[i] {
+        let hits = (0..self.world_shapes()).map(|k| {
+            let shape = self.world_shape(k).0;
+            let (pos, rot) = self.world_shape_pose(k);
+            let length = match shape {
                 Shape::Capsule { length_m, .. } => length_m,
                 Shape::Box { .. } => 0.0,
             };
-            let ends = ends(self.pos[i], self.rot[i], length);
-            ray_shape(origin, dir, &self.shape[i], self.pos[i], self.rot[i], ends)
+            ray_shape(origin, dir, &shape, pos, rot, ends(pos, rot, length))
         });
-        nearest_hit(hits, max_dist)
+        nearest_hit(hits, max_dist).map(|(k, d)| (self.body_of_shape(k), d))
     }
 }
 
@@ -271,6 +296,7 @@ mod tests {
         let body = |pose, shape| BodyDesc {
             pose,
             shape,
+            extra_shapes: Vec::new(),
             mass: 1.0,
             linvel: Vec3::ZERO,
             angvel: Vec3::ZERO,

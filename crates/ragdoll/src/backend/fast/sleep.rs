@@ -16,7 +16,7 @@ impl FastBackend {
     /// drift less its turn's sweep at its farthest point.
     fn ragdoll_near_rest(&self, r: usize) -> bool {
         self.ragdolls[r].bodies.clone().all(|i| {
-            let reach = super::narrow::reach(&self.shape[i]);
+            let reach = self.body_reach(i);
             let turn = self.rot[i] * self.rest_rot[i].conjugate();
             // |xyz| = sin(angle / 2); the chord a point at `reach` sweeps is
             // 2 reach sin(angle / 2).

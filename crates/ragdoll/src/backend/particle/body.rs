@@ -272,7 +272,7 @@ impl ParticleBackend {
         let mut rest: Vec<Vec3> = list.iter().map(|&i| rest_of(self, i)).collect();
         rest.extend(tip.map(|t| inv.transform_point(t)));
         let stick = Stick::of(&rest);
-        let inertia = crate::backend::geom::inertia_of(&desc.shape, mass);
+        let inertia = crate::backend::geom::body_inertia(&desc.shape, &desc.extra_shapes, mass);
         let rule = stick
             .line
             .then(|| ThreePoint::of(rest[0], &stick, inertia, mass));
@@ -509,6 +509,7 @@ impl ParticleBackend {
             tri_inv: triad_frame(tri[0], tri[1], tri[2]).conjugate(),
             tri_origin: tri[0],
             shape: desc.shape,
+            extras: desc.extra_shapes.clone(),
             e,
             radius,
             rbar,

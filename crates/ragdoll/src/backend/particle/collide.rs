@@ -79,7 +79,14 @@ impl ParticleBackend {
                 .fold(0.0f32, f32::max)
                 .sqrt();
             let margin = self.bodies[b].radius + speed * dt + BROAD_MARGIN_M;
-            grid.boxes.push((e0.min(e1) - margin, e0.max(e1) + margin));
+            let (mut lo, mut hi) = (e0.min(e1) - margin, e0.max(e1) + margin);
+            if let Some((l, h)) = self.extras_bounds(b) {
+                // The particles' speed, plus the turn's sweep at the extras, is bounded by
+                // the body's fastest particle only near its own capsule: grow by it twice.
+                let grow = Vec3::splat(2.0 * speed * dt + BROAD_MARGIN_M);
+                (lo, hi) = (lo.min(l - grow), hi.max(h + grow));
+            }
+            grid.boxes.push((lo, hi));
         }
         let mut pairs = std::mem::take(&mut self.pairs);
         grid.broad.find(&grid.boxes, |a, b| {
@@ -131,55 +138,70 @@ impl ParticleBackend {
             if self.bodies[b].kinematic {
                 continue;
             }
-            let radius = self.bodies[b].radius;
-            let [e0, e1] = self.caps[b];
-            match self.bodies[b].shape {
-                Shape::Box { size_m } => {
-                    let half = 0.5 * Vec3::from_array(size_m);
-                    if 0.5 * (e0.y + e1.y) - half.length() >= ground {
-                        continue;
-                    }
-                    let mut now = self.frame_of(b, &self.x);
-                    let mut start = None;
-                    for corner in box_corners(half) {
-                        let p = now.0 + now.1 * corner;
-                        let depth = ground - p.y;
-                        if depth <= 0.0 {
-                            continue;
-                        }
-                        self.push_up(b, p, depth);
-                        now = self.frame_of(b, &self.x);
-                        let (pos0, rot0) =
-                            *start.get_or_insert_with(|| self.frame_of(b, &self.x_prev));
-                        let moved = now.0 + now.1 * corner - (pos0 + rot0 * corner);
-                        self.slide_friction(b, p, depth, moved);
-                        now = self.frame_of(b, &self.x);
-                    }
+            let near = self.own_shape_on_ground(b, ground);
+            let extras = !self.bodies[b].extras.is_empty();
+            if extras {
+                self.extras_on_ground(b, ground);
+            }
+            // A body clear of the floor keeps the capsule it had: its neighbours' contacts
+            // may have moved the anchors it shares with them, and the pairs are solved
+            // with the capsules as the frames left them.
+            if near || extras {
+                self.caps[b] = self.capsule_from_particles(b);
+            }
+        }
+    }
+
+    /// Body `b`'s own shape against the ground plane at `ground`; whether it came near
+    /// enough to be tested.
+    fn own_shape_on_ground(&mut self, b: usize, ground: f32) -> bool {
+        let radius = self.bodies[b].radius;
+        let [e0, e1] = self.caps[b];
+        match self.bodies[b].shape {
+            Shape::Box { size_m } => {
+                let half = 0.5 * Vec3::from_array(size_m);
+                if 0.5 * (e0.y + e1.y) - half.length() >= ground {
+                    return false;
                 }
-                _ => {
-                    if e0.y.min(e1.y) - radius >= ground {
+                let mut now = self.frame_of(b, &self.x);
+                let mut start = None;
+                for corner in box_corners(half) {
+                    let p = now.0 + now.1 * corner;
+                    let depth = ground - p.y;
+                    if depth <= 0.0 {
                         continue;
                     }
-                    for s in 0..2 {
-                        let end = self.capsule_from_particles(b)[s];
-                        let depth = ground + radius - end.y;
-                        if depth > 0.0 {
-                            let p = end - Vec3::Y * radius;
-                            self.push_up(b, p, depth);
-                            // A capsule's friction stops its axis point's slide.
-                            let moved = self.axis_moved(b, s as f32);
-                            self.slide_friction(b, p, depth, moved);
-                        }
+                    self.push_up(b, p, depth);
+                    now = self.frame_of(b, &self.x);
+                    let (pos0, rot0) = *start.get_or_insert_with(|| self.frame_of(b, &self.x_prev));
+                    let moved = now.0 + now.1 * corner - (pos0 + rot0 * corner);
+                    self.slide_friction(b, p, depth, moved);
+                    now = self.frame_of(b, &self.x);
+                }
+            }
+            _ => {
+                if e0.y.min(e1.y) - radius >= ground {
+                    return false;
+                }
+                for s in 0..2 {
+                    let end = self.capsule_from_particles(b)[s];
+                    let depth = ground + radius - end.y;
+                    if depth > 0.0 {
+                        let p = end - Vec3::Y * radius;
+                        self.push_up(b, p, depth);
+                        // A capsule's friction stops its axis point's slide.
+                        let moved = self.axis_moved(b, s as f32);
+                        self.slide_friction(b, p, depth, moved);
                     }
                 }
             }
-            self.caps[b] = self.capsule_from_particles(b);
         }
+        true
     }
 
     /// The normal half of a ground contact: body `b` pushed up by `depth` at the world
     /// point `p`, as one rigid body.
-    fn push_up(&mut self, b: usize, p: Vec3, depth: f32) {
+    pub(super) fn push_up(&mut self, b: usize, p: Vec3, depth: f32) {
         self.supported[b] = true;
         let (w, c, turn) = self.rigid_response(b, p, Vec3::Y);
         let lambda = depth / w;
@@ -189,7 +211,7 @@ impl ParticleBackend {
 
     /// The friction half of a ground contact at `p`: the horizontal part of `moved` (the
     /// contact point's motion over the substep so far) taken back, up to μ times `depth`.
-    fn slide_friction(&mut self, b: usize, p: Vec3, depth: f32, moved: Vec3) {
+    pub(super) fn slide_friction(&mut self, b: usize, p: Vec3, depth: f32, moved: Vec3) {
         let slide = Vec3::new(moved.x, 0.0, moved.z);
         let len = slide.length();
         if len > 1e-9 {
@@ -206,7 +228,7 @@ impl ParticleBackend {
     /// `self.x_prev` at the substep's start). From the frame, not the affine weights: a
     /// stick's particles lie in one plane, and a box's corner off it has no affine
     /// combination of them.
-    fn frame_of(&self, b: usize, x: &[Vec3]) -> (Vec3, glam::Quat) {
+    pub(super) fn frame_of(&self, b: usize, x: &[Vec3]) -> (Vec3, glam::Quat) {
         let body = &self.bodies[b];
         let [i0, i1, i2] = body.triad.map(|i| x[i as usize]);
         let rot = (super::triad_frame(i0, i1, i2) * body.tri_inv).normalize();
@@ -215,7 +237,7 @@ impl ParticleBackend {
 
     /// Displacement of body `b`'s axis point at `t` (0: first capsule end, 1: second) over
     /// the substep so far.
-    fn axis_moved(&self, b: usize, t: f32) -> Vec3 {
+    pub(super) fn axis_moved(&self, b: usize, t: f32) -> Vec3 {
         let range = self.body_parts(b);
         let mut moved = Vec3::ZERO;
         for k in range {
@@ -237,70 +259,101 @@ impl ParticleBackend {
     pub(super) fn solve_pairs(&mut self) {
         for idx in 0..self.pairs.len() {
             let (a, b) = (self.pairs[idx].0 as usize, self.pairs[idx].1 as usize);
-            let ([a0, a1], [b0, b1]) = (self.caps[a], self.caps[b]);
-            let (ra, rb) = (self.bodies[a].radius, self.bodies[b].radius);
-            let reach = ra + rb;
-            let far = 0.5 * ((a1 - a0).length() + (b1 - b0).length()) + reach + TOUCH_M;
-            if (a0 + a1 - b0 - b1).length_squared() > 4.0 * far * far {
-                continue;
+            let (ca, cb) = (
+                (self.caps[a], self.bodies[a].radius),
+                (self.caps[b], self.bodies[b].radius),
+            );
+            self.resolve_capsules(a, ca, true, b, cb, true);
+            // Extra shapes never meet their own ragdoll (as in the other backends).
+            let others = self.bodies[a].ragdoll != self.bodies[b].ragdoll;
+            if others && !(self.bodies[a].extras.is_empty() && self.bodies[b].extras.is_empty()) {
+                self.extras_in_pair(a, b);
             }
-            let (s, t) = crate::math::closest_segment_params(a0, a1, b0, b1);
-            let (pa, pb) = (a0.lerp(a1, s), b0.lerp(b1, t));
-            let d = pb - pa;
-            let dist = d.length();
-            if self.bodies[a].ragdoll != self.bodies[b].ragdoll && dist < reach + TOUCH_M {
-                self.touched[a] = true;
-                self.touched[b] = true;
-            }
-            if dist >= reach {
-                continue;
-            }
-            let n = if dist > 1e-9 { d / dist } else { Vec3::Y };
-            let depth = reach - dist;
-            let (qa, qb) = (pa + n * ra, pb - n * rb);
-            let (mut sa, mut sb) = (1.0f32, 1.0f32);
-            let dy = pb.y - pa.y;
-            if dy > 0.0 && self.supported[a] {
-                sa = (-SHOCK_PER_M * dy).exp();
-                self.supported[b] = true;
-            } else if dy < 0.0 && self.supported[b] {
-                sb = (SHOCK_PER_M * dy).exp();
-                self.supported[a] = true;
-            }
-            if self.bodies[a].kinematic {
-                sa = 0.0;
-            }
-            if self.bodies[b].kinematic {
-                sb = 0.0;
-            }
-            let (wa, ca, ta) = self.rigid_response(a, qa, n);
-            let (wb, cb, tb) = self.rigid_response(b, qb, n);
-            let wsum = sa * wa + sb * wb;
-            if wsum <= 1e-12 {
-                continue;
-            }
-            let lambda = depth / wsum;
-            let (ma, mb) = (self.bodies[a].inv_mass, self.bodies[b].inv_mass);
-            self.rigid_move(a, ca, n * (-lambda * sa * ma), ta * (-lambda * sa));
-            self.rigid_move(b, cb, n * (lambda * sb * mb), tb * (lambda * sb));
-            let moved = self.axis_moved(b, t) - self.axis_moved(a, s);
-            let slide = moved - n * moved.dot(n);
-            let len = slide.length();
-            if len > 1e-9 {
-                let dir = slide / len;
-                let amount = len.min(FRICTION * depth);
-                let (wa, ca, ta) = self.rigid_response(a, qa, dir);
-                let (wb, cb, tb) = self.rigid_response(b, qb, dir);
-                let wsum = sa * wa + sb * wb;
-                if wsum > 1e-12 {
-                    let lambda = amount / wsum;
-                    self.rigid_move(a, ca, dir * (lambda * sa * ma), ta * (lambda * sa));
-                    self.rigid_move(b, cb, dir * (-lambda * sb * mb), tb * (-lambda * sb));
-                }
-            }
-            self.caps[a] = self.capsule_from_particles(a);
-            self.caps[b] = self.capsule_from_particles(b);
         }
+    }
+
+    /// One capsule of body `a` (ends, radius) against one of body `b`: pushed apart if
+    /// they overlap, each body answering as one rigid body, with positional friction.
+    /// `main_a` (`main_b`) says the capsule is the body's own, whose material points'
+    /// motion is read along its axis from the particles; an extra shape's is read from
+    /// the body's frames.
+    pub(super) fn resolve_capsules(
+        &mut self,
+        a: usize,
+        ([a0, a1], ra): ([Vec3; 2], f32),
+        main_a: bool,
+        b: usize,
+        ([b0, b1], rb): ([Vec3; 2], f32),
+        main_b: bool,
+    ) {
+        let reach = ra + rb;
+        let far = 0.5 * ((a1 - a0).length() + (b1 - b0).length()) + reach + TOUCH_M;
+        if (a0 + a1 - b0 - b1).length_squared() > 4.0 * far * far {
+            return;
+        }
+        let (s, t) = crate::math::closest_segment_params(a0, a1, b0, b1);
+        let (pa, pb) = (a0.lerp(a1, s), b0.lerp(b1, t));
+        let d = pb - pa;
+        let dist = d.length();
+        if self.bodies[a].ragdoll != self.bodies[b].ragdoll && dist < reach + TOUCH_M {
+            self.touched[a] = true;
+            self.touched[b] = true;
+        }
+        if dist >= reach {
+            return;
+        }
+        let n = if dist > 1e-9 { d / dist } else { Vec3::Y };
+        let depth = reach - dist;
+        let (qa, qb) = (pa + n * ra, pb - n * rb);
+        let (mut sa, mut sb) = (1.0f32, 1.0f32);
+        let dy = pb.y - pa.y;
+        if dy > 0.0 && self.supported[a] {
+            sa = (-SHOCK_PER_M * dy).exp();
+            self.supported[b] = true;
+        } else if dy < 0.0 && self.supported[b] {
+            sb = (SHOCK_PER_M * dy).exp();
+            self.supported[a] = true;
+        }
+        if self.bodies[a].kinematic {
+            sa = 0.0;
+        }
+        if self.bodies[b].kinematic {
+            sb = 0.0;
+        }
+        let (wa, ca, ta) = self.rigid_response(a, qa, n);
+        let (wb, cb, tb) = self.rigid_response(b, qb, n);
+        let wsum = sa * wa + sb * wb;
+        if wsum <= 1e-12 {
+            return;
+        }
+        let lambda = depth / wsum;
+        let (ma, mb) = (self.bodies[a].inv_mass, self.bodies[b].inv_mass);
+        self.rigid_move(a, ca, n * (-lambda * sa * ma), ta * (-lambda * sa));
+        self.rigid_move(b, cb, n * (lambda * sb * mb), tb * (lambda * sb));
+        let moved_of = |s: &Self, body: usize, main: bool, param: f32, p: Vec3| {
+            if main {
+                s.axis_moved(body, param)
+            } else {
+                s.point_moved(body, p)
+            }
+        };
+        let moved = moved_of(self, b, main_b, t, pb) - moved_of(self, a, main_a, s, pa);
+        let slide = moved - n * moved.dot(n);
+        let len = slide.length();
+        if len > 1e-9 {
+            let dir = slide / len;
+            let amount = len.min(FRICTION * depth);
+            let (wa, ca, ta) = self.rigid_response(a, qa, dir);
+            let (wb, cb, tb) = self.rigid_response(b, qb, dir);
+            let wsum = sa * wa + sb * wb;
+            if wsum > 1e-12 {
+                let lambda = amount / wsum;
+                self.rigid_move(a, ca, dir * (lambda * sa * ma), ta * (lambda * sa));
+                self.rigid_move(b, cb, dir * (-lambda * sb * mb), tb * (-lambda * sb));
+            }
+        }
+        self.caps[a] = self.capsule_from_particles(a);
+        self.caps[b] = self.capsule_from_particles(b);
     }
 
     /// Deepest penetration now (ground, and candidate pairs), from the body frames: a box
@@ -327,6 +380,9 @@ impl ParticleBackend {
                 };
                 deepest = deepest.max(g - lowest);
             }
+            if !self.bodies[b].extras.is_empty() {
+                deepest = deepest.max(self.extras_depth(b, self.settings.ground, &[]));
+            }
         }
         for &(a, b) in &self.pairs {
             let (a, b) = (a as usize, b as usize);
@@ -335,6 +391,13 @@ impl ParticleBackend {
             let (s, t) = crate::math::closest_segment_params(a0, a1, b0, b1);
             let dist = (b0.lerp(b1, t) - a0.lerp(a1, s)).length();
             deepest = deepest.max(self.bodies[a].radius + self.bodies[b].radius - dist);
+            let others = self.bodies[a].ragdoll != self.bodies[b].ragdoll;
+            if others && !(self.bodies[a].extras.is_empty() && self.bodies[b].extras.is_empty()) {
+                let (ca, cb) = (self.body_capsules(a), self.body_capsules(b));
+                deepest = deepest
+                    .max(self.extras_depth(a, None, &cb))
+                    .max(self.extras_depth(b, None, &ca[..1]));
+            }
         }
         deepest
     }
@@ -353,7 +416,11 @@ impl ParticleBackend {
                 Shape::Capsule { .. } => self.capsule_world(b),
                 Shape::Box { .. } => (body.pos, body.pos),
             };
-            ray_shape(origin, dir, &body.shape, body.pos, body.rot, ends)
+            let own = ray_shape(origin, dir, &body.shape, body.pos, body.rot, ends);
+            match (own, self.ray_extras(b, origin, dir)) {
+                (Some(a), Some(e)) => Some(a.min(e)),
+                (a, e) => a.or(e),
+            }
         });
         nearest_hit(hits, max_dist)
     }

@@ -61,6 +61,7 @@
 mod body;
 mod build;
 mod collide;
+mod extras;
 mod points;
 mod solve;
 
@@ -102,6 +103,8 @@ struct Body {
     tri_origin: Vec3,
     /// The spec's shape (ray casts hit it; contacts use the capsule below).
     shape: Shape,
+    /// Its extra shapes, each at its place in the body frame (`extras.rs`).
+    extras: Vec<(Shape, Transform)>,
     /// Capsule segment ends in the body frame and radius.
     e: [Vec3; 2],
     radius: f32,

@@ -231,6 +231,7 @@ impl<'a> Builder<'a> {
                     center_m: (inv * (p.centre - bone.translation)).to_array(),
                     rotation: (inv * p.rotation).normalize().to_array(),
                     mass_kg,
+                    extra_shapes: Vec::new(),
                 }
             })
             .collect();
