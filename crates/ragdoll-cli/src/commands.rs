@@ -241,8 +241,8 @@ pub(crate) fn check_finite(
         Some(f) => format!(" from frame {f} ({:.3} s)", f as f32 / track.fps),
         None => String::new(),
     };
-    // The particle backend also fails on plausible characters: the Fox at its true size
-    // (centimetres) goes non-finite within ten steps there and runs on the others.
+    // The particle backend also fails on plausible characters (light parts bearing heavy
+    // ones: the Fox at its true size did, before its bodies held their skin in pieces).
     let why = match backend {
         BackendKind::Particle => {
             "the particle backend cannot hold this character together (it is unstable where \
@@ -507,5 +507,41 @@ pub(crate) fn warn_if_torn(name: &str, separation_m: f32, height_m: f32) {
             "warning: {name}: joints came {separation_m:.2} m apart ({:.0} % of its {height_m:.2} m height): the loads are beyond what the ragdoll's joints can hold, so this motion is not physical (a smaller charge or a greater distance keeps it whole)",
             100.0 * separation_m / height_m.max(1e-6)
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ragdoll::math::Transform;
+
+    #[test]
+    fn a_run_gone_non_finite_says_when_and_which_backends_may_run_it() {
+        let track = Track {
+            fps: 30.0,
+            frames: vec![
+                vec![Transform::IDENTITY],
+                vec![Transform::from_translation(glam::Vec3::NAN)],
+            ],
+        };
+        let particle = check_finite("Fox", true, &track, BackendKind::Particle)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            particle.contains("Fox: the simulation produced non-finite numbers")
+                && particle.contains("from frame 1 (0.033 s)")
+                && particle.contains("particle backend")
+                && particle.contains("--backend fast"),
+            "{particle}"
+        );
+        let rigid = check_finite("Fox", true, &track, BackendKind::Rigid)
+            .unwrap_err()
+            .to_string();
+        assert!(!rigid.contains("--backend"), "{rigid}");
+        let fine = Track {
+            fps: 30.0,
+            frames: vec![vec![Transform::IDENTITY]],
+        };
+        assert!(check_finite("Fox", false, &fine, BackendKind::Particle).is_ok());
     }
 }

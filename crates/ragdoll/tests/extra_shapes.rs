@@ -242,3 +242,98 @@ fn a_spec_file_keeps_extra_shapes_and_checks_them() {
     let limit = format!("more than the {MAX_EXTRA_SHAPES}");
     assert!(err.contains(&limit), "{err}");
 }
+
+/// Whether `shape` at `pose` holds the world point `p`, within `tolerance`.
+fn holds(shape: &Shape, pose: &ragdoll::math::Transform, p: Vec3, tolerance: f32) -> bool {
+    let q = pose.inverse().transform_point(p);
+    match *shape {
+        Shape::Capsule { radius_m, length_m } => {
+            let y = q.y.clamp(-0.5 * length_m, 0.5 * length_m);
+            q.distance(Vec3::new(0.0, y, 0.0)) <= radius_m + tolerance
+        }
+        Shape::Box { size_m } => {
+            (q.abs() - Vec3::from_array(size_m) * 0.5).max_element() <= tolerance
+        }
+    }
+}
+
+#[test]
+fn skin_no_bone_holds_half_of_gets_an_extra_shape_on_every_body_carrying_it() {
+    // A creature of three bones in a row along X, 1 m up, its skin a tube round them
+    // (each ring on its own bone) and a foot hanging 0.4 m under the middle that the
+    // three bones share, a third each, as bone heat shares a dragon's feet: no body's own
+    // shape reaches the foot, so each of the three holds it in an extra shape.
+    use ragdoll::skeleton::{Joint, Skeleton, SkinnedMesh, Source};
+    let joint = |name: &str, parent: Option<usize>, at: Vec3| Joint {
+        name: name.into(),
+        parent,
+        rest: ragdoll::math::Transform::from_translation(at),
+        tip: None,
+    };
+    let skeleton = Skeleton::new(vec![
+        joint("a", None, Vec3::new(0.0, 1.0, 0.0)),
+        joint("b", Some(0), Vec3::new(0.3, 0.0, 0.0)),
+        joint("c", Some(1), Vec3::new(0.3, 0.0, 0.0)),
+    ])
+    .unwrap();
+    let (mut positions, mut joints, mut weights) = (Vec::new(), Vec::new(), Vec::new());
+    for i in 0..=24 {
+        let x = 0.9 * i as f32 / 24.0;
+        let bone = ((x / 0.3) as u16).min(2);
+        for k in 0..12 {
+            let a = std::f32::consts::TAU * k as f32 / 12.0;
+            positions.push(Vec3::new(x, 1.0 + 0.08 * a.cos(), 0.08 * a.sin()));
+            joints.push([bone, 0, 0, 0]);
+            weights.push(glam::Vec4::X);
+        }
+    }
+    let foot: Vec<Vec3> = (0..27)
+        .map(|k| {
+            let g = |d: usize| ((k / d) % 3) as f32 * 0.03;
+            Vec3::new(0.42 + g(1), 0.55 + g(3), -0.03 + g(9))
+        })
+        .collect();
+    for p in &foot {
+        positions.push(*p);
+        joints.push([0, 1, 2, 0]);
+        weights.push(glam::Vec4::new(0.34, 0.33, 0.33, 0.0));
+    }
+    let character = Character {
+        name: "three".into(),
+        skeleton,
+        meshes: vec![SkinnedMesh {
+            name: "skin".into(),
+            positions,
+            joints,
+            weights,
+            ..Default::default()
+        }],
+        clips: Vec::new(),
+        humanoid_bones: Vec::new(),
+        warnings: Vec::new(),
+        source: Source::BuiltIn,
+    };
+    let spec = ragdoll::spec::build_spec(&character, &Default::default()).unwrap();
+    assert_eq!(spec.bodies.len(), 3);
+    let rest = character.skeleton.rest_world();
+    for (k, b) in spec.bodies.iter().enumerate() {
+        let bone = rest[k];
+        let frame = ragdoll::math::Transform::new(bone.translation, bone.rotation).mul(&b.frame());
+        assert!(
+            foot.iter().all(|p| !holds(&b.shape, &frame, *p, 0.0)),
+            "body {}'s own shape reaches the foot",
+            b.name
+        );
+        let extras = b.extra_offsets();
+        assert!(!extras.is_empty(), "body {} has no extra shape", b.name);
+        for p in &foot {
+            assert!(
+                extras
+                    .iter()
+                    .any(|(s, at)| holds(s, &frame.mul(at), *p, 1e-3)),
+                "body {}'s extra shapes miss the foot's {p}",
+                b.name
+            );
+        }
+    }
+}

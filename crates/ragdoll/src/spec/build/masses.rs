@@ -3,6 +3,7 @@
 //! their shapes' volumes are), then stabilised so no jointed pair is too unequal for an
 //! iterative solver.
 
+use super::extras::ExtraPlan;
 use super::{Builder, Plan};
 use crate::spec::Role;
 use crate::spec::anthropometry::*;
@@ -17,9 +18,13 @@ pub(super) const MAX_LINKED_MASS_RATIO: f32 = 5.0;
 impl Builder<'_> {
     /// Each body's mass. `enclosed_m3`: the volume the character's skin encloses, where it
     /// is closed ([`super::volume::enclosed_volume_m3`]).
+    ///
+    /// A creature's share is its shapes' volume, its extra shapes' (`extras`) with its own:
+    /// they hold skin the body carries.
     pub(super) fn masses(
         &self,
         plans: &[Plan],
+        extras: &[Vec<ExtraPlan>],
         parents: &[usize],
         enclosed_m3: Option<f32>,
     ) -> Vec<f32> {
@@ -27,13 +32,20 @@ impl Builder<'_> {
             let total = self.opts.total_mass_kg.unwrap_or(DEFAULT_HUMANOID_MASS_KG);
             self.humanoid_masses(plans, total)
         } else {
-            let volumes: Vec<f32> = plans.iter().map(|p| p.shape.volume()).collect();
-            let v: f32 = volumes.iter().sum();
+            let own: Vec<f32> = plans.iter().map(|p| p.shape.volume()).collect();
+            let shares: Vec<f32> = own
+                .iter()
+                .zip(extras)
+                .map(|(v, e)| v + e.iter().map(|x| x.shape.volume()).sum::<f32>())
+                .collect();
+            // Without a closed skin the bodies' own shapes stand for its volume (extra
+            // shapes overlap them and each other).
             let total = match self.opts.total_mass_kg {
                 Some(total) => total,
-                None => enclosed_m3.unwrap_or(v) * BODY_DENSITY_KG_M3,
+                None => enclosed_m3.unwrap_or(own.iter().sum()) * BODY_DENSITY_KG_M3,
             };
-            volumes.iter().map(|x| total * x / v).collect()
+            let v: f32 = shares.iter().sum();
+            shares.iter().map(|x| total * x / v).collect()
         };
         let total = match (self.roles.humanoid, self.opts.total_mass_kg) {
             (_, Some(t)) => t,

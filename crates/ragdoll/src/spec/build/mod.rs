@@ -15,6 +15,7 @@
 //!   [`cone_centre`](joints::cone_centre) computes it.
 
 mod collision;
+mod extras;
 mod joints;
 mod masses;
 mod order;
@@ -28,7 +29,7 @@ use std::collections::HashSet;
 use glam::{Quat, Vec3};
 
 use super::roles::{Rig, Roles};
-use super::{BodySpec, JointSpec, RagdollSpec, Role, SPEC_FORMAT_VERSION, Shape};
+use super::{BodySpec, ExtraShape, JointSpec, RagdollSpec, Role, SPEC_FORMAT_VERSION, Shape};
 use crate::error::{Error, Result};
 use crate::skeleton::Character;
 
@@ -51,6 +52,9 @@ pub struct BuildOptions {
 
 /// A vertex belongs to the body whose joints hold at least this share of its weight.
 const MIN_GROUP_WEIGHT: f32 = 0.5;
+/// A creature's body whose skin moves with it alone, nearly all of it this share of its
+/// weight or more, holds all of it in its own shape (see `CREATURE_RADIUS_PERCENTILE`).
+const RIGID_SKIN_WEIGHT: f32 = 0.95;
 
 /// Builds a spec from a character's skeleton, skin and recognised roles.
 pub fn build_spec(character: &Character, opts: &BuildOptions) -> Result<RagdollSpec> {
@@ -126,6 +130,8 @@ struct Builder<'a> {
     owner: Vec<usize>,
     /// Skin vertices belonging to each body.
     groups: Vec<Vec<Vec3>>,
+    /// Whether most of each body's skin moves with it alone ([`RIGID_SKIN_WEIGHT`]).
+    rigid_skin: Vec<bool>,
 }
 
 impl<'a> Builder<'a> {
@@ -157,27 +163,7 @@ impl<'a> Builder<'a> {
                 None => rig.parent(j).map_or(0, |p| owner[p]),
             };
         }
-        let mut groups = vec![Vec::new(); joints.len()];
-        for (p, js, ws) in &rig.verts {
-            let mut share: [(usize, f32); 4] = [(usize::MAX, 0.0); 4];
-            for c in 0..4 {
-                let Some(&o) = owner.get(js[c] as usize) else {
-                    continue;
-                };
-                if let Some(s) = share.iter_mut().find(|s| s.0 == o || s.0 == usize::MAX) {
-                    s.0 = o;
-                    s.1 += ws[c].max(0.0);
-                }
-            }
-            let best = share.iter().max_by(|a, b| a.1.total_cmp(&b.1));
-            if let Some(&(o, w)) = best
-                && o != usize::MAX
-                && w >= MIN_GROUP_WEIGHT
-            {
-                groups[o].push(*p);
-            }
-        }
-        Builder {
+        let mut b = Builder {
             rig,
             roles,
             opts,
@@ -186,10 +172,28 @@ impl<'a> Builder<'a> {
             h: roles.height_m,
             forward: roles.forward,
             left: roles.left(),
+            groups: vec![Vec::new(); joints.len()],
+            rigid_skin: vec![false; joints.len()],
             joints,
             owner,
-            groups,
+        };
+        let mut rigid = vec![0usize; b.groups.len()];
+        for (p, js, ws) in &rig.verts {
+            let best = b
+                .shares(js, ws)
+                .into_iter()
+                .max_by(|a, c| a.1.total_cmp(&c.1));
+            if let Some((o, w)) = best
+                && w >= MIN_GROUP_WEIGHT
+            {
+                b.groups[o].push(*p);
+                rigid[o] += usize::from(w >= RIGID_SKIN_WEIGHT);
+            }
         }
+        for (k, g) in b.groups.iter().enumerate() {
+            b.rigid_skin[k] = 2 * rigid[k] >= g.len().max(1);
+        }
+        b
     }
 
     fn spec(&self, character: &Character) -> Result<RagdollSpec> {
@@ -204,7 +208,8 @@ impl<'a> Builder<'a> {
             })
             .collect();
         let enclosed = volume::enclosed_volume_m3(&character.meshes);
-        let masses = self.masses(&plans, &parents, enclosed);
+        let extras = self.extras(&plans);
+        let masses = self.masses(&plans, &extras, &parents, enclosed);
 
         let mut names: Vec<String> = Vec::new();
         let mut taken = HashSet::new();
@@ -220,18 +225,36 @@ impl<'a> Builder<'a> {
             .iter()
             .zip(&masses)
             .zip(&names)
-            .map(|((p, &mass_kg), name)| {
+            .zip(&extras)
+            .map(|(((p, &mass_kg), name), extras)| {
                 let bone = self.rig.world[p.joint];
                 let inv = bone.rotation.conjugate();
+                let place = |centre: Vec3, rotation: Quat| {
+                    (
+                        (inv * (centre - bone.translation)).to_array(),
+                        (inv * rotation).normalize().to_array(),
+                    )
+                };
+                let (center_m, rotation) = place(p.centre, p.rotation);
                 BodySpec {
                     name: name.clone(),
                     bone: self.rig.skeleton.joint_label(p.joint),
                     role: Some(p.role),
                     shape: p.shape,
-                    center_m: (inv * (p.centre - bone.translation)).to_array(),
-                    rotation: (inv * p.rotation).normalize().to_array(),
+                    center_m,
+                    rotation,
                     mass_kg,
-                    extra_shapes: Vec::new(),
+                    extra_shapes: extras
+                        .iter()
+                        .map(|e| {
+                            let (center_m, rotation) = place(e.centre, e.rotation);
+                            ExtraShape {
+                                shape: e.shape,
+                                center_m,
+                                rotation,
+                            }
+                        })
+                        .collect(),
                 }
             })
             .collect();
