@@ -73,15 +73,7 @@ impl Builder<'_> {
             .map(|points| {
                 let mut pieces = Vec::new();
                 for c in clusters(points, CLUSTER_LINK_H * self.h) {
-                    split_cluster(
-                        c,
-                        std::env::var("RD_PIECE")
-                            .ok()
-                            .and_then(|x| x.parse().ok())
-                            .unwrap_or(PIECE_H)
-                            * self.h,
-                        &mut pieces,
-                    );
+                    split_cluster(c, PIECE_H * self.h, &mut pieces);
                 }
                 pieces.retain(|c| c.len() >= MIN_CLUSTER_VERTICES);
                 pieces.sort_by_key(|c| std::cmp::Reverse(c.len()));
@@ -110,10 +102,21 @@ impl Builder<'_> {
 
 /// Whether `plan`'s shape holds the world point `p`, within `tolerance` of its surface.
 fn holds(plan: &Plan, p: Vec3, tolerance: f32) -> bool {
-    let q = plan.rotation.conjugate() * (p - plan.centre);
-    match plan.shape {
+    shape_holds(
+        &plan.shape,
+        plan.rotation.conjugate() * (p - plan.centre),
+        tolerance,
+    )
+}
+
+/// Whether `shape` holds `q` (in its own frame) within `tolerance` of its surface. Any
+/// shape, even one measured from broken input (an infinite radius, a NaN length) that the
+/// spec's checks refuse later with its body's name: answered, never a panic.
+fn shape_holds(shape: &Shape, q: Vec3, tolerance: f32) -> bool {
+    match *shape {
         Shape::Capsule { radius_m, length_m } => {
-            let y = q.y.clamp(-0.5 * length_m, 0.5 * length_m);
+            // max/min rather than clamp, which panics on NaN bounds.
+            let y = q.y.max(-0.5 * length_m).min(0.5 * length_m);
             q.distance(Vec3::new(0.0, y, 0.0)) <= radius_m + tolerance
         }
         Shape::Box { size_m } => {
@@ -124,12 +127,16 @@ fn holds(plan: &Plan, p: Vec3, tolerance: f32) -> bool {
 }
 
 /// The clusters of `points` whose members chain within `link` of each other (single
-/// linkage, through a grid of cells `link` wide, so the cost follows the points).
+/// linkage). Through a grid of cells `link / √3` wide: two points of one cell are always
+/// linked, so a cell is one cluster at once, and two cells are compared point by point only
+/// until one pair links them. A dense patch of skin (tens of thousands of vertices in a
+/// hand) thus costs about its size, not its square.
 fn clusters(points: &[Vec3], link: f32) -> Vec<Vec<Vec3>> {
     if points.is_empty() || !(link > 0.0 && link.is_finite()) {
         return Vec::new();
     }
-    let key = |p: Vec3| (p / link).floor().as_ivec3();
+    let cell = link / 3f32.sqrt();
+    let key = |p: Vec3| (p / cell).floor().as_ivec3();
     let mut grid: std::collections::HashMap<glam::IVec3, Vec<usize>> =
         std::collections::HashMap::new();
     for (i, p) in points.iter().enumerate() {
@@ -145,21 +152,31 @@ fn clusters(points: &[Vec3], link: f32) -> Vec<Vec<Vec3>> {
         }
         i
     }
+    fn union(parent: &mut [usize], i: usize, j: usize) {
+        let (a, b) = (find(parent, i), find(parent, j));
+        parent[a.max(b)] = a.min(b);
+    }
+    for members in grid.values() {
+        for &i in &members[1..] {
+            union(&mut parent, members[0], i);
+        }
+    }
     let link2 = link * link;
-    for (cell, members) in &grid {
-        for dx in -1..=1 {
-            for dy in -1..=1 {
-                for dz in -1..=1 {
-                    let Some(others) = grid.get(&(*cell + glam::IVec3::new(dx, dy, dz))) else {
-                        continue;
-                    };
-                    for &i in members {
-                        for &j in others {
-                            if i < j && points[i].distance_squared(points[j]) <= link2 {
-                                let (a, b) = (find(&mut parent, i), find(&mut parent, j));
-                                parent[a.max(b)] = a.min(b);
-                            }
-                        }
+    // A point links to points at most `link` away: cells up to two over (`link / cell` is
+    // √3 cells). Each unordered pair of cells once.
+    for (c, members) in &grid {
+        for d in neighbour_offsets() {
+            let Some(others) = grid.get(&(*c + d)) else {
+                continue;
+            };
+            if find(&mut parent, members[0]) == find(&mut parent, others[0]) {
+                continue;
+            }
+            'pairs: for &i in members {
+                for &j in others {
+                    if points[i].distance_squared(points[j]) <= link2 {
+                        union(&mut parent, i, j);
+                        break 'pairs;
                     }
                 }
             }
@@ -179,6 +196,14 @@ fn clusters(points: &[Vec3], link: f32) -> Vec<Vec<Vec3>> {
         out[k].push(*p);
     }
     out
+}
+
+/// Half of the cell offsets within two cells of a cell (the other half are their
+/// negatives, met from the other cell), the cell itself left out.
+fn neighbour_offsets() -> impl Iterator<Item = glam::IVec3> {
+    (-2..=2)
+        .flat_map(|x| (-2..=2).flat_map(move |y| (-2..=2).map(move |z| glam::IVec3::new(x, y, z))))
+        .filter(|d| (d.x, d.y, d.z) > (0, 0, 0))
 }
 
 /// The capsule holding every one of `points`, along their longest principal axis. A
@@ -261,4 +286,89 @@ fn split_cluster(points: Vec<Vec3>, piece: f32, out: &mut Vec<Vec<Vec3>>) {
         .partition(|p| (*p - c).dot(axes[0]) < mid);
     split_cluster(a, piece, out);
     split_cluster(b, piece, out);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Single linkage by every pair: the clusters `clusters` must find.
+    fn brute_force(points: &[Vec3], link: f32) -> Vec<Vec<Vec3>> {
+        let mut label: Vec<usize> = (0..points.len()).collect();
+        loop {
+            let mut changed = false;
+            for i in 0..points.len() {
+                for j in 0..points.len() {
+                    if points[i].distance(points[j]) <= link && label[j] < label[i] {
+                        label[i] = label[j];
+                        changed = true;
+                    }
+                }
+            }
+            if !changed {
+                break;
+            }
+        }
+        let mut out: Vec<(usize, Vec<Vec3>)> = Vec::new();
+        for (i, p) in points.iter().enumerate() {
+            match out.iter_mut().find(|c| c.0 == label[i]) {
+                Some(c) => c.1.push(*p),
+                None => out.push((label[i], vec![*p])),
+            }
+        }
+        out.into_iter().map(|c| c.1).collect()
+    }
+
+    #[test]
+    fn any_shape_answers_whether_it_holds_a_point() {
+        let q = Vec3::new(0.05, 0.3, 0.0);
+        let capsule = |radius_m, length_m| Shape::Capsule { radius_m, length_m };
+        assert!(shape_holds(&capsule(0.1, 0.5), q, 0.0));
+        assert!(!shape_holds(&capsule(0.1, 0.3), q, 0.0));
+        // From a fuzzed KayKit knight: a capsule measured NaN long panicked in clamp.
+        for length in [f32::NAN, f32::INFINITY, -1.0] {
+            let _ = shape_holds(&capsule(0.1, length), q, 0.0);
+            let _ = shape_holds(&capsule(f32::INFINITY, length), q, 0.0);
+        }
+        let _ = shape_holds(
+            &Shape::Box {
+                size_m: [f32::NAN; 3],
+            },
+            q,
+            0.0,
+        );
+    }
+
+    #[test]
+    fn clusters_are_single_linkage_whatever_the_cells() {
+        let mut seed = 7u32;
+        let mut next = || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) as f32 / (1u32 << 24) as f32
+        };
+        for (n, spread) in [(60, 1.0), (300, 3.0), (300, 0.2), (500, 6.0)] {
+            let points: Vec<Vec3> = (0..n)
+                .map(|_| Vec3::new(next(), next(), next()) * spread - Vec3::splat(0.3))
+                .collect();
+            let got = clusters(&points, 0.25);
+            let want = brute_force(&points, 0.25);
+            assert!(
+                want.len() > 1 || spread < 1.0,
+                "a spread of {spread} m is one cluster"
+            );
+            assert_eq!(got, want, "{n} points over {spread} m");
+        }
+    }
+
+    #[test]
+    fn a_dense_patch_is_one_cluster_in_linear_time() {
+        // 200 000 points in one 2 cm cube, every pair linked (searched pair by pair, as
+        // before the cells held whole clusters, this was 2·10¹⁰ distance tests).
+        let points: Vec<Vec3> = (0..200_000)
+            .map(|i| Vec3::new((i % 97) as f32, (i % 89) as f32, (i % 83) as f32) * 2e-4)
+            .collect();
+        let got = clusters(&points, 0.06);
+        assert_eq!(got.len(), 1);
+        assert_eq!(got[0].len(), points.len());
+    }
 }
