@@ -67,6 +67,8 @@ enum Source<'a> {
     File(&'a Path),
     /// A mesh without a skeleton: `ragdoll rig`, then the rigged glTF simulated.
     Rigged(&'a Path),
+    /// A scene file: its one character's baked glTF (`scene.glb`).
+    Scene(&'a Path),
     /// The built-in humanoid's mesh as an unrigged OBJ (a person standing in an A-pose):
     /// `ragdoll rig --humanoid`, then the rigged glTF simulated.
     FittedPerson,
@@ -91,6 +93,10 @@ fn bake(source: &Source, dir: &Path) -> Result<PathBuf, String> {
         Source::File(p) => {
             run(&["simulate", &file(p), "--seconds", SECONDS, "-o", "out.glb"])?;
             Ok(dir.join("out.glb"))
+        }
+        Source::Scene(p) => {
+            run(&["simulate", &file(p), "-o", "scene"])?;
+            Ok(dir.join("scene/scene.glb"))
         }
         Source::FittedPerson | Source::Rigged(_) => {
             if let Source::Rigged(p) = source {
@@ -293,6 +299,32 @@ fn a_person_rigged_with_rig_humanoid_keeps_its_shape() {
     } = check("rig --humanoid person", &Source::FittedPerson, false).expect("it bakes");
     assert!(miss.is_empty(), "{}", miss.join("; "));
     assert!(m.highest_last < 0.5 * m.height, "it did not fall: {m:?}");
+}
+
+/// The dragon example (`examples/dragon.toml`: the 1.7k scan rigged on import, dragged by
+/// its head for 3.8 s, then left to settle until 8 s) sways without spikes: the rigged
+/// dragons' stretch targets over the whole scene. It does not meet the floor target yet,
+/// and the test says so rather than asserting it: one foot, its skin blended over four
+/// spine bones of which two hold pieces of it, goes about 10 % of the dragon's height
+/// under the floor (README, open items).
+#[test]
+#[ignore = "needs ../shared/data"]
+fn the_dragon_example_sways_without_spikes() {
+    // The scene names its scan beside the repository, whatever RAGDOLL_DATA says.
+    let scan = common::repo().join("../shared/data/mesh/stanford_dragon_1k7.obj");
+    assert!(scan.is_file(), "{} is missing", scan.display());
+    let scene = common::repo().join("examples/dragon.toml");
+    println!("{HEADER}");
+    let case = check("examples/dragon.toml", &Source::Scene(&scene), true).expect("it bakes");
+    let m = case.metrics;
+    assert_eq!(m.frames, 241, "8 s at 30 fps: {m:?}");
+    assert!(m.stretch_p99 <= TARGET_P99, "{m:?}");
+    assert!(m.stretch_max <= 4.0, "{m:?}");
+    // It was laid down: at rest its top is below where its head was lifted to (1.2 m).
+    assert!(m.highest_last < 0.9, "{m:?}");
+    if case.misses.is_empty() {
+        println!("  (note: the dragon example now meets the floor targets too: assert them)");
+    }
 }
 
 /// Every file of the data folder's character folders, relative to it, sorted.
