@@ -260,35 +260,25 @@ pub(super) fn loose_bounds(pose: &Transform, shape: &Shape) -> (Vec3, Vec3) {
 pub(super) fn overlapping_pairs(solids: &[Solid]) -> Result<Vec<(usize, usize)>, (usize, usize)> {
     let boxes: Vec<(Vec3, Vec3)> = solids.iter().map(Solid::bounds).collect();
     let mut pairs = Vec::new();
-    let mut deep = Vec::new();
+    let bodies = solids.iter().map(|s| s.body + 1).max().unwrap_or(0);
+    let mut count = vec![0usize; bodies];
     BroadPhase::default().find(&boxes, |a, b| {
         let (sa, sb) = (&solids[a], &solids[b]);
+        // Own shapes only, one a body: each pair of bodies comes once.
         if sa.body == sb.body || sa.extra || sb.extra {
             return;
         }
-        let key = (sa.body.min(sb.body), sa.body.max(sb.body));
         let gap = sa.axis_gap(sb);
         if gap < sa.r.max(sb.r) {
-            deep.push(key);
+            count[sa.body] += 1;
+            count[sb.body] += 1;
         }
         // Memory stays within the bodies' own pairs: a spec holds at most
-        // `spec::validate::MAX_BODIES` bodies, each with at most
-        // `spec::validate::MAX_EXTRA_SHAPES` extra shapes.
+        // `spec::validate::MAX_BODIES` bodies.
         if gap < sa.r + sb.r {
-            pairs.push(key);
+            pairs.push((sa.body.min(sb.body), sa.body.max(sb.body)));
         }
     });
-    // Each pair of bodies once, however many of their shapes overlap.
-    deep.sort_unstable();
-    deep.dedup();
-    let bodies = solids.iter().map(|s| s.body + 1).max().unwrap_or(0);
-    let mut count = vec![0usize; bodies];
-    for &(a, b) in &deep {
-        count[a] += 1;
-        count[b] += 1;
-    }
-    pairs.sort_unstable();
-    pairs.dedup();
     if let Some((body, &n)) = count
         .iter()
         .enumerate()
@@ -297,6 +287,7 @@ pub(super) fn overlapping_pairs(solids: &[Solid]) -> Result<Vec<(usize, usize)>,
     {
         return Err((body, n));
     }
+    pairs.sort_unstable();
     Ok(pairs)
 }
 

@@ -170,19 +170,11 @@ impl ParticleBackend {
         let frame = (body.pos, body.rot);
         (0..body.extras.len())
             .filter_map(|k| {
-                let shape = body.extras[k].0;
                 let (pos, rot) = self.extra_pose(b, k, frame);
-                let ends = match shape {
-                    Shape::Capsule { length_m, .. } => {
-                        let h = rot * Vec3::Y * (0.5 * length_m);
-                        (pos - h, pos + h)
-                    }
-                    Shape::Box { .. } => (pos, pos),
-                };
-                crate::backend::geom::ray_shape(origin, dir, &shape, pos, rot, ends)
+                // A box's segment is not read: it is met as a box.
+                let ([e0, e1], _) = self.extra_capsule(b, k, frame);
+                crate::backend::geom::ray_shape(origin, dir, &body.extras[k].0, pos, rot, (e0, e1))
             })
-            .fold(None, |best: Option<f32>, t| {
-                Some(best.map_or(t, |b| b.min(t)))
-            })
+            .reduce(f32::min)
     }
 }
