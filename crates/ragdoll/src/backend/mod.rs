@@ -169,6 +169,15 @@ pub trait Backend: Send {
         joints: &[JointDesc],
         disabled_pairs: &[(usize, usize)],
     ) -> usize;
+    /// Adds skin points to the ragdoll whose first body is `first_body` (see
+    /// [`crate::spec::RagdollSpec::skin_points`]): points several bodies carry together,
+    /// to be kept above the ground as the weighted blend of where each carries them.
+    /// Returns whether the backend keeps them; by default it does not, and the bodies'
+    /// own and extra shapes are all that hold the skin.
+    fn add_skin_points(&mut self, first_body: usize, points: &[SkinPointDesc]) -> bool {
+        let _ = (first_body, points);
+        false
+    }
     /// Whether the backend keeps joints inside their limits on positions itself (the
     /// world's limit projection is then skipped).
     fn enforces_limits(&self) -> bool {
@@ -347,6 +356,15 @@ pub struct BodyDesc {
     pub angvel: Vec3,
 }
 
+/// A point of skin several bodies of one ragdoll carry ([`Backend::add_skin_points`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SkinPointDesc {
+    /// Each body (index within the ragdoll), its share of the point (the shares sum to
+    /// one) and the point in that body's frame; at most four (a vertex's joints), each
+    /// body once.
+    pub parts: Vec<(usize, f32, Vec3)>,
+}
+
 /// A joint to create between two bodies of the same ragdoll (indices into the ragdoll's
 /// bodies), with its frame expressed in each body's frame.
 #[derive(Clone, Debug)]
@@ -409,6 +427,7 @@ macro_rules! forward {
 impl Backend for AnyBackend {
     forward! {
         mut fn add_ragdoll(bodies: &[BodyDesc], joints: &[JointDesc], disabled_pairs: &[(usize, usize)]) -> usize;
+        mut fn add_skin_points(first_body: usize, points: &[SkinPointDesc]) -> bool;
         ref fn enforces_limits() -> bool;
         mut fn step(dt: f32);
         ref fn went_non_finite() -> bool;

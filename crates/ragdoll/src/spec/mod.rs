@@ -338,6 +338,7 @@ mod file;
 mod frames;
 mod mesh;
 mod roles;
+mod skin_points;
 mod validate;
 
 pub use frames::{
@@ -350,6 +351,7 @@ pub use mesh::bodies_mesh;
 pub use roles::{
     MAX_ROLE_FILE_ENTRIES, RoleFile, Roles, recognise_roles, roles_for, roles_with_file,
 };
+pub(crate) use skin_points::skin_points;
 pub use validate::{
     MAX_BODIES, MAX_BODY_KG, MAX_CONE_TILT_DEG, MAX_DISABLED_PAIRS, MAX_EXTRA_SHAPES,
     MAX_JOINT_MASS_RATIO, MAX_JOINTS, MAX_LIMIT_END_DEG, MAX_NAME_BYTES, MAX_OFFSET_M, MAX_SHAPE_M,

@@ -8,7 +8,7 @@ use glam::Vec3;
 use super::playback::{self, Activation};
 use super::{Instance, RagdollId, Rider, StartPose, World, start};
 use crate::backend::tree::JointTree;
-use crate::backend::{Backend, BodyDesc, JointDesc};
+use crate::backend::{Backend, BodyDesc, JointDesc, SkinPointDesc};
 use crate::error::{Error, Result};
 use crate::math::Transform;
 use crate::skeleton::Character;
@@ -39,6 +39,10 @@ impl World {
         let skeleton = &character.skeleton;
         // 1. Bodies and joint frames from the rest pose; the start pose from the clip.
         let mut resolved = Resolved::new(spec, character)?;
+        let skin: Vec<SkinPointDesc> = crate::spec::skin_points(character, spec, &resolved)
+            .into_iter()
+            .map(|parts| SkinPointDesc { parts })
+            .collect();
         let mut start = start_pose(character, self.settings.start == StartPose::FirstFrame);
         for t in &mut start {
             *t = placement.mul(t);
@@ -79,6 +83,7 @@ impl World {
             })
             .collect();
         let first_body = self.backend.add_ragdoll(&bodies, &joint_descs, &disabled);
+        self.backend.add_skin_points(first_body, &skin);
         let mut exempt_pairs: Vec<(usize, usize)> = disabled
             .iter()
             .map(|&(a, b)| (a.min(b), a.max(b)))

@@ -123,6 +123,7 @@ impl FastBackend {
                     self.ground_contacts(c, g);
                 }
             }
+            self.solve_skin_points(g);
         }
         for k in 0..self.collide.pairs.len() {
             let (a, b) = self.collide.pairs[k];
@@ -326,6 +327,7 @@ impl FastBackend {
     /// collapsing humanoid's in a frame, as its impulses set the parts spinning against
     /// their joints.
     pub(super) fn solve_contact_velocities(&mut self) {
+        self.solve_skin_velocities();
         for k in 0..self.collide.contacts.len() {
             let c = self.collide.contacts[k];
             let ra = self.rot[c.a] * c.la;

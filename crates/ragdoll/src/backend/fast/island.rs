@@ -80,7 +80,7 @@ impl FastBackend {
             }
             sub.clear_bodies();
         }
-        self.gather(&mut subs[..count]);
+        self.gather(&mut subs[..count], dt);
         subs[..count]
             .par_iter_mut()
             .for_each(|sub| sub.solve_step(dt));
@@ -130,14 +130,16 @@ impl FastBackend {
             ($($f:ident),*) => { $( self.$f.clear(); )* };
         }
         per_body!(clear);
-        clear!(owner, attach, ragdoll_of, ragdolls, joints, pins, compounds);
+        clear!(
+            owner, attach, ragdoll_of, ragdolls, joints, pins, compounds, skin
+        );
         self.collide.pairs.clear();
     }
 
     /// Copies each island's ragdolls, joints, pins and pairs into its solver, with body
     /// indices renumbered from 0 in each; the bodies a ragdoll's frozen joints link become
     /// one compound body there (`freeze.rs`).
-    fn gather(&mut self, subs: &mut [FastBackend]) {
+    fn gather(&mut self, subs: &mut [FastBackend], dt: f32) {
         let mut local = std::mem::take(&mut self.local_of);
         local.clear();
         local.resize(self.world_shapes(), u32::MAX);
@@ -193,6 +195,7 @@ impl FastBackend {
                     .push((local[i as usize], local[j as usize]));
             }
         }
+        self.gather_skin(subs, &local, dt);
         self.local_of = local;
     }
 
@@ -210,7 +213,7 @@ impl FastBackend {
 
     /// The body that carries shape `c` and `frame` (in the shape's body's frame) in that
     /// body's frame.
-    fn on_owner(&self, c: u32, frame: Transform) -> (usize, Transform) {
+    pub(super) fn on_owner(&self, c: u32, frame: Transform) -> (usize, Transform) {
         let c = c as usize;
         let frame = match self.attach[c] {
             Some(t) => t.mul(&frame),

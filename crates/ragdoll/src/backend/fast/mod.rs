@@ -41,6 +41,7 @@ mod impact;
 mod island;
 mod limits;
 mod narrow;
+mod skin;
 mod sleep;
 mod solve;
 
@@ -48,7 +49,7 @@ use std::collections::HashSet;
 
 use glam::{Quat, Vec3};
 
-use super::{Backend, BodyDesc, BodyState, JointDesc};
+use super::{Backend, BodyDesc, BodyState, JointDesc, SkinPointDesc};
 use crate::math::Transform;
 use crate::spec::{JointKind, Shape};
 use limits::{Limits, Twist};
@@ -248,6 +249,9 @@ pub(crate) struct FastBackend {
     compounds: Vec<freeze::Compound>,
     /// The whole world's bodies' extra shapes (`extras.rs`).
     extras: extras::Extras,
+    /// Skin points (`skin.rs`), and the ones that touched the ground in this substep.
+    skin: Vec<skin::SkinPoint>,
+    skin_touching: Vec<u32>,
 }
 
 impl FastBackend {
@@ -291,6 +295,8 @@ impl FastBackend {
             island_pool: Vec::new(),
             compounds: Vec::new(),
             extras: extras::Extras::default(),
+            skin: Vec::new(),
+            skin_touching: Vec::new(),
         }
     }
 }
@@ -380,6 +386,11 @@ impl Backend for FastBackend {
             closing_mps: 0.0,
         });
         first
+    }
+
+    fn add_skin_points(&mut self, first_body: usize, points: &[SkinPointDesc]) -> bool {
+        self.add_skin_points_impl(first_body, points);
+        true
     }
 
     fn step(&mut self, dt: f32) {

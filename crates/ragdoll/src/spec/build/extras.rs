@@ -112,7 +112,7 @@ fn holds(plan: &Plan, p: Vec3, tolerance: f32) -> bool {
 /// Whether `shape` holds `q` (in its own frame) within `tolerance` of its surface. Any
 /// shape, even one measured from broken input (an infinite radius, a NaN length) that the
 /// spec's checks refuse later with its body's name: answered, never a panic.
-fn shape_holds(shape: &Shape, q: Vec3, tolerance: f32) -> bool {
+pub(in crate::spec) fn shape_holds(shape: &Shape, q: Vec3, tolerance: f32) -> bool {
     match *shape {
         Shape::Capsule { radius_m, length_m } => {
             // max/min rather than clamp, which panics on NaN bounds.

@@ -35,6 +35,7 @@ use crate::skeleton::Character;
 
 pub(crate) use collision::shapes_overlap;
 use collision::{collision_filter, filter_start_overlaps};
+pub(super) use extras::shape_holds;
 use order::{parent_body, parent_first};
 
 /// Options for [`build_spec`]; the default builds a 75 kg male humanoid (or a creature
