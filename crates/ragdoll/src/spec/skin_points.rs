@@ -47,11 +47,13 @@ const CELL_H: f32 = 0.01;
 const MIN_PART_SHARE: f32 = 1e-3;
 
 /// The skin points of `character`'s skin that `spec`'s shapes leave loose, placed on
-/// the character's rest pose by `resolved`.
+/// the character's rest pose by `resolved`; `body_of_joint` is the body each skeleton
+/// joint rides on in the world (so the skin moves as the baked mesh will).
 pub(crate) fn skin_points(
     character: &Character,
     spec: &RagdollSpec,
     resolved: &Resolved,
+    body_of_joint: &[usize],
 ) -> Vec<SkinPointParts> {
     if character.meshes.is_empty() {
         return Vec::new();
@@ -60,7 +62,7 @@ pub(crate) fn skin_points(
     if rig.verts.is_empty() {
         return Vec::new();
     }
-    let owner = body_of_joints(&rig, &resolved.bone_of_body);
+    let owner: Vec<Option<usize>> = body_of_joint.iter().map(|&b| Some(b)).collect();
     let tolerance = INSIDE_TOLERANCE_H * rig.height;
     // Each body's shapes in the rest pose: where each is, inverted, and the shape.
     let shapes: Vec<Vec<(Transform, Shape)>> = spec
@@ -105,25 +107,6 @@ pub(crate) fn skin_points(
                 .collect()
         })
         .collect()
-}
-
-/// The body each skeleton joint moves with: its own, or its nearest ancestor's with one
-/// (the first body's for joints above every body), as the world rides them.
-fn body_of_joints(rig: &Rig, bone_of_body: &[usize]) -> Vec<Option<usize>> {
-    let n = rig.skeleton.len();
-    let mut own = vec![None; n];
-    for (b, &j) in bone_of_body.iter().enumerate() {
-        if j < n && own[j].is_none() {
-            own[j] = Some(b);
-        }
-    }
-    // Parents come before their children in a skeleton.
-    let mut owner = vec![None; n];
-    for j in 0..n {
-        owner[j] = own[j].or_else(|| rig.parent(j).and_then(|p| owner[p]));
-    }
-    let first = (!bone_of_body.is_empty()).then_some(0);
-    owner.iter().map(|o| o.or(first)).collect()
 }
 
 /// A vertex's shares per body (summed over its joints on one body), scaled to sum to 1;

@@ -39,10 +39,6 @@ impl World {
         let skeleton = &character.skeleton;
         // 1. Bodies and joint frames from the rest pose; the start pose from the clip.
         let mut resolved = Resolved::new(spec, character)?;
-        let skin: Vec<SkinPointDesc> = crate::spec::skin_points(character, spec, &resolved)
-            .into_iter()
-            .map(|parts| SkinPointDesc { parts })
-            .collect();
         let mut start = start_pose(character, self.settings.start == StartPose::FirstFrame);
         for t in &mut start {
             *t = placement.mul(t);
@@ -69,6 +65,12 @@ impl World {
         // 3. Skeleton joints ride on their own or their nearest ancestor's body, with the
         //    offset they have at the start (so the hand-over pose is kept exactly).
         let riders = riders(character, bone_of_body, &start, &body_start);
+        let body_of_joint: Vec<usize> = riders.iter().map(|r| r.body).collect();
+        let skin: Vec<SkinPointDesc> =
+            crate::spec::skin_points(character, spec, &resolved, &body_of_joint)
+                .into_iter()
+                .map(|parts| SkinPointDesc { parts })
+                .collect();
         let bodies: Vec<BodyDesc> = spec
             .bodies
             .iter()
