@@ -100,7 +100,8 @@ pub const OPEN_END_S: f32 = crate::events::OPEN_END_S;
 /// events and the output names, all checked.
 #[derive(Clone, Debug)]
 pub struct Scene {
-    /// The scene file (relative paths in it are relative to its folder).
+    /// The scene file (relative paths in it are relative to its folder); empty for a scene
+    /// built in code, whose errors then name no file.
     pub path: PathBuf,
     /// Simulated seconds.
     pub duration_s: f32,
@@ -248,6 +249,19 @@ impl Scene {
     /// the tracks and the report. `progress(done, total)` is called after every step, for
     /// a progress bar.
     pub fn run_with_progress(&self, mut progress: impl FnMut(u64, u64)) -> Result<SceneResult> {
+        let result = self.run_until(|done, total| {
+            progress(done, total);
+            true
+        })?;
+        Ok(result.expect("a run whose callback never stops it finishes"))
+    }
+
+    /// [`Scene::run_with_progress`] that stops, with `None`, after the step at which
+    /// `keep_going(done, total)` returns false: a host application's cancel button.
+    pub fn run_until(
+        &self,
+        mut keep_going: impl FnMut(u64, u64) -> bool,
+    ) -> Result<Option<SceneResult>> {
         let started = Instant::now();
         let (mut world, ids) = self.build_world()?;
         let steps = (self.duration_s as f64 / self.settings.dt as f64).round() as u64;
@@ -265,7 +279,9 @@ impl Scene {
             for ((watch, &id), c) in watches.iter_mut().zip(&ids).zip(&self.characters) {
                 watch.observe(&world, id, c, ground, gravity, dt);
             }
-            progress(i + 1, steps);
+            if !keep_going(i + 1, steps) {
+                return Ok(None);
+            }
         }
         let tracks: Vec<Track> = ids.iter().map(|&id| world.track(id).clone()).collect();
         let characters = self
@@ -298,7 +314,7 @@ impl Scene {
             blasts: world.blast_reports(),
             projectiles: world.projectile_reports(),
         };
-        Ok(SceneResult { tracks, report })
+        Ok(Some(SceneResult { tracks, report }))
     }
 
     /// The scene's world at time 0: every character placed, activated and powered as the
@@ -418,8 +434,13 @@ impl Scene {
         Ok(written)
     }
 
-    /// An error from the world about something at `line` of the scene file.
+    /// An error from the world about something at `line` of the scene file. A scene built
+    /// in code (an empty `path`, as the Python package builds its worlds) has no file to
+    /// point at: its errors are passed on as they are, keeping their kind.
     fn error(&self, line: usize, place: &str, e: Error) -> Error {
+        if self.path.as_os_str().is_empty() {
+            return e;
+        }
         Error::Parse {
             path: self.path.clone(),
             line,

@@ -98,7 +98,7 @@ pub struct Roles {
 }
 
 /// The roles every humanoid is looked for, in the order reports list them.
-const HUMANOID_ROLES: [Role; 17] = [
+pub const HUMANOID_ROLES: [Role; 17] = [
     Role::Pelvis,
     Role::Spine,
     Role::Chest,
