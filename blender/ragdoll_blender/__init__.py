@@ -70,7 +70,7 @@ class RAGDOLL_OT_build(bpy.types.Operator):
             missing = "; ".join(f"{r}: {why}" for r, why in roles.missing.items())
             lines.append(f"{arm.name}: {len(spec.bodies)} bodies, {spec.total_mass_kg:.0f} kg; {roles.why}"
                          + (f" Missing: {missing}" if roles.humanoid and missing else ""))
-            for w in a["warnings"]:
+            for w in a["warnings"] + c.warnings:
                 self.report({"WARNING"}, w)
         say(self, context, "INFO", " | ".join(lines))
         return {"FINISHED"}

@@ -74,6 +74,7 @@ def prepare(context, rd):
         order = a.pop("order")
         c = rd.Character.from_arrays(a["names"], a["parents"], a["rest_local"], mesh=a["mesh"],
                                      frames=a["frames"], fps=fps, name=arm.name, tips=a["tips"])
+        warnings += c.warnings
         spec = helpers.spec_of(arm, c, rd)
         activate = {"START": "start", "BLAST": "blast", "CONTACT": "contact"}.get(props.handover)
         if props.handover == "FRAME":
@@ -104,8 +105,9 @@ def keyed_paths(pb):
 
 
 def write_action(arm, order, world_rows, scene):
-    """Keys every frame of `world_rows` (frames, joints, 10) on `arm`'s pose bones as a new
-    action in the top NLA track; the user's action moves to a track beneath it."""
+    """Keys every frame of `world_rows` (frames, joints, 10) on `arm`'s pose bones (location,
+    rotation in the bone's own rotation mode, and scale) as a new action in the top NLA
+    track; the user's action moves to a track beneath it."""
     start = scene.frame_start
     n = world_rows.shape[0]
     values = {b.name: ([], []) for b in order}
@@ -150,7 +152,10 @@ def write_action(arm, order, world_rows, scene):
         path, width = keyed_paths(pb)
         base = f'pose.bones["{bpy.utils.escape_identifier(b.name)}"]'
         locs, rots = (np.array(v) for v in values[b.name])
-        for prop, data, k in (("location", locs, 3), (path, rots, width)):
+        # Scale is keyed too (the rest's): the user's action beneath would otherwise still
+        # scale the bones its keys scale.
+        ones = np.ones((n, 3))
+        for prop, data, k in (("location", locs, 3), (path, rots, width), ("scale", ones, 3)):
             for i in range(k):
                 fc = fcurve(action, arm, f"{base}.{prop}", i, b.name)
                 fc.keyframe_points.add(n)

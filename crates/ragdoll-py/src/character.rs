@@ -184,6 +184,15 @@ impl Character {
             warnings,
             source,
         };
+        let mut inner = inner;
+        let h = import::standing_height(&inner);
+        if h.is_finite() && h > 0.0 && !import::PLAUSIBLE_HEIGHT_M.contains(&h) {
+            let (lo, hi) = import::PLAUSIBLE_HEIGHT_M.into_inner();
+            inner.warnings.push(format!(
+                "{name}: the character stands {h:.2} m tall, outside the {lo}-{hi} m of anything \
+                 that walks: are its units metres (a scene's unit scale, a file in centimetres)?"
+            ));
+        }
         if let Some((f, j, d)) = inner
             .clips
             .first()

@@ -62,6 +62,15 @@ def test_local_transforms_compose_to_the_world_ones():
     assert np.linalg.norm(world[0, 0, [0, 2]] - [1.0, -2.0]) < 0.05
 
 
+def test_a_rig_of_implausible_size_gets_a_warning():
+    names, parents, rest = humanoid_arrays()
+    assert rd.Character.from_arrays(names, parents, rest).warnings == []
+    big = rest.copy()
+    big[:, 0:3] *= 100.0  # a rig in centimetres read as metres
+    (w,) = rd.Character.from_arrays(names, parents, big).warnings
+    assert "tall" in w and "units" in w
+
+
 def test_a_mesh_and_an_animation_come_in_as_arrays():
     names, parents, rest = humanoid_arrays()
     world = rd.humanoid().rest_world
