@@ -208,7 +208,10 @@ def character_arrays(arm, scene, frames=None):
         "names": [b.name for b in order],
         "parents": parents,
         "rest_local": np.array(locals_from_worlds(rest, parents)),
-        "tips": np.array(tips),
+        # A leaf bone's tail says where it ends only on a rig without skin: importers make
+        # up tails (Blender's glTF importer gave a 21 cm hand's fingertips 10 cm bones, and
+        # the hand twenty bodies instead of the one its rigid skin makes); the skin knows.
+        "tips": np.array(tips) if mesh is None else None,
         "mesh": mesh,
         "frames": None if clip is None else np.array(clip),
         "order": order,
