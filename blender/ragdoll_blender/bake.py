@@ -62,8 +62,10 @@ def prepare(context, rd):
     if end <= start:
         raise rig.RigError("the scene's frame range is empty: set an end frame after the start")
     seconds = (end - start) / fps
+    # The ragdoll starts in the pose the user sees at the start frame; the action's other
+    # frames are read only when it plays on (a hand-over later, or motors following it).
     plays = props.handover != "START" or props.motors > 0
-    frames = range(start, end + 1) if plays else None
+    frames = range(start, end + 1) if plays else [start]
     world = rd.World(props.backend)
     parts, warnings = [], []
     for arm in arms:

@@ -135,9 +135,12 @@ def mesh_arrays(objs, bone_index, u, warnings):
             if not ws:
                 unweighted += 1
                 continue
+            # Blender's Armature modifier divides by the sum of a vertex's weights: so do we
+            # (over the four kept), rather than have the engine warn of unnormalised weights.
+            total = sum(wt for wt, _ in ws)
             for k, (wt, jj) in enumerate(ws):
                 j[v.index, k] = jj
-                w[v.index, k] = wt
+                w[v.index, k] = wt / total
         if unweighted == n:
             warnings.append(f"{obj.name} has no weights on the armature's bones; it is left out")
             continue

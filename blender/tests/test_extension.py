@@ -83,6 +83,22 @@ def test_the_action_plays_until_the_hand_over_and_stays(scene):
     assert arm.animation_data.action == original
 
 
+def test_the_ragdoll_starts_in_the_pose_the_user_sees(scene):
+    arm, _ = make()
+    scene.frame_start, scene.frame_end = 1, 13
+    hips = arm.pose.bones["hips"]
+    hips.location = (0.0, 0.4, 0.0)  # raised 40 cm at the start frame (a bone's Y is up)
+    hips.keyframe_insert("location", frame=1)
+    scene.frame_set(1)
+    shown = (arm.matrix_world @ hips.head).z
+    assert shown == pytest.approx(1.35, abs=1e-4)
+    assert bpy.ops.ragdoll.bake() == {"FINISHED"}, scene.ragdoll.status
+    scene.frame_set(1)
+    assert (arm.matrix_world @ hips.head).z == pytest.approx(shown, abs=0.002)
+    scene.frame_set(13)  # half a second later the whole figure has dropped to the floor
+    assert (arm.matrix_world @ hips.head).z < shown - 0.3
+
+
 def test_a_blast_throws_a_crowd_away_from_the_charge(scene):
     a, _ = make("A", at=(0.0, 0.0, 0.0))
     b, _ = make("B", at=(2.5, 0.0, 0.0))
