@@ -1,7 +1,7 @@
 """Benchmark (not a test): baking a character for 3 s in headless Blender, wall and CPU
 time of `bpy.ops.ragdoll.bake()` alone (the engine, reading the rig and keying the action).
 
-    RAGDOLL_BLENDER_ZIP=ragdoll-blender.zip ~/.cache/ragdoll-bpy/bin/python \\
+    RAGDOLL_BLENDER_ZIP=ragdoll-blender.zip ~/.cache/ragdoll-bpy-5.0.1/bin/python \\
         blender/bench_bake.py ../shared/data/gltf/CesiumMan.glb
 """
 

@@ -3,7 +3,7 @@ Blender's importer, or with `--figure` the rig the tests make in Blender), a cha
 and baked by the extension's operators, three frames of the bake side by side (Cycles on
 the CPU, no display needed).
 
-    RAGDOLL_BLENDER_ZIP=ragdoll-blender.zip ~/.cache/ragdoll-bpy/bin/python \\
+    RAGDOLL_BLENDER_ZIP=ragdoll-blender.zip ~/.cache/ragdoll-bpy-5.0.1/bin/python \\
         blender/render_guide.py --figure docs/blender_blast.png
 """
 

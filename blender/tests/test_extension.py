@@ -54,10 +54,13 @@ def test_the_action_plays_until_the_hand_over_and_stays(scene):
         hips.location = (0.0, z, 0.0)  # a bone's Y is along it: up
         hips.keyframe_insert("location", frame=f)
     original = arm.animation_data.action
-    from bpy_extras import anim_utils
+    if hasattr(original, "layers"):  # Blender 4.4 and later: slotted actions
+        from bpy_extras import anim_utils
 
-    bag = anim_utils.action_get_channelbag_for_slot(original, arm.animation_data.action_slot)
-    for fc in bag.fcurves:
+        curves = anim_utils.action_get_channelbag_for_slot(original, arm.animation_data.action_slot).fcurves
+    else:
+        curves = original.fcurves
+    for fc in curves:
         for kp in fc.keyframe_points:
             kp.interpolation = "LINEAR"
     scene.ragdoll.handover = "FRAME"
