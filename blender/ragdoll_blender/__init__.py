@@ -272,6 +272,7 @@ class RAGDOLL_PT_panel(bpy.types.Panel):
         p = context.scene.ragdoll
         col = self.layout.column()
         col.prop(p, "backend")
+        col.prop(p, "crowd")
         col.prop(p, "handover")
         if p.handover == "FRAME":
             col.prop(p, "handover_frame")

@@ -23,6 +23,14 @@ PINS = "ragdoll_pins"
 
 
 def selected_armatures(context):
+    """The armatures to ragdoll: the crowd collection's when one is set, else the selected
+    ones (or the active one)."""
+    crowd = context.scene.ragdoll.crowd
+    if crowd is not None:
+        arms = [o for o in crowd.all_objects if o.type == "ARMATURE"]
+        if not arms:
+            raise rig.RigError(f"the crowd collection {crowd.name} holds no armature")
+        return arms
     arms = [o for o in context.selected_objects if o.type == "ARMATURE"]
     active = context.active_object
     if not arms and active is not None and active.type == "ARMATURE":

@@ -34,6 +34,11 @@ class RagdollSceneProps(bpy.types.PropertyGroup):
         max=1.0,
         default=0.0,
     )
+    crowd: bpy.props.PointerProperty(
+        name="Crowd",
+        type=bpy.types.Collection,
+        description="Bake every armature of this collection as one crowd instead of the selection",
+    )
     report: StringProperty(name="Report", description="The last bake's report (JSON)")
     status: StringProperty(name="Status", description="The last operator's message")
 

@@ -121,6 +121,26 @@ def test_a_blast_throws_a_crowd_away_from_the_charge(scene):
         assert hips.y < -0.3, (arm.name, hips)
 
 
+def test_a_collection_is_a_crowd(scene):
+    crowd = bpy.data.collections.new("Crowd")
+    scene.collection.children.link(crowd)
+    arms = []
+    for k in range(3):
+        arm, skin = make(f"P{k}", at=(2.5 * k, 0.0, 0.0))
+        for o in (arm, skin):
+            scene.collection.objects.unlink(o)
+            crowd.objects.link(o)
+        arms.append(arm)
+    for o in scene.objects:
+        o.select_set(False)
+    scene.ragdoll.crowd = crowd
+    scene.frame_start, scene.frame_end = 1, 13
+    assert bpy.ops.ragdoll.bake() == {"FINISHED"}, scene.ragdoll.status
+    report = __import__("json").loads(scene.ragdoll.report)
+    assert sorted(c["name"] for c in report["characters"]) == ["P0", "P1", "P2"]
+    assert all("Ragdoll" in a.animation_data.nla_tracks for a in arms)
+
+
 def test_scene_units_are_respected(scene):
     scene.unit_settings.scale_length = 0.01  # a scene in centimetres
     arm, _ = make(scale=100.0)
