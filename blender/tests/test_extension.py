@@ -45,6 +45,38 @@ def test_a_drop_is_keyed_on_the_users_own_armature(scene):
     assert "Ragdoll: Figure" not in bpy.data.collections
 
 
+def test_edits_of_the_helpers_reach_the_bake_and_are_saved(scene, tmp_path):
+    arm, _ = make()
+    scene.frame_start, scene.frame_end = 1, 13
+    assert bpy.ops.ragdoll.build() == {"FINISHED"}
+    coll = bpy.data.collections["Ragdoll: Figure"]
+    thigh = next(o for o in coll.objects if o["ragdoll_body"] == "thigh_l")
+    shin = next(o for o in coll.objects if o["ragdoll_body"] == "shin_l")
+    thigh["mass_kg"] = 20.0
+    shin["max_deg"] = 90.0
+    thigh.scale *= 1.5  # a fatter, longer thigh
+    thigh_name = thigh.name
+    path = tmp_path / "edited.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    scene = bpy.context.scene
+    arm = bpy.data.objects["Figure"]
+    for o in scene.objects:
+        o.select_set(o == arm)
+    bpy.context.view_layer.objects.active = arm
+    assert bpy.data.objects[thigh_name]["mass_kg"] == 20.0
+    built = bpy.data.objects[thigh_name].matrix_world.to_scale()
+    assert bpy.ops.ragdoll.bake() == {"FINISHED"}, scene.ragdoll.status
+    bake, _ = extension()
+    [(_, _, h)] = bake.LAST["parts"]
+    spec = bake.LAST["result"].spec(h)
+    assert spec.body("thigh_l").mass_kg == pytest.approx(20.0)
+    assert spec.joint("shin_l").max_deg == pytest.approx(90.0)
+    t = spec.body("thigh_l")
+    r = t.radius_m if t.shape == "capsule" else t.size_m[0] / 2
+    assert r == pytest.approx(built.x, rel=1e-3)
+
+
 def test_the_action_plays_until_the_hand_over_and_stays(scene):
     arm, _ = make()
     scene.frame_start, scene.frame_end = 1, 48
