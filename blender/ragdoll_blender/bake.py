@@ -3,6 +3,7 @@ when there are several), charges and projectiles its events; the result is keyed
 armature as a new action in its own NLA track, the user's action kept beneath it."""
 
 import json
+import re
 
 import bpy
 import numpy as np
@@ -38,6 +39,13 @@ def selected_armatures(context):
     if not arms:
         raise rig.RigError("select an armature (or several, for a crowd) first")
     return arms
+
+
+def safe_name(name):
+    """An object's name as a character's: it names files, so letters, digits, '_', '-' and
+    '.' only (a clash is resolved by the world, with _2, _3...)."""
+    safe = re.sub(r"[^\w.-]", "_", name).lstrip(".")[:64]
+    return safe or "armature"
 
 
 def events(scene, u, fps):
@@ -83,13 +91,13 @@ def prepare(context, rd):
         warnings += a.pop("warnings")
         order = a.pop("order")
         c = rd.Character.from_arrays(a["names"], a["parents"], a["rest_local"], mesh=a["mesh"],
-                                     frames=a["frames"], fps=fps, name=arm.name, tips=a["tips"])
+                                     frames=a["frames"], fps=fps, name=safe_name(arm.name), tips=a["tips"])
         warnings += c.warnings
         spec = helpers.spec_of(arm, c, rd)
         activate = {"START": "start", "BLAST": "blast", "CONTACT": "contact"}.get(props.handover)
         if props.handover == "FRAME":
             activate = max(0.0, (props.handover_frame - start) / fps)
-        kwargs = dict(activate=activate, name=arm.name)
+        kwargs = dict(activate=activate)
         if props.motors > 0:
             kwargs["powered"] = {"strength": props.motors, "root_on_clip": False}
         h = world.add(c, spec, **kwargs)

@@ -135,8 +135,8 @@ def test_the_ragdoll_starts_in_the_pose_the_user_sees(scene):
 
 
 def test_a_blast_throws_a_crowd_away_from_the_charge(scene):
-    a, _ = make("A", at=(0.0, 0.0, 0.0))
-    b, _ = make("B", at=(2.5, 0.0, 0.0))
+    a, _ = make("Hero A", at=(0.0, 0.0, 0.0))  # names with spaces, and clashing once made safe
+    b, _ = make("Hero_A", at=(2.5, 0.0, 0.0))
     for o in (a, b):
         o.select_set(True)
     scene.frame_start, scene.frame_end = 1, 25
@@ -144,7 +144,8 @@ def test_a_blast_throws_a_crowd_away_from_the_charge(scene):
     assert bpy.ops.ragdoll.add_charge(tnt_kg=2.0) == {"FINISHED"}
     assert bpy.ops.ragdoll.bake() == {"FINISHED"}, scene.ragdoll.status
     report = __import__("json").loads(scene.ragdoll.report)
-    assert len(report["characters"]) == 2 and report["blasts"][0]["parts"]
+    assert sorted(c["name"] for c in report["characters"]) == ["Hero_A", "Hero_A_2"]
+    assert report["blasts"][0]["parts"]
     scene.frame_set(25)
     for arm in (a, b):
         assert "Ragdoll" in arm.animation_data.nla_tracks

@@ -55,17 +55,7 @@ pub(crate) fn floats(
     cols: Option<usize>,
     what: &str,
 ) -> PyResult<(Vec<usize>, Vec<f32>)> {
-    let (shape, data) = contiguous::<f64>(obj, "float64", ndim, cols, what)?;
-    if let Some(i) = data
-        .iter()
-        .position(|v| !v.is_finite() || v.abs() > f32::MAX as f64)
-    {
-        return Err(bound(
-            what,
-            format!("value {} (flat index {i}) is not a finite number", data[i]),
-        ));
-    }
-    Ok((shape, data.into_iter().map(|v| v as f32).collect()))
+    checked_floats(obj, ndim, cols, what, false)
 }
 
 /// A float array whose NaN values stand for "unknown"; anything else must be finite.
@@ -75,17 +65,22 @@ pub(crate) fn floats_or_nan(
     cols: Option<usize>,
     what: &str,
 ) -> PyResult<(Vec<usize>, Vec<f32>)> {
+    checked_floats(obj, ndim, cols, what, true)
+}
+
+fn checked_floats(
+    obj: &Bound<'_, PyAny>,
+    ndim: usize,
+    cols: Option<usize>,
+    what: &str,
+    nan_allowed: bool,
+) -> PyResult<(Vec<usize>, Vec<f32>)> {
     let (shape, data) = contiguous::<f64>(obj, "float64", ndim, cols, what)?;
-    if let Some(i) = data
-        .iter()
-        .position(|v| !(v.is_nan() || v.is_finite() && v.abs() <= f32::MAX as f64))
-    {
+    let fits = |v: f64| v.is_finite() && v.abs() <= f32::MAX as f64 || nan_allowed && v.is_nan();
+    if let Some(i) = data.iter().position(|&v| !fits(v)) {
         return Err(bound(
             what,
-            format!(
-                "value {} (flat index {i}) is not a finite number or NaN",
-                data[i]
-            ),
+            format!("value {} (flat index {i}) is not a finite number", data[i]),
         ));
     }
     Ok((shape, data.into_iter().map(|v| v as f32).collect()))

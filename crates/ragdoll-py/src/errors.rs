@@ -100,8 +100,13 @@ pub(crate) fn raise<T: pyo3::PyTypeInfo>(text: String, fields: Fields) -> PyErr 
     err
 }
 
-fn file(path: &Path) -> Option<String> {
-    Some(path.display().to_string())
+/// The kind of exception a library error becomes.
+enum Kind {
+    Access,
+    Format,
+    Skeleton,
+    Spec,
+    Bound,
 }
 
 /// The exception for a library error: its class from the variant, its attributes from the
@@ -109,81 +114,68 @@ fn file(path: &Path) -> Option<String> {
 pub(crate) fn to_py(e: ragdoll::Error) -> PyErr {
     use ragdoll::Error as E;
     let text = e.to_string();
-    match e {
-        E::Io { path, error } => raise::<FileAccessError>(
-            text,
-            Fields {
-                message: error.to_string(),
-                file: file(&path),
-                ..Fields::default()
-            },
-        ),
-        E::Refused { path, message } => raise::<FileAccessError>(
-            text,
-            Fields {
-                message,
-                file: file(&path),
-                ..Fields::default()
-            },
-        ),
+    let at = |path: &Path, message: String| Fields {
+        message,
+        file: Some(path.display().to_string()),
+        ..Fields::default()
+    };
+    let (kind, fields) = match e {
+        E::Io { path, error } => (Kind::Access, at(&path, error.to_string())),
+        E::Refused { path, message } => (Kind::Access, at(&path, message)),
         E::Parse {
             path,
             line,
             message,
-        } => raise::<FileFormatError>(
-            text,
+        } => (
+            Kind::Format,
             Fields {
-                message,
-                file: file(&path),
                 line: Some(line),
-                ..Fields::default()
+                ..at(&path, message)
             },
         ),
         E::Format {
             path,
             place,
             message,
-        } => raise::<FileFormatError>(
-            text,
+        } => (
+            Kind::Format,
             Fields {
-                message,
-                file: file(&path),
                 place: Some(place),
-                ..Fields::default()
+                ..at(&path, message)
             },
         ),
-        E::UnsupportedFile { ref path } => raise::<FileFormatError>(
-            text.clone(),
-            Fields {
-                file: file(path),
-                message: text,
-                ..Fields::default()
-            },
-        ),
-        E::Skeleton { joint, message } => raise::<SkeletonError>(
-            text,
+        E::UnsupportedFile { ref path } => (Kind::Format, at(path, text.clone())),
+        E::Skeleton { joint, message } => (
+            Kind::Skeleton,
             Fields {
                 message,
                 joint: Some(joint),
                 ..Fields::default()
             },
         ),
-        E::Spec { place, message } => raise::<SpecError>(
-            text,
+        E::Spec { place, message } => (
+            Kind::Spec,
             Fields {
                 message,
                 place: Some(place),
                 ..Fields::default()
             },
         ),
-        E::Setting { setting, message } => raise::<BoundError>(
-            text,
+        E::Setting { setting, message } => (
+            Kind::Bound,
             Fields {
                 message,
                 key: Some(setting),
                 ..Fields::default()
             },
         ),
+    };
+    match kind {
+        Kind::Access => raise::<FileAccessError>(text, fields),
+        Kind::Format => raise::<FileFormatError>(text, fields),
+        Kind::Skeleton => raise::<SkeletonError>(text, fields),
+        Kind::Spec => raise::<SpecError>(text, fields),
+        Kind::Bound => raise::<BoundError>(text, fields),
     }
 }
 

@@ -141,34 +141,6 @@ fn motors(v: &Bound<'_, PyAny>) -> PyResult<Motors> {
     Ok(m)
 }
 
-/// A name safe as a file name, unique in the world (lower case compared).
-fn unique_name(wanted: &str, taken: &mut HashSet<String>) -> String {
-    let base: String = wanted
-        .chars()
-        .map(|c| {
-            if c.is_alphanumeric() || matches!(c, '_' | '-') {
-                c
-            } else {
-                '_'
-            }
-        })
-        .take(48)
-        .collect();
-    let base = if base.is_empty() {
-        "character".into()
-    } else {
-        base
-    };
-    let mut name = base.clone();
-    let mut k = 2;
-    while taken.contains(&name.to_lowercase()) {
-        name = format!("{base}_{k}");
-        k += 1;
-    }
-    taken.insert(name.to_lowercase());
-    name
-}
-
 #[pymethods]
 impl World {
     #[new]
@@ -292,7 +264,20 @@ impl World {
         // bounds; said now rather than when the world is run.
         spec.validate().map_err(to_py)?;
         ragdoll::spec::Resolved::new(&spec, &c).map_err(to_py)?;
-        let name = unique_name(name.unwrap_or(&c.name), &mut self.names);
+        let given = name;
+        let name = ragdoll::scene::unique_character_name(given.unwrap_or(&c.name), &mut self.names);
+        if let Some(wanted) = given
+            && wanted != name
+        {
+            self.names.remove(&name.to_lowercase());
+            return Err(bound(
+                "name",
+                format!(
+                    "{wanted:?} is taken or is not 1 to {} letters, digits, '_', '-' or '.' (not first): it names the character's files",
+                    ragdoll::scene::MAX_CHARACTER_NAME_BYTES
+                ),
+            ));
+        }
         c.name = name.clone();
         spec.name = name.clone();
         let index = self.scene.characters.len();

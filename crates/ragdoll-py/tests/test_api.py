@@ -165,6 +165,12 @@ def test_errors_are_exceptions_with_their_place(tmp_path):
     assert e.value.key == "activate"
     with pytest.raises(rd.BoundError):
         world.run(1.0)  # nothing in it
+    world.add(rd.humanoid(), name="alice")
+    for bad in ("alice", "Alice", "../x", ""):
+        with pytest.raises(rd.BoundError) as e:
+            world.add(rd.humanoid(), name=bad, at=(3, 0, 0))
+        assert e.value.key == "name"
+    assert len(world) == 1
     # Every one of them is a RagdollError.
     assert issubclass(rd.SpecError, rd.RagdollError)
 

@@ -221,11 +221,13 @@ fn powered(c: &Ctx, p: &S<RawPowered>, character: &Character) -> Result<Motors> 
     Ok(motors)
 }
 
-/// A default name: the character's own (when it is a safe file name) or `character`,
-/// with `_2`, `_3`... until it is free.
-fn default_name(character: &Character, taken: &mut HashSet<String>) -> String {
-    let base = if valid_name(&character.name) {
-        character.name.clone()
+/// A character name that is free in `taken` (names lower-cased, as files on some systems
+/// are): `wanted` when it is a safe file name, else `character`, with `_2`, `_3`... until
+/// it is free; it is then taken. Scenes name characters without a `name` key this way,
+/// from their file's name, and so do worlds built in code.
+pub fn unique_character_name(wanted: &str, taken: &mut HashSet<String>) -> String {
+    let base = if valid_name(wanted) {
+        wanted.to_string()
     } else {
         "character".to_string()
     };
@@ -276,7 +278,7 @@ fn characters_within(
         }
         let name = match &r.name {
             Some(n) => n.get_ref().clone(),
-            None => default_name(&character, &mut taken),
+            None => unique_character_name(&character.name, &mut taken),
         };
         c.place = table.named(&name);
         character.name = name.clone();

@@ -68,7 +68,7 @@ mod timeline;
 
 pub use characters::{
     MAX_CHARACTER_KG, MAX_CHARACTER_NAME_BYTES, MAX_FACING_DEG, MAX_SCENE_CHARACTER_BYTES,
-    character_bytes,
+    character_bytes, unique_character_name,
 };
 pub use crowd::{MAX_CROWD_FILES, MAX_CROWD_SPACING_M, MAX_CROWD_SPREAD, MIN_CROWD_SPACING_M};
 pub use parse::{MAX_CHARACTERS, MAX_EVENTS, MAX_OUTPUT_NAME_BYTES, MAX_SCENE_BODIES};
