@@ -207,10 +207,14 @@ class RAGDOLL_OT_bake(bpy.types.Operator):
     def modal(self, context, event):
         if event.type == "ESC":
             self._cancel = True
+            return {"RUNNING_MODAL"}
         if event.type != "TIMER":
-            return {"RUNNING_MODAL"} if self._thread.is_alive() else self.end(context)
-        context.window_manager.progress_update(int(100 * self._done / max(1, self._total)))
-        return {"RUNNING_MODAL"} if self._thread.is_alive() else self.end(context)
+            # The interface stays usable while the engine steps in its thread.
+            return {"PASS_THROUGH"}
+        if self._thread.is_alive():
+            context.window_manager.progress_update(int(100 * self._done / max(1, self._total)))
+            return {"RUNNING_MODAL"}
+        return self.end(context)
 
     @guarded
     def end(self, context):
