@@ -22,6 +22,9 @@ use crate::character::Character;
 use crate::errors::{Cancelled, Fields, bound, guard, raise, to_py};
 use crate::spec::Spec;
 
+/// A world's run length when `run` is not told, seconds: a scene file's default.
+const DEFAULT_SECONDS: f32 = 3.0;
+
 /// How often a run looks up from stepping: to call the progress callback and to notice
 /// Ctrl-C.
 const LOOK_UP: Duration = Duration::from_millis(20);
@@ -163,7 +166,7 @@ impl World {
         s.validate().map_err(to_py)?;
         let scene = Scene {
             path: PathBuf::new(),
-            duration_s: 0.0,
+            duration_s: DEFAULT_SECONDS,
             settings: s,
             characters: Vec::new(),
             blasts: Vec::new(),
@@ -176,6 +179,22 @@ impl World {
         Ok(World {
             scene: Arc::new(scene),
             names: HashSet::new(),
+        })
+    }
+
+    /// A world from a scene file (`ragdoll simulate SCENE.toml` reads the same): its
+    /// characters, events, settings, length and frame rate; more can be added.
+    #[staticmethod]
+    fn from_scene(py: Python<'_>, path: PathBuf) -> PyResult<World> {
+        let scene = py.detach(|| guard(|| Scene::load(&path).map_err(to_py)))?;
+        let names = scene
+            .characters
+            .iter()
+            .map(|c| c.name.to_lowercase())
+            .collect();
+        Ok(World {
+            scene: Arc::new(scene),
+            names,
         })
     }
 
@@ -555,17 +574,18 @@ impl World {
         self.scene.settings.backend.as_str()
     }
 
-    /// Simulates `seconds` from the start and records `fps` frames a second. The
-    /// interpreter's lock is released while it steps, so other Python threads run.
+    /// Simulates `seconds` from the start and records `fps` frames a second (by default
+    /// the scene file's, or 3 s at 30 fps). The interpreter's lock is released while it
+    /// steps, so other Python threads run.
     ///
     /// `progress(done, total)` (steps) is called now and then; returning False cancels
     /// the run with `Cancelled`. Ctrl-C cancels it with `KeyboardInterrupt`.
-    #[pyo3(signature = (seconds, fps=30.0, progress=None))]
+    #[pyo3(signature = (seconds=None, fps=None, progress=None))]
     fn run(
         &mut self,
         py: Python<'_>,
-        seconds: f32,
-        fps: f32,
+        seconds: Option<f32>,
+        fps: Option<f32>,
         progress: Option<Py<PyAny>>,
     ) -> PyResult<RunResult> {
         if self.scene.characters.is_empty() {
@@ -576,8 +596,12 @@ impl World {
         }
         {
             let scene = Arc::make_mut(&mut self.scene);
-            scene.settings.fps = fps;
-            scene.duration_s = seconds;
+            if let Some(fps) = fps {
+                scene.settings.fps = fps;
+            }
+            if let Some(seconds) = seconds {
+                scene.duration_s = seconds;
+            }
             scene.settings.validate().map_err(to_py)?;
             let joints = scene
                 .characters
@@ -586,7 +610,7 @@ impl World {
                 .sum();
             scene
                 .settings
-                .validate_run(seconds, joints)
+                .validate_run(scene.duration_s, joints)
                 .map_err(to_py)?;
         }
         let scene = Arc::clone(&self.scene);

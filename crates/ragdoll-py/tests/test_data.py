@@ -63,3 +63,37 @@ def test_python_runs_are_the_command_line_runs(data, tmp_path):
         result.save(got, handle=h)
         assert got.read_bytes() == want.read_bytes(), f.name
         assert np.isfinite(result.transforms(h)).all()
+
+
+def test_a_scene_file_runs_as_the_command_line_runs_it(tmp_path):
+    """No data needed: built-in humanoids. World.from_scene reads a scene file as
+    `ragdoll simulate SCENE.toml` does, and gives the same files."""
+    exe = cli()
+    if exe is None:
+        pytest.skip("needs the ragdoll command-line tool (cargo build --release)")
+    scene = tmp_path / "scene.toml"
+    scene.write_text(
+        "duration_s = 1.5\nfps = 24\nbackend = \"fast\"\n"
+        "[[character]]\nname = \"a\"\n"
+        "[[character]]\nname = \"b\"\nposition = [1.5, 0.0, 0.0]\nfacing_deg = 90.0\n"
+        "[[blast]]\ntnt_kg = 2.0\nposition = [0.7, 0.3, 1.5]\ntime_s = 0.2\n"
+    )
+    out = tmp_path / "cli"
+    subprocess.run([exe, "simulate", str(scene), "-o", str(out)], check=True, capture_output=True)
+    world = rd.World.from_scene(scene)
+    assert len(world) == 2 and world.backend == "fast"
+    result = world.run()
+    assert result.frames == 37 and result.fps == 24
+    for h, name in enumerate(result.names):
+        result.save(tmp_path / f"{name}.bvh", handle=h)
+        assert (tmp_path / f"{name}.bvh").read_bytes() == (out / f"{name}.bvh").read_bytes(), name
+    result.save(tmp_path / "scene.glb")
+    assert (tmp_path / "scene.glb").read_bytes() == (out / "scene.glb").read_bytes()
+
+
+def test_a_bad_scene_file_names_its_line(tmp_path):
+    scene = tmp_path / "bad.toml"
+    scene.write_text("duration_s = 1.0\n[[character]]\nname = \"a\"\n[[blast]]\ntnt_kg = -2.0\nposition = [0, 0, 0]\n")
+    with pytest.raises(rd.FileFormatError) as e:
+        rd.World.from_scene(scene)
+    assert e.value.file.endswith("bad.toml") and e.value.line == 5, (e.value.line, e.value.message)

@@ -147,6 +147,8 @@ class Joint:
 
 class World:
     def __init__(self, backend: Literal["rigid", "fast", "particle"] = "rigid", **settings: Any) -> None: ...
+    @staticmethod
+    def from_scene(path: Path) -> World: ...
     @property
     def backend(self) -> str: ...
     def add(
@@ -223,8 +225,8 @@ class World:
     ) -> None: ...
     def run(
         self,
-        seconds: float,
-        fps: float = 30.0,
+        seconds: float | None = None,
+        fps: float | None = None,
         progress: Callable[[int, int], bool | None] | None = None,
     ) -> Result: ...
     def __len__(self) -> int: ...
