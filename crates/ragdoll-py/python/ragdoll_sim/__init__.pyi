@@ -2,15 +2,38 @@
 
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from os import PathLike
-from typing import Any, Literal
+from typing import Any, Literal, final
 
 import numpy as np
 import numpy.typing as npt
 
 __version__: str
 
-Vec3 = Sequence[float] | npt.ArrayLike
-Path = str | PathLike[str]
+_Vec3 = Sequence[float] | npt.ArrayLike
+_Path = str | PathLike[str]
+
+__all__ = [
+    "Body",
+    "BoundError",
+    "Cancelled",
+    "Character",
+    "FileAccessError",
+    "FileFormatError",
+    "InternalError",
+    "Joint",
+    "RagdollError",
+    "Result",
+    "Roles",
+    "RoleError",
+    "SkeletonError",
+    "Spec",
+    "SpecError",
+    "World",
+    "__version__",
+    "build_ragdoll",
+    "humanoid",
+    "load",
+]
 
 class RagdollError(Exception):
     message: str
@@ -30,7 +53,7 @@ class Cancelled(RagdollError): ...
 class InternalError(RagdollError): ...
 
 def load(
-    path: Path,
+    path: _Path,
     *,
     units: Literal["m", "cm", "mm", "in"] | None = None,
     height: float | None = None,
@@ -47,6 +70,7 @@ def build_ragdoll(
     ignore: Sequence[str] | None = None,
 ) -> Spec: ...
 
+@final
 class Character:
     @staticmethod
     def from_arrays(
@@ -84,24 +108,26 @@ class Character:
     def roles(self) -> Roles: ...
     def __len__(self) -> int: ...
 
+@final
 class Roles:
     found: dict[str, str]
     missing: dict[str, str]
     humanoid: bool
     why: str
     warning: str | None
-    def __getitem__(self, role: str) -> str: ...
-    def __contains__(self, role: str) -> bool: ...
+    def __getitem__(self, role: str, /) -> str: ...
+    def __contains__(self, role: str, /) -> bool: ...
     def __len__(self) -> int: ...
     def __iter__(self) -> Iterator[str]: ...
 
+@final
 class Spec:
     @staticmethod
     def from_toml(text: str, path: str = "spec.toml") -> Spec: ...
     @staticmethod
-    def load(path: Path) -> Spec: ...
+    def load(path: _Path) -> Spec: ...
     def to_toml(self) -> str: ...
-    def save(self, path: Path) -> None: ...
+    def save(self, path: _Path) -> None: ...
     def validate(self) -> None: ...
     @property
     def name(self) -> str: ...
@@ -113,7 +139,10 @@ class Spec:
     def joints(self) -> list[Joint]: ...
     def body(self, name: str) -> Body: ...
     def joint(self, name: str) -> Joint: ...
+    def __copy__(self) -> Spec: ...
+    def __deepcopy__(self, memo: Any, /) -> Spec: ...
 
+@final
 class Body:
     @property
     def name(self) -> str: ...
@@ -130,6 +159,7 @@ class Body:
     center_m: tuple[float, float, float]
     rotation: tuple[float, float, float, float]
 
+@final
 class Joint:
     @property
     def name(self) -> str: ...
@@ -145,10 +175,11 @@ class Joint:
     twist_deg: tuple[float, float] | None
     cone_tilt_deg: tuple[float, float] | None
 
+@final
 class World:
-    def __init__(self, backend: Literal["rigid", "fast", "particle"] = "rigid", **settings: Any) -> None: ...
+    def __new__(cls, backend: Literal["rigid", "fast", "particle"] = "rigid", **settings: Any) -> World: ...
     @staticmethod
-    def from_scene(path: Path) -> World: ...
+    def from_scene(path: _Path) -> World: ...
     @property
     def backend(self) -> str: ...
     def add(
@@ -156,7 +187,7 @@ class World:
         character: Character,
         spec: Spec | None = None,
         *,
-        at: Vec3 | None = None,
+        at: _Vec3 | None = None,
         facing_deg: float = 0.0,
         name: str | None = None,
         activate: Literal["start", "blast", "contact"] | float | None = None,
@@ -165,13 +196,13 @@ class World:
         mass_kg: float | None = None,
         female: bool = False,
     ) -> int: ...
-    def add_blast(self, tnt_kg: float, at: Vec3, time_s: float = 0.0, air: bool = False, scale: float = 1.0) -> None: ...
+    def add_blast(self, tnt_kg: float, at: _Vec3, time_s: float = 0.0, air: bool = False, scale: float = 1.0) -> None: ...
     def add_projectile(
         self,
-        origin: Vec3,
+        origin: _Vec3,
         *,
-        direction: Vec3 | None = None,
-        target: Vec3 | None = None,
+        direction: _Vec3 | None = None,
+        target: _Vec3 | None = None,
         mass_kg: float = 0.008,
         speed_mps: float = 360.0,
         time_s: float = 0.0,
@@ -183,9 +214,9 @@ class World:
         handle: int,
         target: str,
         *,
-        impulse_ns: Vec3 | None = None,
+        impulse_ns: _Vec3 | None = None,
         time_s: float = 0.0,
-        force_n: Vec3 | None = None,
+        force_n: _Vec3 | None = None,
         start_s: float = 0.0,
         end_s: float | None = None,
     ) -> None: ...
@@ -193,12 +224,12 @@ class World:
         self,
         kind: Literal["gravity", "radial", "drag", "wind"],
         *,
-        keys: Sequence[tuple[float, Vec3]] | None = None,
-        center: Vec3 | None = None,
+        keys: Sequence[tuple[float, _Vec3]] | None = None,
+        center: _Vec3 | None = None,
         strength_mps2: float = 0.0,
         radius_m: float = 1.0,
         rate_per_s: float = 0.0,
-        velocity_mps: Vec3 | None = None,
+        velocity_mps: _Vec3 | None = None,
         start_s: float = 0.0,
         end_s: float | None = None,
     ) -> None: ...
@@ -206,9 +237,9 @@ class World:
         self,
         handle: int,
         target: str,
-        position: Vec3 | None = None,
+        position: _Vec3 | None = None,
         *,
-        keys: Sequence[tuple[float, Vec3]] | None = None,
+        keys: Sequence[tuple[float, _Vec3]] | None = None,
         stiffness_hz: float | None = None,
         damping_ratio: float = 1.0,
         release_s: float | None = None,
@@ -217,7 +248,7 @@ class World:
         self,
         handle: int,
         target: str,
-        keys: Sequence[tuple[float, Vec3]],
+        keys: Sequence[tuple[float, _Vec3]],
         *,
         stiffness_hz: float | None = None,
         damping_ratio: float = 1.0,
@@ -231,6 +262,7 @@ class World:
     ) -> Result: ...
     def __len__(self) -> int: ...
 
+@final
 class Result:
     def transforms(self, handle: int = 0, space: Literal["local", "world"] = "local") -> npt.NDArray[np.float64]: ...
     @property
@@ -242,5 +274,5 @@ class Result:
     @property
     def names(self) -> list[str]: ...
     def spec(self, handle: int) -> Spec: ...
-    def save(self, path: Path, handle: int | None = None) -> None: ...
+    def save(self, path: _Path, handle: int | None = None) -> None: ...
     def __len__(self) -> int: ...
