@@ -47,6 +47,7 @@ impl RagdollSpec {
             err(unknown_key_span(text, span, &message), message)
         };
         let doc = DeTable::parse(text).map_err(toml_err)?;
+        check_array_lengths(doc.get_ref(), 0).map_err(|(span, m)| err(span, m))?;
         let spec: RagdollSpec = toml::from_str(text).map_err(toml_err)?;
         check_joint_keys(&spec, doc.get_ref()).map_err(|(span, m)| err(span, m))?;
         if let Some(p) = spec.problem() {
@@ -157,6 +158,72 @@ fn locate(doc: &DeTable, place: &Place) -> Option<Range<usize>> {
     }
 }
 
+/// How many values each fixed-length array of a spec holds: serde fills a `[f32; 4]` from
+/// the first four of a longer array and drops the rest, so a five-number quaternion was
+/// read as if it were fine.
+const ARRAY_LENGTHS: [(&str, usize, &str); 7] = [
+    ("center_m", 3, "x, y, z"),
+    ("anchor_m", 3, "x, y, z"),
+    ("size_m", 3, "x, y, z"),
+    ("rotation", 4, "x, y, z, w"),
+    ("frame", 4, "x, y, z, w"),
+    ("twist_deg", 2, "min, max"),
+    ("cone_tilt_deg", 2, "about y, about z"),
+];
+
+/// Tables nest this deep in a spec (top, bodies, a body, its extra shapes, one's shape):
+/// nothing deeper is looked into.
+const MAX_SPEC_DEPTH: usize = 5;
+
+/// Refuses a fixed-length array of another length, and a disabled pair that is not two
+/// names, at the key's line.
+fn check_array_lengths(
+    table: &DeTable,
+    depth: usize,
+) -> std::result::Result<(), (Range<usize>, String)> {
+    for (key, value) in table.iter() {
+        let key_name = key.get_ref().as_ref();
+        match value.get_ref() {
+            DeValue::Array(items) => {
+                if let Some(&(_, n, what)) = ARRAY_LENGTHS.iter().find(|(k, ..)| *k == key_name) {
+                    if items.len() != n {
+                        return Err((
+                            key.span(),
+                            format!(
+                                "{key_name}: must hold {n} numbers ({what}), not {}",
+                                items.len()
+                            ),
+                        ));
+                    }
+                } else if key_name == "disabled_pairs" {
+                    for pair in items.iter() {
+                        if let DeValue::Array(p) = pair.get_ref()
+                            && p.len() != 2
+                        {
+                            return Err((
+                                pair.span(),
+                                format!(
+                                    "disabled_pairs: a pair is two body names, not {}",
+                                    p.len()
+                                ),
+                            ));
+                        }
+                    }
+                } else if depth < MAX_SPEC_DEPTH {
+                    for item in items.iter() {
+                        if let DeValue::Table(t) = item.get_ref() {
+                            check_array_lengths(t, depth + 1)?;
+                        }
+                    }
+                }
+            }
+            DeValue::Table(t) if depth < MAX_SPEC_DEPTH => check_array_lengths(t, depth + 1)?,
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
 /// Rejects keys a `[[joints]]` table does not have (a misspelt `max_deg` would otherwise be
 /// dropped silently, see [`super::JointSpec`]): the keys allowed are the joint's own and
 /// those its kind writes when serialised.
@@ -206,6 +273,87 @@ fn check_joint_keys(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn humanoid_toml() -> String {
+        let c = crate::skeleton::humanoid();
+        crate::spec::build_spec(&c, &Default::default())
+            .unwrap()
+            .to_toml()
+    }
+
+    fn refused(text: &str) -> (usize, String) {
+        match RagdollSpec::from_toml(text, Path::new("s.toml")) {
+            Err(Error::Parse { line, message, .. }) => (line, message),
+            other => panic!("expected a parse error, got {other:?}"),
+        }
+    }
+
+    /// The first line at or after `from` that starts with `what`, 1-based.
+    fn line_of(text: &str, what: &str, from: usize) -> usize {
+        text.lines()
+            .enumerate()
+            .skip(from)
+            .find(|(_, l)| l.trim_start().starts_with(what))
+            .map(|(i, _)| i + 1)
+            .unwrap()
+    }
+
+    #[test]
+    fn fixed_length_arrays_of_another_length_are_refused_at_their_line() {
+        let text = humanoid_toml();
+        assert!(RagdollSpec::from_toml(&text, Path::new("s.toml")).is_ok());
+        // A fifth number in the first body's rotation (serde alone kept the first four).
+        let at = text.find("rotation = [").unwrap();
+        let end = at + text[at..].find(']').unwrap();
+        let five = format!("{}    0.0,\n{}", &text[..end], &text[end..]);
+        let (line, message) = refused(&five);
+        assert_eq!(line, line_of(&five, "rotation = [", 0), "{message}");
+        assert!(
+            message.contains("rotation: must hold 4 numbers"),
+            "{message}"
+        );
+        // Three numbers in a twist range.
+        let at = text.find("twist_deg = [").unwrap();
+        let end = at + text[at..].find(']').unwrap();
+        let three = format!("{}    1.0,\n{}", &text[..end], &text[end..]);
+        let (line, message) = refused(&three);
+        assert!(
+            message.contains("twist_deg: must hold 2 numbers"),
+            "{message}"
+        );
+        assert_eq!(line, line_of(&three, "twist_deg = [", 0), "{message}");
+    }
+
+    #[test]
+    fn joints_that_are_not_a_tree_are_refused() {
+        let text = humanoid_toml();
+        // The head's joint made to hold the spine too: the spine would have two parents.
+        let two = text.replacen("child = \"head\"", "child = \"spine\"", 1);
+        assert_ne!(two, text);
+        let (line, message) = refused(&two);
+        assert!(
+            message.contains("body \"spine\" already hangs from joint"),
+            "{message}"
+        );
+        assert_eq!(
+            line,
+            line_of(
+                &two,
+                "child = \"spine\"",
+                line_of(&two, "name = \"head\"", line_of(&two, "[[joints]]", 0))
+            ),
+            "{message}"
+        );
+        // The spine's joint hung from the chest instead of the pelvis: spine, chest, spine.
+        let looped = text.replacen(
+            "parent = \"pelvis\"\nchild = \"spine\"",
+            "parent = \"chest\"\nchild = \"spine\"",
+            1,
+        );
+        assert_ne!(looped, text);
+        let (_, message) = refused(&looped);
+        assert!(message.contains("close a loop"), "{message}");
+    }
 
     #[test]
     fn lines_count_from_one_and_include_the_byte() {

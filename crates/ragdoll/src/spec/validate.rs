@@ -362,6 +362,60 @@ fn joint_problem(
         .or_else(|| kind_problem(&j.kind))
 }
 
+/// The joints must make a tree (a forest, when some bodies hang from none): a body that
+/// is the child of two joints, or joints that close a loop, leave the world no way to
+/// place the bodies from their parents, and the solver fights itself. `bodies` names every
+/// body, and every joint's bodies exist (checked before).
+fn tree_problem(spec: &RagdollSpec, bodies: &HashMap<&str, usize>) -> Option<Problem> {
+    let index = |name: &str| bodies.get(name).copied().unwrap_or(0);
+    let mut parent_joint: Vec<Option<usize>> = vec![None; spec.bodies.len()];
+    for (i, j) in spec.joints.iter().enumerate() {
+        let child = index(&j.child);
+        if let Some(other) = parent_joint[child] {
+            return Some(Problem {
+                place: Place::Joint(i, "child"),
+                message: format!(
+                    "body \"{}\" already hangs from joint \"{}\": a body has one parent joint",
+                    name_of(&j.child),
+                    name_of(&spec.joints[other].name)
+                ),
+            });
+        }
+        parent_joint[child] = Some(i);
+    }
+    // Each body has at most one parent now: walking up from every body ends at a root
+    // unless it comes round to a body it has passed (state 1: on the current walk).
+    let mut state = vec![0u8; spec.bodies.len()];
+    for start in 0..spec.bodies.len() {
+        let mut at = start;
+        let mut walked = Vec::new();
+        while state[at] == 0 {
+            state[at] = 1;
+            walked.push(at);
+            match parent_joint[at] {
+                Some(j) => at = index(&spec.joints[j].parent),
+                None => break,
+            }
+        }
+        if state[at] == 1
+            && let Some(j) = parent_joint[at]
+            && walked.contains(&at)
+        {
+            return Some(Problem {
+                place: Place::Joint(j, "parent"),
+                message: format!(
+                    "the joints close a loop through body \"{}\": a ragdoll's joints form a tree",
+                    name_of(&spec.bodies[at].name)
+                ),
+            });
+        }
+        for b in walked {
+            state[b] = 2;
+        }
+    }
+    None
+}
+
 /// Counts and the version, before anything is looked at body by body.
 fn size_problem(spec: &RagdollSpec) -> Option<Problem> {
     let top = |key: &'static str, message: String| {
@@ -435,6 +489,9 @@ impl RagdollSpec {
                     message,
                 });
             }
+        }
+        if let Some(p) = tree_problem(self, &names) {
+            return Some(p);
         }
         for (i, pair) in self.collision.disabled_pairs.iter().enumerate() {
             if let Some(name) = pair.iter().find(|n| !names.contains_key(n.as_str())) {
