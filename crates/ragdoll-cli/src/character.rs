@@ -38,7 +38,7 @@ pub(crate) fn load(file: &Path, a: &ImportArgs) -> Result<Character> {
         import::load(file, &import_options(a)).map_err(import_error)?
     };
     for w in &character.warnings {
-        eprintln!("warning: {w}");
+        eprintln!("warning: {}", crate::printable::shown(w));
     }
     Ok(character)
 }
@@ -58,7 +58,11 @@ pub(crate) fn roles(
     };
     let roles = spec::roles_for(character, file.as_ref())?;
     if let Some(w) = &roles.warning {
-        eprintln!("warning: {label}: {w}");
+        eprintln!(
+            "warning: {}: {}",
+            crate::printable::shown(label),
+            crate::printable::shown(w)
+        );
     }
     Ok((roles, file))
 }

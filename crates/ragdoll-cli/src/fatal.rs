@@ -127,7 +127,8 @@ pub fn one_line(err: &anyhow::Error) -> String {
         }
         text.push_str(part);
     }
-    text.split_whitespace().collect::<Vec<_>>().join(" ")
+    let text = text.split_whitespace().collect::<Vec<_>>().join(" ");
+    crate::printable::shown(&text).into_owned()
 }
 
 fn is_broken_pipe(err: &anyhow::Error) -> bool {

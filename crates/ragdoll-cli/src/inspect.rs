@@ -6,6 +6,7 @@ use ragdoll::skeleton::Character;
 use ragdoll::spec::{self, RagdollSpec, Roles};
 
 use crate::character::{load, ragdoll, ragdoll_spec};
+use crate::printable::shown;
 use crate::{BuildArgs, ImportArgs, InspectArgs, clip_list, output};
 
 pub fn build(a: &BuildArgs) -> Result<()> {
@@ -114,12 +115,14 @@ fn as_text(
     writeln!(
         out,
         "{} ({kind}), {} joints, {} meshes, {} clips",
-        character.name,
+        shown(&character.name),
         s.len(),
         character.meshes.len(),
         clips.count()
     )?;
-    out.push_str(&role_summary(roles));
+    for line in role_summary(roles).lines() {
+        writeln!(out, "{}", shown(line))?;
+    }
     let mut depth = vec![0usize; s.len()];
     for i in 0..s.len() {
         if let Some(p) = s.parent(i) {
@@ -135,7 +138,7 @@ fn as_text(
             out,
             "{}{}  [{role}]{given}",
             indent(depth[i]),
-            s.joint_label(i)
+            shown(&s.joint_label(i))
         )?;
     }
     writeln!(out, "\nbodies:")?;
@@ -149,8 +152,8 @@ fn as_text(
         writeln!(
             out,
             "  {:<16} on {:<16} {}, {:.2} kg{extras}",
-            b.name,
-            b.bone,
+            shown(&b.name),
+            shown(&b.bone),
             shape_words(&b.shape),
             b.mass_kg
         )?;
@@ -158,7 +161,13 @@ fn as_text(
     writeln!(out, "\njoints:")?;
     for j in &spec.joints {
         let kind = joint_words(&j.kind);
-        writeln!(out, "  {:<16} {} -> {}: {kind}", j.name, j.parent, j.child)?;
+        writeln!(
+            out,
+            "  {:<16} {} -> {}: {kind}",
+            shown(&j.name),
+            shown(&j.parent),
+            shown(&j.child)
+        )?;
     }
     writeln!(out, "\ntotal mass: {:.2} kg", spec.total_mass_kg())?;
     clips.write(&mut out)?;

@@ -45,6 +45,7 @@ mod fatal;
 mod inspect;
 mod output;
 mod preview_cmd;
+mod printable;
 mod progress;
 mod rig_cmd;
 mod scene_cmd;

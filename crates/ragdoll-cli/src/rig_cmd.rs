@@ -147,7 +147,7 @@ pub fn run(a: &RigArgs) -> Result<()> {
     .map_err(rig_flag_error)?;
     progress.finish();
     for w in &character.warnings {
-        eprintln!("warning: {w}");
+        eprintln!("warning: {}", crate::printable::shown(w));
     }
     if !matches!(character.source, Source::Mesh(_)) {
         bail!(

@@ -205,7 +205,11 @@ pub fn print_warnings(scene: &Scene) {
     for c in &scene.characters {
         for w in &c.character.warnings {
             if seen.insert((c.input.as_str(), w.as_str())) {
-                eprintln!("warning: {}: {w}", c.input);
+                eprintln!(
+                    "warning: {}: {}",
+                    crate::printable::shown(&c.input),
+                    crate::printable::shown(w)
+                );
             }
         }
     }
