@@ -312,3 +312,59 @@ fn a_hinge_fits_the_axis_its_clip_bends_about() {
         assert!(x2.angle_between(Vec3::X).to_degrees() < 0.05);
     }
 }
+
+/// Any strength within 0..1 is a motor a world runs with: one so weak it is nothing (1e-30
+/// overflowed rapier's drive and tore joints 10 mm apart) runs as 0 does, and a weak one
+/// still holds the joints together.
+#[test]
+fn a_vanishing_motor_strength_runs_as_no_motor() {
+    let mut character = ragdoll::skeleton::humanoid();
+    let rest: Vec<Transform> = character.skeleton.joints().iter().map(|j| j.rest).collect();
+    character.clips.push(ragdoll::skeleton::Clip {
+        name: "still".into(),
+        frame_time: 1.0 / 30.0,
+        frames: vec![rest; 91],
+    });
+    let spec = build_spec(&character, &BuildOptions::default()).unwrap();
+    let run = |strength: f32| {
+        let (mut world, id) =
+            World::with_ragdoll(&character, &spec, &WorldSettings::default()).unwrap();
+        world.set_motors(id, Motors::constant(strength)).unwrap();
+        world.run(3.0);
+        let metrics = world.metrics();
+        (world.into_track(), metrics)
+    };
+    let (off, off_metrics) = run(0.0);
+    for tiny in [1e-30, 1e-20, 1e-9] {
+        let (track, metrics) = run(tiny);
+        // The same motion, frame for frame (the energy metric, which counts motors at work
+        // apart, may read differently).
+        assert!(
+            track == off,
+            "strength {tiny}: the motion differs from no motor's"
+        );
+        assert_eq!(
+            (
+                metrics.max_joint_separation_m,
+                metrics.max_limit_violation_solver_deg
+            ),
+            (
+                off_metrics.max_joint_separation_m,
+                off_metrics.max_limit_violation_solver_deg
+            ),
+            "strength {tiny}"
+        );
+    }
+    for weak in [1e-5, 1e-3] {
+        let (_, m) = run(weak);
+        assert!(m.max_joint_separation_m < 0.005, "strength {weak}: {m:?}");
+        assert!(
+            m.max_limit_violation_solver_deg < 20.0,
+            "strength {weak}: {m:?}"
+        );
+    }
+    assert!(
+        off_metrics.max_joint_separation_m < 0.001,
+        "{off_metrics:?}"
+    );
+}

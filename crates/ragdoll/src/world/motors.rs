@@ -293,9 +293,22 @@ struct Aim<'a> {
     strength: f32,
 }
 
+/// Strength under which the motors are off, as at 0.
+///
+/// rapier's acceleration-based motor divides by its gains (its constraint's softness is
+/// `1 / (h (h k_p + k_d))`): a strength of 1e-30 overflowed it, and the drive meant to be
+/// slack tore the built-in humanoid's joints 10 mm apart and let them open 145° past their
+/// limits, where 0 leaves 0.06 mm. A millionth of full strength pulls with 0.57 rad/s² per
+/// radian off the clip: on a forearm (about 0.015 kg·m²) 0.01 N·m per radian, a hundredth
+/// of what gravity puts on it. Nothing a user would see.
+const MIN_MOTOR_STRENGTH: f32 = 1e-6;
+
 /// Spring and damper gains of a motor of `strength` at `frequency_hz`, critically damped
-/// as [`MOTOR_DAMPING_RATIO`] says.
+/// as [`MOTOR_DAMPING_RATIO`] says; none below [`MIN_MOTOR_STRENGTH`].
 fn gains(strength: f32, frequency_hz: f32) -> (f32, f32) {
+    if strength < MIN_MOTOR_STRENGTH {
+        return (0.0, 0.0);
+    }
     let omega = std::f32::consts::TAU * frequency_hz;
     (
         strength * omega * omega,
