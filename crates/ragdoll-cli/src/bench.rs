@@ -115,7 +115,6 @@ impl Row {
 }
 
 pub fn run(a: &BenchArgs) -> Result<()> {
-    check_size(&a.ragdolls, a.steps)?;
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let mut threads = a.threads.clone();
     if threads.is_empty() {
@@ -124,6 +123,12 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     if threads.iter().any(|&t| t == 0 || t > 1024) {
         bail!("--threads: each count must be between 1 and 1024");
     }
+    // Each size runs once per thread count, and on the rigid backend too with --compare.
+    check_size(
+        &a.ragdolls,
+        a.steps,
+        threads.len() * if a.compare { 2 } else { 1 },
+    )?;
     if !(1..=MAX_FAST_ITERATIONS).contains(&a.fast_iterations) {
         bail!(
             "--fast-iterations: must be between 1 and {MAX_FAST_ITERATIONS}, not {}",
@@ -204,8 +209,10 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     Ok(())
 }
 
-/// Refuses sizes that cannot finish in reasonable time or memory, before any work.
-fn check_size(ragdolls: &[usize], steps: usize) -> Result<()> {
+/// Refuses sizes that cannot finish in reasonable time or memory, before any work: each
+/// count at most [`MAX_RAGDOLLS`], and the whole run (every count, `runs_each` times) at
+/// most [`MAX_RAGDOLL_STEPS`]; a long list of counts is as much work as one large count.
+fn check_size(ragdolls: &[usize], steps: usize, runs_each: usize) -> Result<()> {
     if ragdolls.is_empty() || ragdolls.iter().any(|&n| n == 0 || n > MAX_RAGDOLLS) {
         bail!(
             "--ragdolls: each count must be between 1 and {MAX_RAGDOLLS} (about 90 KB of memory per ragdoll, and building a world grows faster than its size)"
@@ -214,15 +221,28 @@ fn check_size(ragdolls: &[usize], steps: usize) -> Result<()> {
     if steps == 0 {
         bail!("--steps: must be at least 1");
     }
-    let largest = ragdolls.iter().copied().max().unwrap_or(1);
-    let work = largest as u64 * steps as u64;
+    let ragdolls_in_all = ragdolls
+        .iter()
+        .fold(0u64, |sum, &n| sum.saturating_add(n as u64))
+        .saturating_mul(runs_each as u64);
+    let work = ragdolls_in_all.saturating_mul(steps as u64);
     if work > MAX_RAGDOLL_STEPS {
         let minutes = work as f64 / RIGID_STEPS_PER_SECOND / 60.0;
         bail!(
-            "--ragdolls {largest} with --steps {steps} is {work} ragdoll-steps, about {minutes:.0} minutes on one core at the {RIGID_STEPS_PER_SECOND} ragdoll-steps a second a rigid pile runs at; a run may do at most {MAX_RAGDOLL_STEPS}"
+            "--ragdolls {} run {runs_each} time(s) each (once per thread count, twice with --compare) with --steps {steps} is {work} ragdoll-steps in all, about {minutes:.0} minutes on one core at the {RIGID_STEPS_PER_SECOND} ragdoll-steps a second a rigid pile runs at; a run may do at most {MAX_RAGDOLL_STEPS}",
+            summary(ragdolls)
         );
     }
     Ok(())
+}
+
+/// A list of counts as the message quotes it: the first few, then how many more.
+fn summary(ragdolls: &[usize]) -> String {
+    let shown: Vec<String> = ragdolls.iter().take(4).map(|n| n.to_string()).collect();
+    match ragdolls.len() {
+        0..=4 => shown.join(","),
+        n => format!("{},... ({n} counts)", shown.join(",")),
+    }
 }
 
 /// One run as the JSON output lists it.

@@ -412,3 +412,52 @@ fn progress_shows_on_a_terminal_and_never_in_a_pipe() {
         "no progress bar on a terminal: {text}"
     );
 }
+
+/// `bench`'s cap is on the whole run: counts that each fit but add up past it, or one that
+/// fits run once per thread count, are refused before any work, naming the total.
+#[test]
+fn bench_refuses_a_run_whose_counts_add_up_past_its_cap() {
+    let fx = Fixture::new();
+    for args in [
+        [
+            "--ragdolls",
+            "5000,5000,5000",
+            "--steps",
+            "1000",
+            "--threads",
+            "1",
+        ],
+        ["--ragdolls", "6000", "--steps", "1000", "--threads", "1,2"],
+    ] {
+        let started = std::time::Instant::now();
+        let o = Command::new(env!("CARGO_BIN_EXE_ragdoll"))
+            .current_dir(fx.dir())
+            .arg("bench")
+            .args(args)
+            .output()
+            .unwrap();
+        assert!(!o.status.success(), "{args:?} ran");
+        let e = err(&o);
+        assert!(e.contains("12000000") || e.contains("15000000"), "{e}");
+        assert!(e.contains("ragdoll-steps in all"), "{e}");
+        assert!(
+            started.elapsed().as_secs() < 10,
+            "refused only after work: {e}"
+        );
+    }
+    // Within the cap in all, it runs.
+    let o = Command::new(env!("CARGO_BIN_EXE_ragdoll"))
+        .current_dir(fx.dir())
+        .args([
+            "bench",
+            "--ragdolls",
+            "1,2",
+            "--steps",
+            "2",
+            "--threads",
+            "1,2",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", err(&o));
+}
