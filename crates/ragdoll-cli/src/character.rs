@@ -35,7 +35,9 @@ pub(crate) fn load(file: &Path, a: &ImportArgs) -> Result<Character> {
     checks::import_flags(Some(file), a)?;
     let character = {
         let _progress = Progress::new(0, &format!("reading {}", file.display()));
-        import::load(file, &import_options(a)).map_err(import_error)?
+        import::load(file, &import_options(a))
+            .map_err(import_error)
+            .map_err(|e| naming(&file.display().to_string(), e))?
     };
     for w in &character.warnings {
         eprintln!("warning: {}", crate::printable::shown(w));
@@ -79,6 +81,17 @@ pub(crate) fn import_error(e: ragdoll::Error) -> anyhow::Error {
     }
 }
 
+/// `err` with the input it is about named in front, unless it names it already: the
+/// builder's and the skeleton's checks ("spec: body ...", "skeleton: joint ...") know no
+/// file, and a user running a batch needs to know which one failed.
+fn naming(input: &str, err: anyhow::Error) -> anyhow::Error {
+    if format!("{err:#}").contains(input) {
+        err
+    } else {
+        err.context(input.to_string())
+    }
+}
+
 /// An error about the file `path`, named once: the library's parse errors already name it,
 /// its spec checks do not.
 pub(crate) fn in_file(path: &Path, e: ragdoll::Error) -> anyhow::Error {
@@ -117,7 +130,8 @@ pub(crate) fn ragdoll(
             total_mass_kg: a.mass,
             female: a.female,
         };
-        let spec = spec::build_spec_with_roles(character, &opts, file.as_ref())?;
+        let spec = spec::build_spec_with_roles(character, &opts, file.as_ref())
+            .map_err(|e| naming(label, e.into()))?;
         return Ok((spec, roles));
     };
     let mut spec = RagdollSpec::load(path).map_err(|e| in_file(path, e))?;

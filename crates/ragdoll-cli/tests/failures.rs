@@ -461,3 +461,28 @@ fn bench_refuses_a_run_whose_counts_add_up_past_its_cap() {
         .unwrap();
     assert!(o.status.success(), "{}", err(&o));
 }
+
+/// Errors from the builder's checks name the input file: a BVH whose joints all sit at one
+/// point builds bodies too thin to simulate, and the user must learn which file it was.
+#[test]
+fn a_ragdoll_that_cannot_be_built_names_its_file() {
+    let fx = Fixture::new();
+    let flat = "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n  JOINT Chest\n  {\n    OFFSET 0 0 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n    End Site\n    {\n      OFFSET 0 0 0\n    }\n  }\n}\nMOTION\nFrames: 1\nFrame Time: 0.033333\n0 0 0 0 0 0 0 0 0\n";
+    std::fs::write(fx.dir().join("flat.bvh"), flat).unwrap();
+    for args in [
+        &["simulate", "flat.bvh", "-o", "flat.glb"][..],
+        &["inspect", "flat.bvh"][..],
+    ] {
+        let cmd = args[0];
+        let o = Command::new(env!("CARGO_BIN_EXE_ragdoll"))
+            .current_dir(fx.dir())
+            .args(args)
+            .output()
+            .unwrap();
+        assert!(!o.status.success(), "{cmd} ran");
+        let e = err(&o);
+        assert!(e.contains("flat.bvh") && e.contains("spec:"), "{cmd}: {e}");
+        assert_eq!(e.matches("flat.bvh").count(), 1, "named once: {e}");
+    }
+    assert!(!fx.dir().join("flat.glb").exists());
+}
