@@ -696,3 +696,40 @@ fn external_buffers_and_images_end_up_inside_the_glb() {
     assert!(out["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"].is_null());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Inverse bind matrices that cannot be inverted (here all zero) skinned every vertex onto
+/// one point: a 0 m, half-gram character and no word of it. They are bound in the rest
+/// pose instead, with a warning naming the skin and the accessor.
+#[test]
+#[ignore = "needs ../shared/data"]
+fn degenerate_inverse_bind_matrices_are_bound_in_the_rest_pose_with_a_warning() {
+    use base64::Engine as _;
+    let good = import_json(&simple_skin_json(), "SimpleSkin.gltf").unwrap();
+    assert!(good.warnings.is_empty(), "{:?}", good.warnings);
+    let mut doc = simple_skin_json();
+    // Buffer 2 holds SimpleSkin's two inverse bind matrices, and nothing else.
+    assert_eq!(doc["bufferViews"][3]["buffer"], 2);
+    let zeros = base64::engine::general_purpose::STANDARD.encode([0u8; 128]);
+    doc["buffers"][2]["uri"] = json!(format!("data:application/gltf-buffer;base64,{zeros}"));
+    let c = import_json(&doc, "ZeroBind.gltf").unwrap();
+    assert_eq!(c.warnings.len(), 1, "{:?}", c.warnings);
+    assert!(
+        c.warnings[0].contains("skin 0 (accessor 4): 2 of 2 inverse bind matrices"),
+        "{}",
+        c.warnings[0]
+    );
+    // The skin keeps its shape and size: SimpleSkin's own matrices also shift its mesh
+    // half a metre sideways (its bind pose is not its rest pose), so the repaired skin is
+    // the true one moved by one vector, not collapsed onto a point.
+    let (a, b) = (&good.meshes[0].positions, &c.meshes[0].positions);
+    assert_eq!(a.len(), b.len());
+    let shift = b[0] - a[0];
+    let worst = a
+        .iter()
+        .zip(b)
+        .map(|(p, q)| (*q - *p - shift).length())
+        .fold(0.0, f32::max);
+    assert!(worst < 1e-5, "{worst}");
+    assert!(shift.length() <= 0.5 + 1e-5, "{shift}");
+    assert!(ragdoll::import::character_height(&c) > 1.0);
+}

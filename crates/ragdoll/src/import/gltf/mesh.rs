@@ -113,6 +113,45 @@ pub(super) fn read_node_meshes(
     Ok(out)
 }
 
+/// Replaces each inverse bind matrix that cannot be inverted (all zero, a zero scale, not
+/// finite) by the inverse of its joint's rest pose, and says how many: such a matrix
+/// skins every vertex it weighs onto one point, and an all-zero table made a character
+/// 0 m tall and half a gram. Binding in the rest pose is what a file without the table
+/// means, so it is the repair.
+fn bind_rest_where_degenerate(
+    ibms: &mut [Mat4],
+    slots: &[usize],
+    graph: &NodeGraph,
+    skin: &gltf::Skin,
+    accessor: usize,
+) -> Option<String> {
+    let mut repaired = 0;
+    for (ibm, &node) in ibms.iter_mut().zip(slots) {
+        let det = ibm.determinant();
+        if ibm.is_finite() && det.is_finite() && det.abs() > MIN_BIND_DETERMINANT {
+            continue;
+        }
+        let rest = graph.world[node];
+        *ibm = if rest.determinant().abs() > MIN_BIND_DETERMINANT {
+            rest.inverse()
+        } else {
+            Mat4::IDENTITY
+        };
+        repaired += 1;
+    }
+    (repaired > 0).then(|| {
+        format!(
+            "skin {} (accessor {accessor}): {repaired} of {} inverse bind matrices cannot be inverted (all zero, a zero scale or not finite); those joints are bound in their rest pose instead",
+            skin.index(),
+            slots.len()
+        )
+    })
+}
+
+/// Below this determinant an inverse bind matrix is taken for degenerate: a scale of a
+/// thousandth on every axis (1e-9) still counts as one, a file in kilometres' worth.
+const MIN_BIND_DETERMINANT: f32 = 1e-12;
+
 /// Skins every triangle primitive of the skin's meshes into world space, rest pose; also
 /// returns one warning for each primitive whose skin weights were repaired.
 pub(super) fn read_meshes(
@@ -123,9 +162,10 @@ pub(super) fn read_meshes(
     reader: &Reads,
 ) -> Result<(Vec<SkinnedMesh>, Vec<String>)> {
     let slots: Vec<usize> = skin.joints().map(|n| n.index()).collect();
+    let mut warnings = Vec::new();
     let ibms = match skin.inverse_bind_matrices() {
         Some(a) => {
-            let m = reader.mat4s(&a)?;
+            let mut m = reader.mat4s(&a)?;
             if m.len() < slots.len() {
                 return Err(format_err(
                     reader.path(),
@@ -136,6 +176,9 @@ pub(super) fn read_meshes(
                         slots.len()
                     ),
                 ));
+            }
+            if let Some(w) = bind_rest_where_degenerate(&mut m, &slots, graph, skin, a.index()) {
+                warnings.push(w);
             }
             m
         }
@@ -148,7 +191,6 @@ pub(super) fn read_meshes(
         .collect();
     let mut done = HashSet::new();
     let mut out = Vec::new();
-    let mut warnings = Vec::new();
     let skin_slots = SkinSlots {
         count: slots.len(),
         root: rig.root_slot(),
