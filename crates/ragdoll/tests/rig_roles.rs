@@ -801,6 +801,15 @@ fn a_table_the_skeleton_contradicts_is_overruled() {
     let roles = recognise_roles(&c);
     assert!(roles.humanoid);
     assert!(roles.why.contains("shape"), "{}", roles.why);
+    // Set aside, but not in silence: the file claimed to know better.
+    let warning = roles.warning.as_deref().unwrap_or("");
+    assert!(
+        warning.starts_with("the file's humanoid bone table does not hold")
+            && warning.ends_with("the table is not used"),
+        "{warning:?}"
+    );
+    // A table that holds gives no such warning.
+    assert!(recognise_roles(&with_table(&VRM_TABLE)).warning.is_none());
     let plain = humanoid();
     assert_eq!(
         roles.per_joint[plain.skeleton.find("thigh_l").unwrap()],

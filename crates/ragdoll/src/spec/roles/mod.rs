@@ -192,17 +192,29 @@ fn recognise_as_is(character: &Character, helpers: &[bool], turn: Option<Quat>) 
         (!character.humanoid_bones.is_empty()).then_some(Source::Table(&character.humanoid_bones));
     let sources: Vec<Source> = table.into_iter().chain([Source::Names(&hints)]).collect();
     let mut doubts = Vec::new();
+    // Why the file's own humanoid table was not used, when it was not: said on every
+    // command, since the file claimed to know better.
+    let mut table_doubt = None;
     for &source in &sources {
         for &(rig, pose) in &rigs {
             match confirm::confirm(rig, &source.claims(rig)) {
-                Ok(h) => return humanoid_roles(rig, &h, source.checked_in(pose), turn),
-                Err(e) => doubts.push(source.doubt(pose, &e)),
+                Ok(h) => {
+                    let roles = humanoid_roles(rig, &h, source.checked_in(pose), turn);
+                    return with_table_doubt(roles, table_doubt);
+                }
+                Err(e) => {
+                    let doubt = source.doubt(pose, &e);
+                    if matches!(source, Source::Table(_)) && table_doubt.is_none() {
+                        table_doubt = Some(doubt.clone());
+                    }
+                    doubts.push(doubt);
+                }
             }
         }
     }
     for &(rig, pose) in &rigs {
         if let Some(h) = structure::find_humanoid(rig) {
-            return humanoid_roles(
+            let roles = humanoid_roles(
                 rig,
                 &h,
                 format!(
@@ -210,6 +222,7 @@ fn recognise_as_is(character: &Character, helpers: &[bool], turn: Option<Quat>) 
                 ),
                 turn,
             );
+            return with_table_doubt(roles, table_doubt);
         }
     }
     let promised = looks_humanoid(&hints);
@@ -231,6 +244,7 @@ fn recognise_as_is(character: &Character, helpers: &[bool], turn: Option<Quat>) 
     {
         return roles;
     }
+    let table_warning = table_doubt.map(table_sentence);
     let why = match doubts.first() {
         _ if named_on_fours => "Not a humanoid: a quadruped, standing on the four limbs its names call legs and arms; its bones are chain links, and the leg joints it stands bent are hinges.".to_string(),
         _ if quadruped => format!("Not a humanoid: it stands on {standing} limbs, a creature, not a person lying down; its bones are chain links, and the leg joints it stands bent are hinges."),
@@ -245,11 +259,27 @@ fn recognise_as_is(character: &Character, helpers: &[bool], turn: Option<Quat>) 
         // Names of a quadruped's legs borrow a person's (Rigify's dog: `thigh.L`,
         // `upper_arm.L`): standing on all four, it is what it looks like, not a humanoid
         // gone wrong.
-        warning: (promised && !quadruped).then(|| why.clone()),
+        warning: (promised && !quadruped)
+            .then(|| why.clone())
+            .or(table_warning),
         why,
         from_file: vec![false; rest.len()],
         upright: None,
     }
+}
+
+/// The warning for a humanoid table the skeleton contradicts (`doubt` says how).
+fn table_sentence(doubt: String) -> String {
+    format!("{doubt}; the table is not used")
+}
+
+/// `roles` with the warning that the file's humanoid table was set aside, where it was
+/// and nothing else is to be said louder.
+fn with_table_doubt(mut roles: Roles, doubt: Option<String>) -> Roles {
+    if roles.warning.is_none() {
+        roles.warning = doubt.map(table_sentence);
+    }
+    roles
 }
 
 /// What each joint's name says, with the joints flagged in `helpers` taken for helpers.
