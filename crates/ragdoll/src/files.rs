@@ -62,7 +62,7 @@ pub fn read_text_capped(path: &Path, limit: u64) -> Result<String> {
 pub enum Refusal {
     /// The name is an absolute path.
     Absolute,
-    /// The name has a `..` component.
+    /// The name climbs above its folder with `..`.
     Climbs,
     /// The name resolves, through a symbolic link, to somewhere outside the folder.
     Escapes,
@@ -106,7 +106,8 @@ impl std::fmt::Display for Refusal {
 ///
 /// A file the user opens may name any path; reading it and copying it into an output the
 /// user shares (a .glb) would leak files they never meant to include, and a name such as
-/// `/dev/zero` would exhaust memory. So absolute paths and `..` components are refused,
+/// `/dev/zero` would exhaust memory. So absolute paths and `..` that climbs above the
+/// folder are refused,
 /// the result is compared with the folder after resolving symbolic links (a link inside
 /// the folder may point anywhere), and the file must be a regular file of at most `limit`
 /// bytes.
@@ -130,11 +131,16 @@ pub fn read_inside(
     if rel.has_root() || rel.is_absolute() {
         return Err(Refusal::Absolute);
     }
-    if rel
-        .components()
-        .any(|c| !matches!(c, Component::Normal(_) | Component::CurDir))
-    {
-        return Err(Refusal::Climbs);
+    // `a/../b.bin` stays in the folder and is read; `../b.bin` and `a/../../b.bin` climb out
+    // of it and are not. (Symbolic links are caught below, on the resolved path.)
+    let mut depth = 0usize;
+    for c in rel.components() {
+        match c {
+            Component::Normal(_) => depth += 1,
+            Component::CurDir => {}
+            Component::ParentDir if depth > 0 => depth -= 1,
+            _ => return Err(Refusal::Climbs),
+        }
     }
     let folder = if folder.as_os_str().is_empty() {
         Path::new(".")
@@ -205,8 +211,12 @@ mod tests {
         let refused = |name: &str| read_inside(&dir, name, 16).unwrap_err();
         assert!(matches!(refused("../secret.bin"), Refusal::Climbs));
         assert!(matches!(refused("sub/../../secret.bin"), Refusal::Climbs));
-        // `..` is refused even when it would come back inside.
-        assert!(matches!(refused("sub/../sub/a.bin"), Refusal::Climbs));
+        // `..` that comes back inside is followed: the name does not leave the folder.
+        assert_eq!(read_inside(&dir, "sub/../sub/a.bin", 16).unwrap(), b"ok");
+        assert!(matches!(
+            refused("sub/../../model/sub/a.bin"),
+            Refusal::Climbs
+        ));
         assert!(matches!(
             refused(root.join("secret.bin").to_str().unwrap()),
             Refusal::Absolute

@@ -868,3 +868,17 @@ fn random_text_never_panics_the_text_importers() {
     }]);
     assert!(far.is_err());
 }
+
+/// A skin whose positions are finite but absurd (1e38 m) is refused at its POSITION
+/// accessor; it used to come out as a spec radius of NaN, which named the wrong thing.
+#[test]
+fn absurd_skin_positions_are_refused_at_their_accessor() {
+    let (json, mut bin) = skinned();
+    bin[12..16].copy_from_slice(&1e38f32.to_le_bytes()); // vertex 1's x
+    let e = import_glb(&json, &bin).unwrap_err().to_string();
+    assert!(
+        e.contains("accessor 0") && e.contains("past the 10000 m"),
+        "{e}"
+    );
+    assert!(!e.contains("NaN") && !e.contains("radius"), "{e}");
+}

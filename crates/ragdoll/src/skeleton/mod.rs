@@ -96,7 +96,15 @@ impl Skeleton {
                 .chain(tip)
                 .map(Vec3::length)
                 .fold(0.0f32, f32::max);
-            if !(far <= MAX_REACH_M && w.is_finite()) {
+            if !w.is_finite() || !far.is_finite() {
+                // Finite local transforms can compose to infinity (scales of 1e10 down a
+                // chain): say so, rather than quote a distance that is not the reason.
+                return Err(Error::Skeleton {
+                    joint: label(&j.name, i),
+                    message: "the rest pose composes to a transform that is not finite (scales or offsets too large down the chain)".into(),
+                });
+            }
+            if far > MAX_REACH_M {
                 return Err(Error::Skeleton {
                     joint: label(&j.name, i),
                     message: format!(
@@ -411,13 +419,17 @@ mod tests {
             matches!(&e, Error::Skeleton { joint, .. } if joint == "joint10"),
             "{e}"
         );
-        // Scales that overflow once composed.
+        // Scales that overflow once composed: the message says so, not a distance.
         let mut big: Vec<Joint> = (0..40usize).map(|i| joint(i.checked_sub(1), 0.0)).collect();
         for j in &mut big {
             j.rest.scale = Vec3::splat(1e10);
         }
         big[39].rest.translation = Vec3::Y;
-        assert!(Skeleton::new(big).is_err());
+        let e = Skeleton::new(big).unwrap_err().to_string();
+        assert!(
+            e.contains("not finite") && !e.contains(" m from the origin"),
+            "{e}"
+        );
         let mut tip = vec![joint(None, 0.0)];
         tip[0].tip = Some(Vec3::X * (2.0 * MAX_REACH_M));
         assert!(Skeleton::new(tip).is_err());

@@ -16,7 +16,7 @@ pub use weights::{MAX_INFLUENCE_SETS, WEIGHT_SUM_TOLERANCE};
 use super::data::{AccessorReader, ReadBudget, format_err};
 use super::skin::{NodeGraph, Rig};
 use crate::error::Result;
-use crate::skeleton::SkinnedMesh;
+use crate::skeleton::{MAX_REACH_M, SkinnedMesh};
 
 /// The nodes of the default scene (of the first scene when none is the default), or
 /// `None` when the file has no scene: then every node counts.
@@ -367,6 +367,22 @@ fn read_primitive(
             reader.path(),
             format!("accessor {}", pos_acc.index()),
             "skinned positions are not finite (check the inverse bind matrices)",
+        ));
+    }
+    // Finite but absurd (1e38): the shapes sized from such a skin overflowed to NaN, and the
+    // error then blamed a spec radius. The skin is refused here, where its numbers are.
+    let far = mesh
+        .positions
+        .iter()
+        .map(|p| p.length())
+        .fold(0.0f32, f32::max);
+    if far > MAX_REACH_M {
+        return Err(format_err(
+            reader.path(),
+            format!("accessor {}", pos_acc.index()),
+            format!(
+                "skinned positions reach {far} m from the origin, past the {MAX_REACH_M} m a character may"
+            ),
         ));
     }
     Ok(Some((mesh, repair)))
