@@ -308,7 +308,11 @@ fn every_humanoid_file_lying_down_has_its_roles_on_the_right_joints() {
             // axes, where the lying body faces: the standing facing turned with it. (A
             // leaning figure is stood up by its own trunk and legs, which lean a few
             // degrees off the turn given here, so its facing is not checked to an axis.)
-            if standing.warning.is_some() && how != "tilted" {
+            let names_facing = standing
+                .warning
+                .as_deref()
+                .is_some_and(|w| w.contains("faces "));
+            if names_facing && how != "tilted" {
                 let words = axis_words(q * standing.forward);
                 let warning = recognise_roles(&lying).warning.unwrap_or_default();
                 if !warning.contains(&format!("faces {words}")) {
@@ -1115,4 +1119,30 @@ fn names_that_promise_a_humanoid_the_skeleton_denies_give_a_warning() {
     let chain = renamed(&plain, |n| format!("link_{}", n.len()));
     let roles = recognise_roles(&chain);
     assert_eq!(roles.warning, None, "{}", roles.why);
+}
+
+/// A humanoid outside the heights people stand at is warned about, naming its height: it
+/// is far more likely read in the wrong units.
+#[test]
+fn a_humanoid_of_implausible_height_is_warned_about() {
+    use ragdoll::import::humanoid_of_height;
+    for (h, warned) in [
+        (1.75, false),
+        (0.45, false),
+        (2.9, false),
+        (5.6, true),
+        (0.2, true),
+    ] {
+        let c = humanoid_of_height(h).unwrap();
+        let roles = recognise_roles(&c);
+        assert!(roles.humanoid, "{h} m: {}", roles.why);
+        match (&roles.warning, warned) {
+            (None, false) => {}
+            (Some(w), true) => {
+                let shown = format!("{:.2} m tall", roles.height_m);
+                assert!(w.contains(&shown) && w.contains("--units"), "{h} m: {w}");
+            }
+            (w, _) => panic!("{h} m: warning {w:?}"),
+        }
+    }
 }

@@ -349,8 +349,8 @@ pub(crate) use build::shapes_overlap;
 pub use build::{BuildOptions, build_spec, build_spec_with_roles};
 pub use mesh::bodies_mesh;
 pub use roles::{
-    HUMANOID_ROLES, MAX_ROLE_FILE_ENTRIES, RoleFile, Roles, recognise_roles, roles_for,
-    roles_with_file,
+    HUMANOID_HEIGHT_M, HUMANOID_ROLES, MAX_ROLE_FILE_ENTRIES, RoleFile, Roles, recognise_roles,
+    roles_for, roles_with_file,
 };
 pub(crate) use skin_points::skin_points;
 pub use validate::{

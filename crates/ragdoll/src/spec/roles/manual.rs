@@ -37,7 +37,7 @@ use crate::skeleton::Character;
 /// The roles the ragdoll is built from: recognised, or from `file` where it is given.
 pub fn roles_for(character: &Character, file: Option<&RoleFile>) -> Result<Roles> {
     match file {
-        Some(f) => roles_with_file(character, f),
+        Some(f) => roles_with_file(character, f).map(super::with_size_warning),
         None => Ok(super::recognise_roles(character)),
     }
 }

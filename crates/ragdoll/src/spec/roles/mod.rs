@@ -165,7 +165,26 @@ impl Roles {
 
 /// Recognises roles; never fails: a skeleton that is not a humanoid gets chain links.
 pub fn recognise_roles(character: &Character) -> Roles {
-    recognise_with_helpers(character, &[])
+    with_size_warning(recognise_with_helpers(character, &[]))
+}
+
+/// Heights people stand at, metres. A character taken for a humanoid outside them is far
+/// more likely read in the wrong units than a giant or a doll (a knight 5.6 m tall in its
+/// file was thrown at 229 m/s by 5 kg of TNT, 17 m/s at 1.8 m), so it gets a warning.
+pub const HUMANOID_HEIGHT_M: std::ops::RangeInclusive<f32> = 0.3..=3.0;
+
+/// `roles` with a warning naming the height of a humanoid outside [`HUMANOID_HEIGHT_M`],
+/// where nothing is to be said louder.
+pub(super) fn with_size_warning(mut roles: Roles) -> Roles {
+    let h = roles.height_m;
+    if roles.humanoid && roles.warning.is_none() && h.is_finite() && !HUMANOID_HEIGHT_M.contains(&h)
+    {
+        let (lo, hi) = HUMANOID_HEIGHT_M.into_inner();
+        roles.warning = Some(format!(
+            "a humanoid {h:.2} m tall, where people stand {lo} to {hi} m: if its file is in other units, say so (--units), or give its height (--height); its ragdoll weighs the same whatever its size"
+        ));
+    }
+    roles
 }
 
 /// [`recognise_roles`], taking the joints flagged in `helpers` (by index; a shorter slice
