@@ -13,7 +13,7 @@ use pyo3::types::PyDict;
 use ragdoll::events::{Blast, Field, OPEN_END_S, Pin, Projectile, Push};
 use ragdoll::math::Transform;
 use ragdoll::scene::{
-    Event, MAX_BURST, MAX_CHARACTERS, MAX_EVENTS, Outputs, Scene, SceneCharacter, SceneResult,
+    Event, MAX_BURST, MAX_CHARACTERS, MAX_EVENTS, Scene, SceneCharacter, SceneResult,
 };
 use ragdoll::world::{Activation, BackendKind, MAX_COORDINATE_M, Motors, StartPose, WorldSettings};
 
@@ -164,18 +164,7 @@ impl World {
             }
         }
         s.validate().map_err(to_py)?;
-        let scene = Scene {
-            path: PathBuf::new(),
-            duration_s: DEFAULT_SECONDS,
-            settings: s,
-            characters: Vec::new(),
-            blasts: Vec::new(),
-            projectiles: Vec::new(),
-            pushes: Vec::new(),
-            fields: Vec::new(),
-            pins: Vec::new(),
-            outputs: Outputs::default(),
-        };
+        let scene = Scene::new(PathBuf::new(), DEFAULT_SECONDS, s);
         Ok(World {
             scene: Arc::new(scene),
             names: HashSet::new(),

@@ -36,7 +36,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, mpsc};
 
 use ragdoll::error::{Error, Result};
-use ragdoll::scene::{Outputs, Scene, SceneCharacter};
+use ragdoll::scene::{Scene, SceneCharacter};
 use ragdoll::skeleton::Character;
 use ragdoll::spec::RagdollSpec;
 use ragdoll::world::{Activation, WorldSettings};
@@ -82,30 +82,21 @@ pub fn single_character_scene(
     settings: WorldSettings,
 ) -> Scene {
     let place = format!("[[character]] \"{}\"", character.name);
-    Scene {
-        path: PathBuf::from(input),
-        duration_s: 0.0,
-        settings,
-        characters: vec![SceneCharacter {
-            name: character.name.clone(),
-            input: input.into(),
-            character,
-            spec,
-            position: glam::Vec3::ZERO,
-            facing_deg: 0.0,
-            activation: Activation::Immediately,
-            clip_offset_s: 0.0,
-            motors: None,
-            line: 0,
-            place,
-        }],
-        blasts: Vec::new(),
-        projectiles: Vec::new(),
-        pushes: Vec::new(),
-        fields: Vec::new(),
-        pins: Vec::new(),
-        outputs: Outputs::default(),
-    }
+    let mut scene = Scene::new(PathBuf::from(input), 0.0, settings);
+    scene.characters.push(SceneCharacter {
+        name: character.name.clone(),
+        input: input.into(),
+        character,
+        spec,
+        position: glam::Vec3::ZERO,
+        facing_deg: 0.0,
+        activation: Activation::Immediately,
+        clip_offset_s: 0.0,
+        motors: None,
+        line: 0,
+        place,
+    });
+    scene
 }
 
 /// The server's socket, bound and non-blocking, and the address it got.

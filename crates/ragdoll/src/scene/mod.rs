@@ -213,6 +213,24 @@ pub struct SceneResult {
 }
 
 impl Scene {
+    /// A scene with no characters and no events yet, written nowhere but its defaults: for
+    /// scenes built in code (the viewer's one character, a Python world). An empty `path`
+    /// makes its errors keep their own kind instead of naming a file and line.
+    pub fn new(path: PathBuf, duration_s: f32, settings: WorldSettings) -> Scene {
+        Scene {
+            path,
+            duration_s,
+            settings,
+            characters: Vec::new(),
+            blasts: Vec::new(),
+            projectiles: Vec::new(),
+            pushes: Vec::new(),
+            fields: Vec::new(),
+            pins: Vec::new(),
+            outputs: Outputs::default(),
+        }
+    }
+
     /// Reads and checks a scene file (a regular file of at most
     /// [`crate::files::MAX_SETTINGS_BYTES`]), loading every character it names.
     pub fn load(path: &Path) -> Result<Scene> {
