@@ -11,8 +11,10 @@
 //!   another unit and [`ImportOptions::height_m`] scales to a height; the scale goes into
 //!   the root joints so the exporter still writes the file's own units (`super::size`).
 //! - **Skeleton** = the joints of one skin. When a file has several skins, the one whose
-//!   meshes have the most vertices wins (ties: the first): that is the character, not a
-//!   prop or an accessory rigged on the side.
+//!   meshes have the most vertices wins (ties: the first), joined by every skin that shares
+//!   a joint with it or hangs below its joints: exporters often write one skin per mesh,
+//!   each listing only the bones its mesh uses. A skin joined to none (a prop or a second
+//!   character) is written back as it came but not read.
 //! - Joints keep the skin's order, except that a joint listed before its parent is moved
 //!   after it (parents must come first); keeping the file's order lets a file we wrote read
 //!   back joint for joint. A joint's parent is its nearest ancestor *node* that is also a
@@ -24,8 +26,10 @@
 //!   not the bind pose; meshes are skinned into that pose so mesh and skeleton agree even
 //!   when the inverse bind matrices were taken in another pose.
 //! - **Meshes**: one [`SkinnedMesh`](crate::skeleton::SkinnedMesh) per triangle primitive
-//!   of every mesh instanced with the chosen skin. Points, lines, strips and fans are
-//!   skipped (no ragdoll needs them).
+//!   of every mesh instanced with those skins, and of every mesh without a skin on a joint
+//!   node or below one (rigid parts parented to bones: a robot's head, a helmet), bound
+//!   with weight 1 to that joint, so it sizes the joint's body and is drawn moving with it.
+//!   Points, lines, strips and fans are skipped (no ragdoll needs them).
 //!   Morph targets are ignored. Up to four influences are kept per vertex (the strongest,
 //!   renormalised to sum 1). Bad weights are repaired with a warning, not refused (see
 //!   `mesh::read_influences`), and so are missing image files (`data::missing_images`).
@@ -70,7 +74,7 @@ use mesh::Reads;
 pub use mesh::{MAX_INFLUENCE_SETS, WEIGHT_SUM_TOLERANCE};
 pub(crate) use mesh::{SkinSlots, read_influences};
 use mesh::{read_meshes, read_unskinned, scene_nodes};
-use skin::{NodeGraph, Rig, choose_skin};
+use skin::{NodeGraph, Rig, attached_skins, choose_skin};
 
 use super::{ImportOptions, size};
 use crate::error::Result;
@@ -158,8 +162,16 @@ pub fn from_bytes_with(
             .skins()
             .nth(skin_index)
             .ok_or_else(|| format_err(path, "skins", "skin index out of range"))?;
-        let rig = Rig::new(&doc, &skin, &graph, path)?;
-        let (meshes, warnings) = read_meshes(&doc, &skin, &rig, &graph, &reader)?;
+        let attached = attached_skins(&doc, &graph, skin_index);
+        let rig = Rig::new(&doc, &skin, &attached, &graph, path)?;
+        let (mut meshes, warnings) = read_meshes(&doc, &attached, &rig, &graph, &reader)?;
+        meshes.extend(rigid::read_parts(
+            &doc,
+            &rig,
+            &graph,
+            scene_nodes(&doc).as_ref(),
+            &reader,
+        )?);
         (skin_index, rig, meshes, warnings)
     };
     let skeleton = Skeleton::new(rig.joints.clone())?;

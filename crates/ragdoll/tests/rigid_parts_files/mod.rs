@@ -8,6 +8,11 @@ use std::collections::HashMap;
 use glam::Vec3;
 use serde_json::{Value, json};
 
+mod skinned;
+
+#[allow(unused_imports)] // not every test binary uses them
+pub use skinned::{SkinStyle, skinned_robot};
+
 /// A glTF document under construction: one binary buffer, its views and accessors.
 #[derive(Default)]
 pub struct Doc {
@@ -16,6 +21,7 @@ pub struct Doc {
     accessors: Vec<Value>,
     meshes: Vec<Value>,
     nodes: Vec<Value>,
+    skins: Vec<Value>,
 }
 
 impl Doc {
@@ -110,6 +116,9 @@ impl Doc {
             "scenes": [{"nodes": roots}],
             "scene": 0,
         });
+        if !self.skins.is_empty() {
+            doc["skins"] = json!(self.skins);
+        }
         if self.bufferless() {
             for k in ["buffers", "bufferViews", "accessors", "meshes"] {
                 doc.as_object_mut().unwrap().remove(k);

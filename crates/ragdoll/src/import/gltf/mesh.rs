@@ -152,17 +152,43 @@ fn bind_rest_where_degenerate(
 /// thousandth on every axis (1e-9) still counts as one, a file in kilometres' worth.
 const MIN_BIND_DETERMINANT: f32 = 1e-12;
 
-/// Skins every triangle primitive of the skin's meshes into world space, rest pose; also
-/// returns one warning for each primitive whose skin weights were repaired.
+/// Skins every triangle primitive of the meshes of `skins` (the chosen skin and those
+/// attached to it) into world space, rest pose; also returns one warning for each
+/// primitive whose skin weights were repaired.
 pub(super) fn read_meshes(
+    doc: &gltf::Document,
+    skins: &[usize],
+    rig: &Rig,
+    graph: &NodeGraph,
+    reader: &Reads,
+) -> Result<(Vec<SkinnedMesh>, Vec<String>)> {
+    let mut out = Vec::new();
+    let mut warnings = Vec::new();
+    for skin in doc.skins().filter(|s| skins.contains(&s.index())) {
+        read_skin_meshes(doc, &skin, rig, graph, reader, &mut out, &mut warnings)?;
+    }
+    Ok((out, warnings))
+}
+
+/// One skin's part of [`read_meshes`]: its joints are skeleton joints by construction (the
+/// rig is the union of the attached skins' joints).
+fn read_skin_meshes(
     doc: &gltf::Document,
     skin: &gltf::Skin,
     rig: &Rig,
     graph: &NodeGraph,
     reader: &Reads,
-) -> Result<(Vec<SkinnedMesh>, Vec<String>)> {
+    out: &mut Vec<SkinnedMesh>,
+    warnings: &mut Vec<String>,
+) -> Result<()> {
     let slots: Vec<usize> = skin.joints().map(|n| n.index()).collect();
-    let mut warnings = Vec::new();
+    let Some(slot_to_joint) = slots
+        .iter()
+        .map(|n| rig.node_to_joint.get(n).copied())
+        .collect::<Option<Vec<usize>>>()
+    else {
+        return Ok(());
+    };
     let ibms = match skin.inverse_bind_matrices() {
         Some(a) => {
             let mut m = reader.mat4s(&a)?;
@@ -189,12 +215,15 @@ pub(super) fn read_meshes(
         .zip(&ibms)
         .map(|(&n, ibm)| graph.world[n] * *ibm)
         .collect();
-    let mut done = HashSet::new();
-    let mut out = Vec::new();
+    // The slot nearest the skeleton's root carries weightless parts.
+    let root = (0..slots.len())
+        .min_by_key(|&s| slot_to_joint[s])
+        .unwrap_or(0);
     let skin_slots = SkinSlots {
         count: slots.len(),
-        root: rig.root_slot(),
+        root,
     };
+    let mut done = HashSet::new();
     for node in doc.nodes() {
         let (Some(mesh), Some(s)) = (node.mesh(), node.skin()) else {
             continue;
@@ -217,7 +246,7 @@ pub(super) fn read_meshes(
                 mesh_name.clone()
             };
             let Some((m, repair)) =
-                read_primitive(&prim, name, &joint_mats, skin_slots, rig, reader)?
+                read_primitive(&prim, name, &joint_mats, skin_slots, &slot_to_joint, reader)?
             else {
                 continue;
             };
@@ -238,13 +267,13 @@ pub(super) fn read_meshes(
                     prim.index(),
                     sets.join(", ")
                 );
-                let root = &rig.joints[rig.slot_to_joint[skin_slots.root]].name;
+                let root = &rig.joints[slot_to_joint[skin_slots.root]].name;
                 warnings.push(repair.sentence(&place, m.positions.len(), slots.len(), root));
             }
             out.push(m);
         }
     }
-    Ok((out, warnings))
+    Ok(())
 }
 
 /// The accessor reader with this import's [`ReadBudget`]: every read is charged before it
@@ -300,7 +329,7 @@ fn read_primitive(
     name: String,
     joint_mats: &[Mat4],
     skin: SkinSlots,
-    rig: &Rig,
+    slot_to_joint: &[usize],
     reader: &Reads,
 ) -> Result<Option<(SkinnedMesh, weights::WeightRepair)>> {
     let Some(pos_acc) = prim.get(&Semantic::Positions) else {
@@ -356,7 +385,7 @@ fn read_primitive(
         let mut joints = [0u16; 4];
         let mut weights = [0f32; 4];
         for (c, &(s, w)) in top.iter().enumerate() {
-            joints[c] = rig.slot_to_joint[s] as u16;
+            joints[c] = slot_to_joint[s] as u16;
             weights[c] = w / sum;
         }
         mesh.joints.push(joints);

@@ -102,7 +102,9 @@ fn is_part(node: &gltf::Node, in_scene: Option<&HashSet<usize>>) -> bool {
 }
 
 /// Each part's triangle primitives in world space, every vertex bound rigidly to the joint
-/// of its node.
+/// of its node, or to the nearest joint above it: in a skinned file, meshes parented to
+/// bones (a robot's head and torso under its head and spine bones, a helmet, a sword)
+/// move with that bone, and size its body. Nodes with a skin are the skin's to read.
 pub(super) fn read_parts(
     doc: &gltf::Document,
     rig: &Rig,
@@ -110,9 +112,21 @@ pub(super) fn read_parts(
     in_scene: Option<&HashSet<usize>>,
     reader: &Reads,
 ) -> Result<Vec<SkinnedMesh>> {
+    // The joint of each node, or of its nearest joint ancestor, top down.
+    let mut joint_of: Vec<Option<usize>> = vec![None; graph.parent.len()];
+    for &x in &graph.order {
+        joint_of[x] = rig
+            .node_to_joint
+            .get(&x)
+            .copied()
+            .or_else(|| graph.parent[x].and_then(|p| joint_of[p]));
+    }
     let mut out = Vec::new();
-    for node in doc.nodes().filter(|node| is_part(node, in_scene)) {
-        let Some(&j) = rig.node_to_joint.get(&node.index()) else {
+    for node in doc
+        .nodes()
+        .filter(|node| node.skin().is_none() && is_part(node, in_scene))
+    {
+        let Some(j) = joint_of[node.index()] else {
             continue;
         };
         let joint = u16::try_from(j).map_err(|_| {

@@ -141,6 +141,63 @@ pub(super) fn choose_skin(doc: &gltf::Document, path: &Path) -> Result<usize> {
     Ok(verts.iter().position(|&v| v == best).unwrap_or(0))
 }
 
+/// The skins that make one character with the chosen skin `chosen`, chosen first, then the
+/// others in file order. Many exporters write one skin per mesh, each listing only the
+/// bones that mesh uses (the head's skin may be the only one with the head bone), so the
+/// character is every skin joined to the chosen one: two skins are joined when they share
+/// a joint node, or when a joint of one hangs below a joint of the other. A skin joined to
+/// nothing (a prop, a second character) is left out: it is written back as it came.
+///
+/// Linear in the nodes and joints: one pass over the tree, and a union-find over skins.
+pub(super) fn attached_skins(doc: &gltf::Document, graph: &NodeGraph, chosen: usize) -> Vec<usize> {
+    let n = graph.parent.len();
+    let skins = doc.skins().len();
+    let mut group: Vec<usize> = (0..skins).collect();
+    fn find(group: &mut [usize], mut s: usize) -> usize {
+        while group[s] != s {
+            group[s] = group[group[s]];
+            s = group[s];
+        }
+        s
+    }
+    // A skin that has each node as a joint (the first found; the others sharing it are
+    // joined to it on the way).
+    let mut owner: Vec<Option<usize>> = vec![None; n];
+    for skin in doc.skins() {
+        for joint in skin.joints() {
+            let slot = &mut owner[joint.index()];
+            match *slot {
+                Some(o) => {
+                    let (a, b) = (find(&mut group, o), find(&mut group, skin.index()));
+                    group[a] = b;
+                }
+                None => *slot = Some(skin.index()),
+            }
+        }
+    }
+    // The nearest strict ancestor of each node that is some skin's joint, top down.
+    let mut above: Vec<Option<usize>> = vec![None; n];
+    for &x in &graph.order {
+        if let Some(p) = graph.parent[x] {
+            above[x] = if owner[p].is_some() {
+                Some(p)
+            } else {
+                above[p]
+            };
+        }
+        if let (Some(o), Some(a)) = (owner[x], above[x])
+            && let Some(oa) = owner[a]
+        {
+            let (a, b) = (find(&mut group, oa), find(&mut group, o));
+            group[a] = b;
+        }
+    }
+    let home = find(&mut group, chosen);
+    let mut out = vec![chosen];
+    out.extend((0..skins).filter(|&s| s != chosen && find(&mut group, s) == home));
+    out
+}
+
 /// The skeleton built from a skin, with the bookkeeping that maps it back to nodes.
 pub(super) struct Rig {
     pub(super) joints: Vec<Joint>,
@@ -148,8 +205,6 @@ pub(super) struct Rig {
     pub(super) nodes: Vec<usize>,
     /// Static transforms from the parent joint (or world) to each joint node's parent.
     pub(super) offsets: Vec<Transform>,
-    /// Skeleton index of each skin joint slot.
-    pub(super) slot_to_joint: Vec<usize>,
     /// Skeleton index of each joint node.
     pub(super) node_to_joint: HashMap<usize, usize>,
     /// Each joint node's own TRS.
@@ -157,14 +212,18 @@ pub(super) struct Rig {
 }
 
 impl Rig {
+    /// The skeleton of the chosen `skin` and of the skins `attached` to it (see
+    /// [`attached_skins`]): the chosen skin's joints first, in its order, then each other
+    /// skin's joints not yet listed, so a file with one skin reads exactly as it did.
     pub(super) fn new(
         doc: &gltf::Document,
         skin: &gltf::Skin,
+        attached: &[usize],
         graph: &NodeGraph,
         path: &Path,
     ) -> Result<Self> {
         let place = format!("skin {}", skin.index());
-        let slots: Vec<usize> = skin.joints().map(|n| n.index()).collect();
+        let mut slots: Vec<usize> = skin.joints().map(|n| n.index()).collect();
         if slots.is_empty() {
             return Err(format_err(path, place, "has no joints"));
         }
@@ -177,6 +236,14 @@ impl Rig {
                     format!("lists node {n} twice among its joints"),
                 ));
             }
+        }
+        for other in doc.skins().filter(|s| attached.contains(&s.index())) {
+            slots.extend(
+                other
+                    .joints()
+                    .map(|n| n.index())
+                    .filter(|&n| seen.insert(n)),
+            );
         }
         Ok(Self::from_nodes(doc, slots, graph))
     }
@@ -240,16 +307,9 @@ impl Rig {
             joints,
             nodes,
             offsets,
-            slot_to_joint,
             node_to_joint,
             node_rest,
         }
-    }
-
-    /// The skin slot of the skeleton's first root joint (joints are ordered parents
-    /// first, so joint 0 is a root).
-    pub(super) fn root_slot(&self) -> usize {
-        self.slot_to_joint.iter().position(|&j| j == 0).unwrap_or(0)
     }
 
     /// A joint's skeleton-space local transform from its node's own (animated) TRS.
