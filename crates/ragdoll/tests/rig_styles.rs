@@ -1070,11 +1070,53 @@ fn bandai_namco() -> (Character, Expect) {
     (r.character("bandai_namco"), want)
 }
 
+/// A mech whose own part names end in a letter before Blender's side suffix: `PalmR.L` is
+/// the left palm (its R is part of the name), `ThighB.R` the right thigh.
+fn mech() -> (Character, Expect) {
+    let s = ["L", "R"];
+    let mut r = Rig::new("Pelvis", "hips", 0.0);
+    r.add("Torso", "Pelvis", "spine1")
+        .add("Cockpit", "Torso", "chest")
+        .add("Head", "Cockpit", "head")
+        .chain(
+            s,
+            "Pelvis",
+            &[
+                ("ThighB.{s}", "hip"),
+                ("ShinB.{s}", "knee"),
+                ("FootB.{s}", "ankle"),
+            ],
+        )
+        .chain(
+            s,
+            "Cockpit",
+            &[
+                ("UpperArmR.{s}", "shoulder"),
+                ("ForearmR.{s}", "elbow"),
+                ("PalmR.{s}", "wrist"),
+            ],
+        );
+    let want = expect(
+        s,
+        &[(Role::Pelvis, &["Pelvis"]), (Role::Head, &["Head"])],
+        &[
+            (Role::ThighL, "ThighB.{s}"),
+            (Role::ShinL, "ShinB.{s}"),
+            (Role::FootL, "FootB.{s}"),
+            (Role::UpperArmL, "UpperArmR.{s}"),
+            (Role::ForearmL, "ForearmR.{s}"),
+            (Role::HandL, "PalmR.{s}"),
+        ],
+        &[],
+    );
+    (r.character("mech"), want)
+}
+
 /// Every style, facing +Z as glTF says and turned as files converted from other tools
 /// face (+X, -Z, 135°): its roles on the joints its rigger meant, its helpers bodiless.
 #[test]
 fn rigs_in_styles_the_data_files_do_not_have_get_their_roles() {
-    let styles: [(&str, Style); 12] = [
+    let styles: [(&str, Style); 13] = [
         ("Mixamo", mixamo),
         ("MakeHuman", makehuman),
         ("Daz Genesis 8", daz_genesis8),
@@ -1087,6 +1129,7 @@ fn rigs_in_styles_the_data_files_do_not_have_get_their_roles() {
         ("SMPL", smpl),
         ("Kinect v2", kinect),
         ("Bandai Namco", bandai_namco),
+        ("Mech", mech),
     ];
     let mut bad = Vec::new();
     for (label, make) in styles {

@@ -4,6 +4,10 @@
 
 /// +1 when a joint name says left, −1 for right, 0 otherwise.
 pub(crate) fn side_hint(name: &str) -> i32 {
+    let delimited = delimited_side(name);
+    if delimited != 0 {
+        return delimited;
+    }
     for t in tokens(name) {
         match t.as_str() {
             "l" | "left" | "lft" => return 1,
@@ -14,6 +18,38 @@ pub(crate) fn side_hint(name: &str) -> i32 {
         }
     }
     0
+}
+
+/// The side a name sets apart with separators, which wins over a side inside a word: the
+/// suffix first (Blender's `.L`, `_R`; numbered copies such as `upper_arm.L.001` keep it
+/// before their number), then the prefix (`L_`, `Left-`). A mech's `PalmR.L` is a left
+/// palm whose own name ends in R. 0 when neither end is a side word.
+fn delimited_side(name: &str) -> i32 {
+    let mut pieces: Vec<String> = name
+        .split(|c: char| !c.is_alphanumeric())
+        .filter(|p| !p.is_empty())
+        .map(str::to_lowercase)
+        .collect();
+    while pieces.len() > 1
+        && pieces
+            .last()
+            .is_some_and(|p| p.chars().all(|c| c.is_ascii_digit()))
+    {
+        pieces.pop();
+    }
+    if pieces.len() < 2 {
+        return 0;
+    }
+    [pieces.last(), pieces.first()]
+        .into_iter()
+        .flatten()
+        .map(|p| match p.as_str() {
+            "l" | "left" | "lft" => 1,
+            "r" | "right" | "rt" | "rgt" => -1,
+            _ => 0,
+        })
+        .find(|&s| s != 0)
+        .unwrap_or(0)
 }
 
 /// What a joint's name says it is, in the ragdoll's anatomy. Coarser than
@@ -169,6 +205,10 @@ pub(crate) fn name_hint(name: &str) -> NameHint {
         }
         words.extend(word.filter(|w| !w.is_empty()));
     }
+    let delimited = delimited_side(local);
+    if delimited != 0 {
+        side = delimited;
+    }
     let helper = HELPER_PARTS.iter().any(|h| joined.contains(h))
         || words.iter().any(|w| HELPER_WORDS.contains(&w.as_str()))
         || words.iter().any(|w| w.starts_with("eye"));
@@ -267,6 +307,10 @@ mod tests {
             ("MCH-thigh_parent.L", None, 1, true),
             ("Foot.R", Some(Foot), -1, false),
             ("Fist.L", Some(Hand), 1, false),
+            ("PalmR.L", Some(Hand), 1, false),
+            ("PalmR.R", Some(Hand), -1, false),
+            ("L_PalmR", Some(Hand), 1, false),
+            ("DEF-forearm.R.001", Some(Forearm), -1, false),
             ("PoleTarget.L", None, 1, true),
             ("l-thigh", Some(Thigh), 1, false),
             ("r-leg", Some(Shin), -1, false),
