@@ -8,9 +8,12 @@ use std::collections::HashMap;
 use glam::Vec3;
 use serde_json::{Value, json};
 
+mod bones;
 mod skinned;
 
 #[allow(unused_imports)] // not every test binary uses them
+pub use bones::{Bone, Bones, bones_glb, spider};
+#[allow(unused_imports)]
 pub use skinned::{SkinStyle, skinned_robot};
 
 /// A glTF document under construction: one binary buffer, its views and accessors.

@@ -14,6 +14,7 @@
 //!   the world builds it), so the cone centre is `Ry(ty) · Rz(tz) · X` in the joint frame.
 //!   [`cone_centre`](joints::cone_centre) computes it.
 
+mod attach;
 mod collision;
 mod extras;
 mod joints;
@@ -133,6 +134,8 @@ struct Builder<'a> {
     groups: Vec<Vec<Vec3>>,
     /// Whether most of each body's skin moves with it alone ([`RIGID_SKIN_WEIGHT`]).
     rigid_skin: Vec<bool>,
+    /// For each skeleton joint, the joint whose body a detached bone's body joins.
+    attach: Vec<Option<usize>>,
 }
 
 impl<'a> Builder<'a> {
@@ -152,7 +155,8 @@ impl<'a> Builder<'a> {
             joints.remove(k);
             joints.insert(0, p);
         }
-        let joints = parent_first(roles, joints);
+        let attach = attach::detached_parents(rig, roles, &joints);
+        let joints = parent_first(roles, &attach, joints);
         let mut body_of = vec![None; n];
         for (b, &j) in joints.iter().enumerate() {
             body_of[j] = Some(b);
@@ -177,6 +181,7 @@ impl<'a> Builder<'a> {
             rigid_skin: vec![false; joints.len()],
             joints,
             owner,
+            attach,
         };
         let mut rigid = vec![0usize; b.groups.len()];
         for (p, js, ws) in &rig.verts {
@@ -202,7 +207,7 @@ impl<'a> Builder<'a> {
         let parents: Vec<usize> = (0..plans.len())
             .map(|b| match b {
                 0 => 0,
-                _ => parent_body(self.roles, plans[b].joint, |j| {
+                _ => parent_body(self.roles, &self.attach, plans[b].joint, |j| {
                     self.joints.iter().position(|&k| k == j)
                 })
                 .unwrap_or_else(|| self.rig.parent(plans[b].joint).map_or(0, |p| self.owner[p])),

@@ -1,5 +1,6 @@
 //! The order bodies hang in: by anatomy for humanoids (a detached IK foot still hangs from
-//! its shin), by the hierarchy otherwise.
+//! its shin), where a detached bone sits for anything else (`attach.rs`), by the hierarchy
+//! otherwise.
 
 use crate::spec::Role;
 use crate::spec::roles::Roles;
@@ -29,15 +30,21 @@ fn anatomical_parents(role: Role) -> &'static [Role] {
     }
 }
 
-/// The body (by `body_of`) that joint `j`'s body hangs from by anatomy, for humanoids;
-/// `None` leaves it to the hierarchy.
+/// The body (by `body_of`) that joint `j`'s body hangs from by anatomy, for humanoids, or
+/// where a detached bone sits (`attach`, from `attach.rs`) for anything else; `None`
+/// leaves it to the hierarchy.
 pub(super) fn parent_body(
     roles: &Roles,
+    attach: &[Option<usize>],
     j: usize,
     body_of: impl Fn(usize) -> Option<usize>,
 ) -> Option<usize> {
     if !roles.humanoid {
-        return None;
+        return attach
+            .get(j)
+            .copied()
+            .flatten()
+            .and_then(|k| body_of(k).filter(|_| k != j));
     }
     let role = roles.per_joint.get(j).copied().flatten()?;
     anatomical_parents(role)
@@ -48,7 +55,11 @@ pub(super) fn parent_body(
 
 /// The bodies' joints reordered so each comes after the body it hangs from (a detached
 /// IK foot comes before its shin in the file), otherwise in file order, root first.
-pub(super) fn parent_first(roles: &Roles, joints: Vec<usize>) -> Vec<usize> {
+pub(super) fn parent_first(
+    roles: &Roles,
+    attach: &[Option<usize>],
+    joints: Vec<usize>,
+) -> Vec<usize> {
     let index = |j: usize| joints.iter().position(|&k| k == j);
     let mut out: Vec<usize> = Vec::with_capacity(joints.len());
     let mut placed = vec![false; joints.len()];
@@ -56,8 +67,8 @@ pub(super) fn parent_first(roles: &Roles, joints: Vec<usize>) -> Vec<usize> {
         // Walk up to the first unplaced ancestor body, then place downward.
         let mut stack = vec![start];
         while let Some(&b) = stack.last() {
-            let up =
-                parent_body(roles, joints[b], index).filter(|&p| !placed[p] && !stack.contains(&p));
+            let up = parent_body(roles, attach, joints[b], index)
+                .filter(|&p| !placed[p] && !stack.contains(&p));
             match up {
                 Some(p) if b != 0 => stack.push(p),
                 _ => {

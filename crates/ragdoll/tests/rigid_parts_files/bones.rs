@@ -1,0 +1,144 @@
+//! Skinned creatures built from a table of bones, each drawn as a box along its bone and
+//! bound to it with weight 1: the layouts creature rigs come in, with a hub bone that
+//! carries skin, deform feet the hierarchy detaches from their legs (IK rigs parent them
+//! to the root) and pole targets without skin.
+
+use glam::{Mat4, Quat, Vec3};
+use serde_json::Value;
+
+use super::Doc;
+
+/// One bone: its joint (`head`) and where it ends (`tail`), world space, metres, facing
+/// +Z; `radius` is the half-thickness of its box of skin, 0 for a bone without skin.
+#[derive(Clone, Debug)]
+pub struct Bone {
+    pub name: String,
+    pub parent: Option<usize>,
+    pub head: Vec3,
+    pub tail: Vec3,
+    pub radius: f32,
+}
+
+/// A skeleton under construction.
+#[derive(Default)]
+pub struct Bones(pub Vec<Bone>);
+
+impl Bones {
+    /// Adds a bone; returns its index.
+    pub fn add(
+        &mut self,
+        name: &str,
+        parent: Option<usize>,
+        head: Vec3,
+        tail: Vec3,
+        radius: f32,
+    ) -> usize {
+        self.0.push(Bone {
+            name: name.to_string(),
+            parent,
+            head,
+            tail,
+            radius,
+        });
+        self.0.len() - 1
+    }
+}
+
+/// The box of skin around a bone: `radius` across, head to tail along, as the eight
+/// corners [`Doc::skinned_boxes`] takes.
+fn bone_box(b: &Bone) -> Vec<Vec3> {
+    let along = b.tail - b.head;
+    let y = along.normalize();
+    let x = y.any_orthonormal_vector();
+    let z = x.cross(y);
+    let frame = Mat4::from_cols(
+        (x * 2.0 * b.radius).extend(0.0),
+        along.extend(0.0),
+        (z * 2.0 * b.radius).extend(0.0),
+        ((b.head + b.tail) * 0.5).extend(1.0),
+    );
+    (0..8)
+        .map(|k| {
+            let s = Vec3::new(
+                if k & 1 == 0 { -0.5 } else { 0.5 },
+                if k & 2 == 0 { -0.5 } else { 0.5 },
+                if k & 4 == 0 { -0.5 } else { 0.5 },
+            );
+            frame.transform_point3(s)
+        })
+        .collect()
+}
+
+/// The creature as a GLB, turned `facing_deg` about +Y: one node per bone (translation
+/// only), one skin of every bone, one mesh of every bone's box.
+pub fn bones_glb(bones: &Bones, facing_deg: f32) -> Vec<u8> {
+    let turn = Quat::from_rotation_y(facing_deg.to_radians());
+    let turned: Vec<Bone> = bones
+        .0
+        .iter()
+        .map(|b| Bone {
+            head: turn * b.head,
+            tail: turn * b.tail,
+            ..b.clone()
+        })
+        .collect();
+    let mut d = Doc::default();
+    let mut nodes = Vec::new();
+    let mut roots = Vec::new();
+    for b in &turned {
+        let at = b.head - b.parent.map_or(Vec3::ZERO, |p| turned[p].head);
+        let n = d.node(&b.name, at, None);
+        match b.parent {
+            Some(p) => d.child(nodes[p], n),
+            None => roots.push(n),
+        }
+        nodes.push(n);
+    }
+    let worlds: Vec<Mat4> = turned
+        .iter()
+        .map(|b| Mat4::from_translation(b.head))
+        .collect();
+    let skin = d.skin(&nodes, &worlds);
+    let boxes: Vec<(u16, Vec<Vec3>)> = turned
+        .iter()
+        .enumerate()
+        .filter(|(_, b)| b.radius > 0.0)
+        .map(|(k, b)| (k as u16, bone_box(b)))
+        .collect();
+    let mesh = d.skinned_boxes("skin", &boxes);
+    roots.push(d.skinned_node("Body_mesh", mesh, skin));
+    d.glb(&roots, Value::Object(Default::default()))
+}
+
+/// A spider about 1.1 m across its legs, facing +Z: a root bone on the ground, a hub bone
+/// `Body` with skin (thorax and abdomen in one) from whose joint all eight legs start, as
+/// rigs often have them, so its bone has no length of its own; each leg a femur rising to
+/// the knee and a shin down to the ankle; each leg's foot (a deform bone with skin) and a
+/// pole target above its knee are parented to the root, as an IK rig has them.
+pub fn spider() -> Bones {
+    let mut b = Bones::default();
+    let root = b.add("Root", None, Vec3::ZERO, Vec3::new(0.0, 0.0, 0.2), 0.0);
+    let hub = Vec3::new(0.0, 0.3, 0.05);
+    let body = b.add("Body", Some(root), hub, Vec3::new(0.0, 0.32, -0.3), 0.1);
+    for (k, fan) in [0.6f32, 0.2, -0.2, -0.6].iter().enumerate() {
+        for (side, s) in [(1.0f32, "L"), (-1.0, "R")] {
+            let dir = Vec3::new(side * fan.cos(), 0.0, fan.sin() + 0.1 - 0.07 * k as f32);
+            let hip = hub;
+            let knee = hip + dir * 0.22 + Vec3::Y * 0.12;
+            let ankle = hip + dir * 0.48 + Vec3::new(0.0, 0.06 - hip.y, 0.0);
+            let toe = ankle + dir * 0.07 + Vec3::new(0.0, -0.04, 0.0);
+            let femur = b.add(&format!("Femur{k}.{s}"), Some(body), hip, knee, 0.025);
+            b.add(&format!("Shin{k}.{s}"), Some(femur), knee, ankle, 0.02);
+            b.add(&format!("Foot{k}.{s}"), Some(root), ankle, toe, 0.018);
+            let pole = knee + Vec3::Y * 0.3;
+            b.add(
+                &format!("Pole{k}.{s}"),
+                Some(root),
+                pole,
+                pole + Vec3::Y * 0.05,
+                0.0,
+            );
+        }
+    }
+    b
+}
