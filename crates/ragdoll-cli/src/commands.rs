@@ -490,7 +490,13 @@ fn print_summary(report: &Report) {
         m.max_joint_separation_m * 1000.0,
         m.energy_drift,
     );
-    warn_if_torn(&report.character, m.max_joint_separation_m, report.height_m);
+    let loaded = !report.blasts.is_empty() || !report.projectiles.is_empty();
+    warn_if_torn(
+        &report.character,
+        m.max_joint_separation_m,
+        report.height_m,
+        loaded,
+    );
 }
 
 /// Joints held within this fraction of the character's height (9 cm on a person) are taken
@@ -500,20 +506,50 @@ const TORN_FRACTION_OF_HEIGHT: f32 = 0.05;
 
 /// Says so when the run tore the ragdoll apart: loads (a kiloton next to a person) that no
 /// jointed body can hold still give a finite run, but its motion is the solver giving way,
-/// not physics; the files are written, the user is told.
-pub(crate) fn warn_if_torn(name: &str, separation_m: f32, height_m: f32) {
-    if separation_m > TORN_FRACTION_OF_HEIGHT * height_m {
-        errln!(
-            "warning: {name}: joints came {separation_m:.2} m apart ({:.0} % of its {height_m:.2} m height): the loads are beyond what the ragdoll's joints can hold, so this motion is not physical (a smaller charge or a greater distance keeps it whole)",
-            100.0 * separation_m / height_m.max(1e-6)
-        );
+/// not physics; the files are written, the user is told. `loaded`: the run had a charge or
+/// a shot, the likely cause; without one the ragdoll tore itself apart, and a charge that
+/// does not exist is not blamed.
+pub(crate) fn warn_if_torn(name: &str, separation_m: f32, height_m: f32, loaded: bool) {
+    if let Some(w) = torn_warning(name, separation_m, height_m, loaded) {
+        errln!("{w}");
     }
+}
+
+/// [`warn_if_torn`]'s sentence, when there is one to say.
+fn torn_warning(name: &str, separation_m: f32, height_m: f32, loaded: bool) -> Option<String> {
+    (separation_m > TORN_FRACTION_OF_HEIGHT * height_m).then(|| {
+        let why = if loaded {
+            "the loads are beyond what the ragdoll's joints can hold, so this motion is not physical (a smaller charge or a greater distance keeps it whole)"
+        } else {
+            "with no charge or shot, the ragdoll pulled itself apart, so this motion is not physical (its bodies may be joined where they do not meet: see `ragdoll inspect`; `--backend rigid` is the reference)"
+        };
+        format!(
+            "warning: {name}: joints came {separation_m:.2} m apart ({:.0} % of its {height_m:.2} m height): {why}",
+            100.0 * separation_m / height_m.max(1e-6)
+        )
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use ragdoll::math::Transform;
+
+    #[test]
+    fn a_torn_run_blames_a_charge_only_when_there_was_one() {
+        assert_eq!(torn_warning("spider", 0.01, 0.45, false), None);
+        let loaded = torn_warning("humanoid", 0.5, 1.7, true).unwrap();
+        assert!(loaded.contains("smaller charge"), "{loaded}");
+        let unloaded = torn_warning("spider", 0.12, 0.45, false).unwrap();
+        assert!(
+            unloaded.contains("no charge or shot") && !unloaded.contains("smaller charge"),
+            "{unloaded}"
+        );
+        assert!(
+            unloaded.contains("0.12 m apart (27 % of its 0.45 m height)"),
+            "{unloaded}"
+        );
+    }
 
     #[test]
     fn a_run_gone_non_finite_says_when_and_which_backends_may_run_it() {

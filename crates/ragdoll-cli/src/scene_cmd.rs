@@ -240,8 +240,9 @@ fn print_summary(r: &SceneReport) {
             "  joints the solver worked on (the rest were asleep): {mean:.0} of {total} on average, {last} at the end"
         );
     }
+    let loaded = !r.blasts.is_empty() || !r.projectiles.is_empty();
     for c in &r.characters {
-        crate::commands::warn_if_torn(&c.name, c.max_joint_separation_m, c.height_m);
+        crate::commands::warn_if_torn(&c.name, c.max_joint_separation_m, c.height_m, loaded);
     }
     for b in &r.blasts {
         for c in &b.characters {

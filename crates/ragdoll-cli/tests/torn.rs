@@ -15,7 +15,9 @@ fn a_kiloton_next_to_a_person_warns_that_the_joints_gave_way() {
     assert!(o.status.success(), "{}", stderr(&o));
     let err = stderr(&o);
     assert!(
-        err.contains("warning: humanoid: joints came") && err.contains("not physical"),
+        err.contains("warning: humanoid: joints came")
+            && err.contains("not physical")
+            && err.contains("smaller charge"),
         "{err}"
     );
     let report = read_json(&dir.path().join("kt.report.json"));
