@@ -142,3 +142,106 @@ pub fn spider() -> Bones {
     }
     b
 }
+
+/// A horse 1.6 m tall at the head, facing +Z: a root bone on the ground; hips, a spine of
+/// two bones, neck and head; four legs of a thigh (upper arm in front), a shin (forearm)
+/// and a cannon bone down to the fetlock, each bent as a horse stands (hind hocks back,
+/// front knees straight); each hoof (`FF.L`, `FFB.L`, … a deform bone with skin) and a
+/// pole target behind each leg are parented to the root, as an IK rig has them.
+pub fn horse() -> Bones {
+    let mut b = Bones::default();
+    let root = b.add("Root", None, Vec3::ZERO, Vec3::new(0.0, 0.0, 0.3), 0.0);
+    let hips = b.add(
+        "Hips",
+        Some(root),
+        Vec3::new(0.0, 1.2, -0.55),
+        Vec3::new(0.0, 1.22, -0.2),
+        0.2,
+    );
+    let spine = b.add(
+        "Spine",
+        Some(hips),
+        Vec3::new(0.0, 1.22, -0.2),
+        Vec3::new(0.0, 1.24, 0.25),
+        0.22,
+    );
+    let chest = b.add(
+        "Chest",
+        Some(spine),
+        Vec3::new(0.0, 1.24, 0.25),
+        Vec3::new(0.0, 1.3, 0.55),
+        0.22,
+    );
+    let neck = b.add(
+        "Neck",
+        Some(chest),
+        Vec3::new(0.0, 1.3, 0.55),
+        Vec3::new(0.0, 1.6, 0.8),
+        0.1,
+    );
+    b.add(
+        "Head",
+        Some(neck),
+        Vec3::new(0.0, 1.6, 0.8),
+        Vec3::new(0.0, 1.45, 1.1),
+        0.09,
+    );
+    // (prefix, parent, hip, knee, hock or front knee, fetlock): hind legs bend back at the
+    // hock, front legs hang straight.
+    let legs = [
+        (
+            "B",
+            hips,
+            Vec3::new(0.16, 1.1, -0.55),
+            Vec3::new(0.16, 0.75, -0.4),
+            Vec3::new(0.16, 0.5, -0.65),
+            Vec3::new(0.16, 0.12, -0.6),
+        ),
+        (
+            "F",
+            chest,
+            Vec3::new(0.17, 1.15, 0.45),
+            Vec3::new(0.17, 0.8, 0.38),
+            Vec3::new(0.17, 0.45, 0.4),
+            Vec3::new(0.17, 0.12, 0.42),
+        ),
+    ];
+    for (end, parent, hip, knee, hock, fetlock) in legs {
+        for (side, s) in [(1.0f32, "L"), (-1.0, "R")] {
+            let m = Vec3::new(side, 1.0, 1.0);
+            let upper = b.add(
+                &format!("Thigh{end}.{s}"),
+                Some(parent),
+                hip * m,
+                knee * m,
+                0.08,
+            );
+            let lower = b.add(
+                &format!("Shin{end}.{s}"),
+                Some(upper),
+                knee * m,
+                hock * m,
+                0.05,
+            );
+            b.add(
+                &format!("Cannon{end}.{s}"),
+                Some(lower),
+                hock * m,
+                fetlock * m,
+                0.035,
+            );
+            let hoof = if end == "F" { "FF" } else { "FFB" };
+            let toe = fetlock * m + Vec3::new(0.0, -0.1, 0.08);
+            b.add(&format!("{hoof}.{s}"), Some(root), fetlock * m, toe, 0.05);
+            let pole = knee * m + Vec3::new(0.0, 0.0, 0.5);
+            b.add(
+                &format!("Pole{end}.{s}"),
+                Some(root),
+                pole,
+                pole + Vec3::Z * 0.05,
+                0.0,
+            );
+        }
+    }
+    b
+}

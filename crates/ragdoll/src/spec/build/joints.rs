@@ -129,8 +129,9 @@ impl Builder<'_> {
     }
 
     /// The lowest point (Y) of the limb below joint `j`, following its lowest child at
-    /// each joint for at most [`CREATURE_MAX_LIMB_LINKS`] joints: a leg, not the whole
-    /// subtree, and a bounded walk however deep the skeleton.
+    /// each joint (a detached foot that joins it counts as one) for at most
+    /// [`CREATURE_MAX_LIMB_LINKS`] joints: a leg, not the whole subtree, and a bounded walk
+    /// however deep the skeleton.
     fn reach_down(&self, j: usize) -> f32 {
         let mut at = j;
         let mut lowest = self.rig.pos[j].y;
@@ -140,6 +141,7 @@ impl Builder<'_> {
             }
             let next = self.rig.children[at]
                 .iter()
+                .chain(&self.attached[at])
                 .copied()
                 .min_by(|&a, &b| self.rig.pos[a].y.total_cmp(&self.rig.pos[b].y));
             let Some(n) = next else { break };

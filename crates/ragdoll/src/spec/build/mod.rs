@@ -136,6 +136,9 @@ struct Builder<'a> {
     rigid_skin: Vec<bool>,
     /// For each skeleton joint, the joint whose body a detached bone's body joins.
     attach: Vec<Option<usize>>,
+    /// For each skeleton joint, the detached bones that join it (`attach` turned round):
+    /// a leg whose hoof an IK rig parents to the root still reaches the ground.
+    attached: Vec<Vec<usize>>,
 }
 
 impl<'a> Builder<'a> {
@@ -157,6 +160,12 @@ impl<'a> Builder<'a> {
         }
         let attach = attach::detached_parents(rig, roles, &joints);
         let joints = parent_first(roles, &attach, joints);
+        let mut attached = vec![Vec::new(); n];
+        for (j, a) in attach.iter().enumerate() {
+            if let Some(a) = *a {
+                attached[a].push(j);
+            }
+        }
         let mut body_of = vec![None; n];
         for (b, &j) in joints.iter().enumerate() {
             body_of[j] = Some(b);
@@ -182,6 +191,7 @@ impl<'a> Builder<'a> {
             joints,
             owner,
             attach,
+            attached,
         };
         let mut rigid = vec![0usize; b.groups.len()];
         for (p, js, ws) in &rig.verts {

@@ -498,7 +498,12 @@ impl Builder<'_> {
         let tiny = 1e-4 * rig.extent;
         let enough_skin = group.len() >= MIN_FIT_VERTICES;
         let mut end = rig.chain_bone_end(j);
-        if rig.children[j].is_empty() && rig.tips[j].is_none() && enough_skin {
+        let bare = rig.children[j].is_empty() && rig.tips[j].is_none();
+        if bare && !self.attached[j].is_empty() {
+            // A leg whose foot an IK rig detached ends where that foot starts.
+            let feet = &self.attached[j];
+            end = Some(feet.iter().map(|&k| rig.pos[k]).sum::<Vec3>() / feet.len() as f32);
+        } else if bare && enough_skin {
             // A bare leaf with skin: reach as far as the skin goes.
             let toward = centroid(group) - a;
             let dir = match rig.parent(j) {
