@@ -23,13 +23,16 @@
 //!   channels of one `ragdoll` animation.
 //!
 //! The output is meant to pass the Khronos glTF validator with no errors; the tests and
-//! `.ci/gltf_validate.mjs` check that.
+//! `.ci/gltf_validate.mjs` check that. What a loader must not read (another glTF major
+//! version, a required extension outside [`ACCEPTED_REQUIRED_EXTENSIONS`]) is refused at
+//! import (`sanitize.rs`).
 
 mod bare;
 mod bin;
 mod images;
 mod merge;
 mod normals;
+mod sanitize;
 mod shapes;
 mod weights;
 
@@ -45,6 +48,9 @@ use crate::spec::RagdollSpec;
 use crate::track::Track;
 use bin::{Bin, components, f32_bytes, merged_buffers, pad_to_4, take_array};
 use weights::renormalise_weights;
+
+pub use sanitize::ACCEPTED_REQUIRED_EXTENSIONS;
+pub(crate) use sanitize::refuse_unreadable;
 
 /// Name of the animation the exporter adds.
 pub const ANIMATION_NAME: &str = "ragdoll";

@@ -74,6 +74,7 @@ use skin::{NodeGraph, Rig, choose_skin};
 
 use super::{ImportOptions, size};
 use crate::error::Result;
+use crate::export::gltf::refuse_unreadable;
 use crate::rig::RigOptions;
 use crate::skeleton::{Character, Skeleton, Source};
 
@@ -124,8 +125,8 @@ pub fn from_bytes_with(
     let units = opts.units.map_or(1.0, |u| u.to_metres());
     let container = data::split_container(bytes, path)?;
     let json = read_json(&container, path)?;
+    refuse_unreadable(&json, path)?;
     let doc = parse_document(&json, path)?;
-    refuse_compression(&json, path)?;
     let dir = path
         .parent()
         .map(Path::to_path_buf)
@@ -206,31 +207,6 @@ fn read_json(container: &data::Container, path: &Path) -> Result<serde_json::Val
         };
         format_err(path, place, format!("not valid JSON: {e}"))
     })
-}
-
-/// Refuses geometry compressed by an extension the file requires: it would read as
-/// zeros, which is worse than a clear refusal.
-fn refuse_compression(json: &serde_json::Value, path: &Path) -> Result<()> {
-    let required = json
-        .get("extensionsRequired")
-        .and_then(serde_json::Value::as_array);
-    for ext in required
-        .into_iter()
-        .flatten()
-        .filter_map(serde_json::Value::as_str)
-    {
-        if matches!(
-            ext,
-            "KHR_draco_mesh_compression" | "EXT_meshopt_compression"
-        ) {
-            return Err(format_err(
-                path,
-                "extensionsRequired",
-                format!("uses {ext}, which this importer cannot decode; export it uncompressed"),
-            ));
-        }
-    }
-    Ok(())
 }
 
 /// A file without a skin whose meshes are one part: every triangle primitive in world
