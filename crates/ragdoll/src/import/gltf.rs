@@ -74,7 +74,7 @@ use skin::{NodeGraph, Rig, choose_skin};
 
 use super::{ImportOptions, size};
 use crate::error::Result;
-use crate::export::gltf::refuse_unreadable;
+use crate::export::gltf::{refuse_unreadable, repair_source};
 use crate::rig::RigOptions;
 use crate::skeleton::{Character, Skeleton, Source};
 
@@ -131,7 +131,8 @@ pub fn from_bytes_with(
         .parent()
         .map(Path::to_path_buf)
         .unwrap_or_else(|| PathBuf::from("."));
-    let buffers = data::resolve_buffers(&doc, container.bin, &dir, path)?;
+    let mut buffers = data::resolve_buffers(&doc, container.bin, &dir, path)?;
+    let (json, doc, repairs) = repair_source(json, doc, &mut buffers, path)?;
     let reader = Reads {
         reader: AccessorReader {
             buffers: &buffers,
@@ -164,6 +165,7 @@ pub fn from_bytes_with(
         (skin_index, rig, meshes, warnings)
     };
     let skeleton = Skeleton::new(rig.joints.clone())?;
+    warnings.extend(repairs);
     warnings.extend(data::missing_images(&json, &dir));
     let clips = read_clips(&doc, &rig, &skeleton, &reader)?;
     let (humanoid_bones, table_warnings) = match table {

@@ -1,10 +1,13 @@
 //! The asset header and the extension lists: what a file demands of its loader (a glTF
-//! version, required extensions), refused when we cannot honour it.
+//! version, required extensions), refused when we cannot honour it, and what it forgot to
+//! declare, declared.
 
+use std::collections::HashSet;
 use std::path::Path;
 
-use serde_json::Value;
+use serde_json::{Map, Value, json};
 
+use super::listed;
 use crate::error::Result;
 use crate::import::gltf::format_err;
 
@@ -43,6 +46,10 @@ pub const ACCEPTED_REQUIRED_EXTENSIONS: &[&str] = &[
     "EXT_texture_avif",
     "EXT_texture_webp",
 ];
+
+/// Extensions the validator refuses to see optional: a file that uses them cannot be read
+/// without them.
+const ALWAYS_REQUIRED: &[&str] = &["KHR_mesh_quantization"];
 
 /// A `<major>.<minor>` version string as numbers.
 fn parse_version(s: &str) -> Option<(u64, u64)> {
@@ -121,10 +128,145 @@ pub(crate) fn refuse_unreadable(json: &Value, path: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Writes `asset.version` as "2.0", the glTF we write, and drops a `minVersion` above the
+/// file's own version (the validator counts it as an error; a `minVersion` a loader must
+/// honour was refused at import).
+pub(super) fn repair_asset(obj: &mut Map<String, Value>) -> Option<String> {
+    let asset = obj
+        .entry("asset")
+        .or_insert_with(|| json!({"version": "2.0"}));
+    let Some(asset) = asset.as_object_mut() else {
+        *asset = json!({"version": "2.0"});
+        return Some("asset: was not an object; written as glTF 2.0".into());
+    };
+    let mut said = Vec::new();
+    let version = asset.get("version").cloned();
+    if version.as_ref().and_then(Value::as_str) != Some("2.0") {
+        said.push(format!(
+            "asset.version {} written as \"2.0\", the glTF this file is written in",
+            version.as_ref().map_or("(none)".into(), Value::to_string)
+        ));
+        asset.insert("version".into(), json!("2.0"));
+    }
+    if let Some(min) = asset.get("minVersion") {
+        let ok = min
+            .as_str()
+            .and_then(parse_version)
+            .is_some_and(|m| m <= (2, 0));
+        if !ok {
+            let v = version.map_or("(none)".into(), |v| v.to_string());
+            said.push(format!(
+                "asset.minVersion {min} is above the file's own version {v}; removed"
+            ));
+            asset.remove("minVersion");
+        }
+    }
+    (!said.is_empty()).then(|| said.join("; "))
+}
+
+/// The names of every extension object in the document (not inside `extras`, which hold
+/// application data, not glTF). A stack, not recursion.
+fn extensions_present(obj: &Map<String, Value>) -> Vec<String> {
+    let mut found = Vec::new();
+    let mut stack: Vec<&Map<String, Value>> = vec![obj];
+    while let Some(o) = stack.pop() {
+        for (k, v) in o {
+            if k == "extras" {
+                continue;
+            }
+            if k == "extensions"
+                && let Some(exts) = v.as_object()
+            {
+                found.extend(exts.keys().cloned());
+            }
+            let mut values = vec![v];
+            while let Some(v) = values.pop() {
+                match v {
+                    Value::Object(m) => stack.push(m),
+                    Value::Array(a) => values.extend(a),
+                    _ => {}
+                }
+            }
+        }
+    }
+    found
+}
+
+/// Names in `list` once each, in order; whether any repeated.
+fn unique(list: Vec<Value>) -> (Vec<Value>, bool) {
+    let mut seen = HashSet::new();
+    let before = list.len();
+    let kept: Vec<Value> = list
+        .into_iter()
+        .filter(|v| seen.insert(v.to_string()))
+        .collect();
+    let repeated = kept.len() != before;
+    (kept, repeated)
+}
+
+fn names(obj: &mut Map<String, Value>, key: &str) -> Vec<Value> {
+    match obj.remove(key) {
+        Some(Value::Array(a)) => a,
+        _ => Vec::new(),
+    }
+}
+
+/// Declares in `extensionsUsed` every extension the file uses or requires without
+/// declaring it, lists each extension once, and requires those that cannot be optional:
+/// the validator counts each of these as an error, and a loader may skip an extension
+/// object the file never declared.
+pub(super) fn declare_extensions(obj: &mut Map<String, Value>) -> Option<String> {
+    let (mut used, used_repeated) = unique(names(obj, "extensionsUsed"));
+    let (mut required, required_repeated) = unique(names(obj, "extensionsRequired"));
+    let mut added = Vec::new();
+    let present = extensions_present(obj);
+    for name in required
+        .iter()
+        .filter_map(Value::as_str)
+        .chain(present.iter().map(String::as_str))
+    {
+        let v = json!(name);
+        if !used.contains(&v) {
+            used.push(v);
+            added.push(name.to_string());
+        }
+    }
+    let mut now_required = Vec::new();
+    for name in ALWAYS_REQUIRED {
+        let v = json!(name);
+        if used.contains(&v) && !required.contains(&v) {
+            required.push(v);
+            now_required.push(name.to_string());
+        }
+    }
+    if !used.is_empty() {
+        obj.insert("extensionsUsed".into(), Value::Array(used));
+    }
+    if !required.is_empty() {
+        obj.insert("extensionsRequired".into(), Value::Array(required));
+    }
+    let mut said = Vec::new();
+    if !added.is_empty() {
+        said.push(format!(
+            "declared {}, which the file uses without declaring",
+            listed(&added)
+        ));
+    }
+    if !now_required.is_empty() {
+        said.push(format!(
+            "required {}, which a file cannot use optionally",
+            listed(&now_required)
+        ));
+    }
+    if used_repeated || required_repeated {
+        said.push("listed each extension once".into());
+    }
+    (!said.is_empty()).then(|| format!("extensionsUsed: {}", said.join("; ")))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use serde_json::json;
 
     fn refusal(json: Value) -> String {
         refuse_unreadable(&json, Path::new("f.glb"))
@@ -149,5 +291,48 @@ mod tests {
         assert!(refusal(json!({"asset": {"version": "two"}})).contains("not a glTF version"));
         let text = refusal(json!({"asset": {"version": "2.1", "minVersion": "2.1"}}));
         assert!(text.contains("asset.minVersion"), "{text}");
+    }
+
+    #[test]
+    fn the_asset_is_written_as_gltf_2_0_with_one_warning() {
+        let mut doc = json!({"asset": {"version": "2.1", "minVersion": "2.5", "copyright": "me"}});
+        let w = repair_asset(doc.as_object_mut().unwrap()).unwrap();
+        assert!(
+            w.contains("asset.version \"2.1\"") && w.contains("asset.minVersion \"2.5\""),
+            "{w}"
+        );
+        assert_eq!(doc["asset"], json!({"version": "2.0", "copyright": "me"}));
+        assert_eq!(repair_asset(doc.as_object_mut().unwrap()), None);
+        let mut doc = json!({"asset": {"version": "2.0", "minVersion": "2.0"}});
+        assert_eq!(repair_asset(doc.as_object_mut().unwrap()), None);
+    }
+
+    #[test]
+    fn undeclared_and_repeated_extensions_are_declared_once() {
+        let mut doc = json!({
+            "extensionsUsed": ["KHR_texture_transform", "KHR_texture_transform"],
+            "extensionsRequired": ["KHR_mesh_quantization"],
+            "materials": [{"extensions": {"KHR_materials_unlit": {}}, "extras": {"extensions": {"NOT_ONE": {}}}}]
+        });
+        let w = declare_extensions(doc.as_object_mut().unwrap()).unwrap();
+        assert_eq!(
+            doc["extensionsUsed"],
+            json!([
+                "KHR_texture_transform",
+                "KHR_mesh_quantization",
+                "KHR_materials_unlit"
+            ])
+        );
+        assert!(
+            w.contains("KHR_materials_unlit") && w.contains("once"),
+            "{w}"
+        );
+        assert!(!w.contains("NOT_ONE"), "{w}");
+        assert_eq!(declare_extensions(doc.as_object_mut().unwrap()), None);
+        // Used optionally, quantization is made required.
+        let mut doc = json!({"extensionsUsed": ["KHR_mesh_quantization"]});
+        let w = declare_extensions(doc.as_object_mut().unwrap()).unwrap();
+        assert_eq!(doc["extensionsRequired"], json!(["KHR_mesh_quantization"]));
+        assert!(w.contains("required KHR_mesh_quantization"), "{w}");
     }
 }
