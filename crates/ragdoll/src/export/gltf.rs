@@ -22,14 +22,20 @@
 //!   as above, merged into one file with every index renumbered, and their tracks as the
 //!   channels of one `ragdoll` animation.
 //!
-//! The output is meant to pass the Khronos glTF validator with no errors; the tests and
-//! `.ci/gltf_validate.mjs` check that.
+//! The output is meant to pass the Khronos glTF validator with no errors, whatever errors
+//! the input had; the tests and `.ci/gltf_validate.mjs` check that. Input defects that
+//! would be carried into the output (a skin `skeleton` that is no common root, dangling
+//! material references, undeclared extensions, non-unit rotations, keyframe times that do
+//! not rise…) are mended at import with a warning each, and what a loader must not read
+//! (another glTF major version, a required extension outside
+//! [`ACCEPTED_REQUIRED_EXTENSIONS`]) is refused there (`sanitize.rs`).
 
 mod bare;
 mod bin;
 mod images;
 mod merge;
 mod normals;
+mod sanitize;
 mod shapes;
 mod weights;
 
@@ -45,6 +51,9 @@ use crate::spec::RagdollSpec;
 use crate::track::Track;
 use bin::{Bin, components, f32_bytes, merged_buffers, pad_to_4, take_array};
 use weights::renormalise_weights;
+
+pub use sanitize::ACCEPTED_REQUIRED_EXTENSIONS;
+pub(crate) use sanitize::{refuse_unreadable, repair_source};
 
 /// Name of the animation the exporter adds.
 pub const ANIMATION_NAME: &str = "ragdoll";
@@ -319,6 +328,8 @@ fn from_source(
         ));
     }
     let mut root = src.json.clone();
+    // The importer mended the source and warned; this keeps any source valid on the way out.
+    sanitize::repair_json(&mut root);
     let Some(obj) = root.as_object_mut() else {
         return Err(format_err(
             path,

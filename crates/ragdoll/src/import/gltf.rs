@@ -78,6 +78,7 @@ use skin::{NodeGraph, Rig, attached_skins, choose_skin};
 
 use super::{ImportOptions, size};
 use crate::error::Result;
+use crate::export::gltf::{refuse_unreadable, repair_source};
 use crate::rig::RigOptions;
 use crate::skeleton::{Character, Skeleton, Source};
 
@@ -128,13 +129,14 @@ pub fn from_bytes_with(
     let units = opts.units.map_or(1.0, |u| u.to_metres());
     let container = data::split_container(bytes, path)?;
     let json = read_json(&container, path)?;
+    refuse_unreadable(&json, path)?;
     let doc = parse_document(&json, path)?;
-    refuse_compression(&json, path)?;
     let dir = path
         .parent()
         .map(Path::to_path_buf)
         .unwrap_or_else(|| PathBuf::from("."));
-    let buffers = data::resolve_buffers(&doc, container.bin, &dir, path)?;
+    let mut buffers = data::resolve_buffers(&doc, container.bin, &dir, path)?;
+    let (json, doc, repairs) = repair_source(json, doc, &mut buffers, path)?;
     let reader = Reads {
         reader: AccessorReader {
             buffers: &buffers,
@@ -175,6 +177,7 @@ pub fn from_bytes_with(
         (skin_index, rig, meshes, warnings)
     };
     let skeleton = Skeleton::new(rig.joints.clone())?;
+    warnings.extend(repairs);
     warnings.extend(data::missing_images(&json, &dir));
     let clips = read_clips(&doc, &rig, &skeleton, &reader)?;
     let (humanoid_bones, table_warnings) = match table {
@@ -218,31 +221,6 @@ fn read_json(container: &data::Container, path: &Path) -> Result<serde_json::Val
         };
         format_err(path, place, format!("not valid JSON: {e}"))
     })
-}
-
-/// Refuses geometry compressed by an extension the file requires: it would read as
-/// zeros, which is worse than a clear refusal.
-fn refuse_compression(json: &serde_json::Value, path: &Path) -> Result<()> {
-    let required = json
-        .get("extensionsRequired")
-        .and_then(serde_json::Value::as_array);
-    for ext in required
-        .into_iter()
-        .flatten()
-        .filter_map(serde_json::Value::as_str)
-    {
-        if matches!(
-            ext,
-            "KHR_draco_mesh_compression" | "EXT_meshopt_compression"
-        ) {
-            return Err(format_err(
-                path,
-                "extensionsRequired",
-                format!("uses {ext}, which this importer cannot decode; export it uncompressed"),
-            ));
-        }
-    }
-    Ok(())
 }
 
 /// A file without a skin whose meshes are one part: every triangle primitive in world

@@ -130,10 +130,11 @@ pub struct GltfSource {
     pub path: PathBuf,
     /// Its folder, where external images and buffers are found.
     pub dir: PathBuf,
-    /// The whole glTF JSON document as read, extensions and extras included.
+    /// The whole glTF JSON document as read, extensions and extras included, with the
+    /// importer's repairs of what would make the written file invalid (each warned about).
     pub json: serde_json::Value,
     /// Every buffer's bytes, resolved (GLB chunk, `data:` URI or file) and cut to the
-    /// declared `byteLength`.
+    /// declared `byteLength`; rotation keys that were not unit quaternions are normalised.
     pub buffers: Vec<Vec<u8>>,
     /// Index of the skin the skeleton was built from; 0, and unused, for a file without a
     /// skin whose skeleton is its node hierarchy (rigid parts, a bare VRM hierarchy).

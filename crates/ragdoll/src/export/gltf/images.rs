@@ -145,7 +145,7 @@ fn remap(v: &mut Value, key: &str, map: &[Option<usize>]) -> bool {
 /// Leaves out the images in `gone`, the textures that show one of them (as their core
 /// source or an extension's: WebP, KTX2, DDS), and the texture infos that name those
 /// textures, renumbering what remains.
-fn drop_images(obj: &mut Map<String, Value>, gone: &HashSet<usize>) {
+pub(super) fn drop_images(obj: &mut Map<String, Value>, gone: &HashSet<usize>) {
     let image_map = remove_entries(obj, "images", gone);
     if let Some(meta) = obj
         .get_mut("extensions")
