@@ -28,14 +28,14 @@
 //! material references, undeclared extensions, non-unit rotations, keyframe times that do
 //! not rise…) are mended at import with a warning each, and what a loader must not read
 //! (another glTF major version, a required extension outside
-//! [`ACCEPTED_REQUIRED_EXTENSIONS`]) is refused there (`sanitize.rs`).
+//! [`ACCEPTED_REQUIRED_EXTENSIONS`](crate::import::gltf::ACCEPTED_REQUIRED_EXTENSIONS)) is
+//! refused there (`import/gltf/repair.rs`).
 
 mod bare;
 mod bin;
 mod images;
 mod merge;
 mod normals;
-mod sanitize;
 mod shapes;
 mod weights;
 
@@ -51,9 +51,6 @@ use crate::spec::RagdollSpec;
 use crate::track::Track;
 use bin::{Bin, components, f32_bytes, merged_buffers, pad_to_4, take_array};
 use weights::renormalise_weights;
-
-pub use sanitize::ACCEPTED_REQUIRED_EXTENSIONS;
-pub(crate) use sanitize::{refuse_unreadable, repair_source};
 
 /// Name of the animation the exporter adds.
 pub const ANIMATION_NAME: &str = "ragdoll";
@@ -329,7 +326,7 @@ fn from_source(
     }
     let mut root = src.json.clone();
     // The importer mended the source and warned; this keeps any source valid on the way out.
-    sanitize::repair_json(&mut root);
+    crate::import::gltf::repair_json(&mut root);
     let Some(obj) = root.as_object_mut() else {
         return Err(format_err(
             path,

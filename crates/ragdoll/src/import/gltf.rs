@@ -58,6 +58,7 @@
 mod clips;
 mod data;
 mod mesh;
+mod repair;
 mod rigid;
 mod skin;
 mod vrm;
@@ -76,9 +77,12 @@ pub(crate) use mesh::{SkinSlots, read_influences};
 use mesh::{read_meshes, read_unskinned, scene_nodes};
 use skin::{NodeGraph, Rig, attached_skins, choose_skin};
 
+pub use repair::ACCEPTED_REQUIRED_EXTENSIONS;
+pub(crate) use repair::{drop_images, repair_json};
+use repair::{refuse_unreadable, repair_source};
+
 use super::{ImportOptions, size};
 use crate::error::Result;
-use crate::export::gltf::{refuse_unreadable, repair_source};
 use crate::rig::RigOptions;
 use crate::skeleton::{Character, Skeleton, Source};
 

@@ -8,7 +8,7 @@ use std::collections::HashSet;
 
 use serde_json::{Map, Value};
 
-use super::super::images::drop_images;
+use super::drop::drop_images;
 use super::{count, listed};
 
 /// Whether `v` is an index below `len`.

@@ -19,6 +19,7 @@
 //! only, where the buffers can be mended in place.
 
 mod animations;
+mod drop;
 mod extensions;
 mod nodes;
 mod references;
@@ -29,9 +30,10 @@ use std::path::Path;
 
 use serde_json::Value;
 
+use super::parse_document;
 use crate::error::Result;
-use crate::import::gltf::parse_document;
 
+pub(crate) use drop::drop_images;
 pub use extensions::ACCEPTED_REQUIRED_EXTENSIONS;
 pub(crate) use extensions::refuse_unreadable;
 
