@@ -906,3 +906,101 @@ fn a_rest_pose_lying_down_stands_in_the_first_frame_and_keeps_every_world_pose()
     let err = max_position_error(&c, &track, &again, &track_of_clip(&again));
     assert!(err < 1e-3, "{err} m");
 }
+
+/// The one frame of the bone-local person below: the spine turned 90° to stand the trunk
+/// up, each shoulder turned back so the arms reach sideways; everything turned by `turn`.
+fn frame(turn: glam::DQuat) -> String {
+    use ragdoll::import::bvh::{Axis, decompose_rotation};
+    let zxy = [Axis::Z, Axis::X, Axis::Y];
+    let channels = |q: glam::DQuat| {
+        let local = turn * q * turn.inverse();
+        decompose_rotation(local, &zxy)
+            .iter()
+            .map(|a| format!("{:.6}", a.to_degrees()))
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    let up = channels(glam::DQuat::from_rotation_z(std::f64::consts::FRAC_PI_2));
+    let back = channels(glam::DQuat::from_rotation_z(-std::f64::consts::FRAC_PI_2));
+    let zero = "0 0 0";
+    // Hips; spine, chest, neck, head; each arm's shoulder, upper arm, forearm, hand; each
+    // leg's thigh, shin, foot.
+    let mut v = vec![
+        "0 95 0 0 0 0".to_string(),
+        up,
+        zero.into(),
+        zero.into(),
+        zero.into(),
+    ];
+    for _ in 0..2 {
+        v.push(back.clone());
+        v.extend(std::iter::repeat_n(zero.to_string(), 3));
+    }
+    v.extend(std::iter::repeat_n(zero.to_string(), 6));
+    v.join(" ")
+}
+
+/// A person in centimetres whose offsets are bone-local, as Bandai Namco's motion dataset
+/// writes them: the spine, neck and head along their bones' +X, the legs down, the arms
+/// out along X, so the zero-rotation pose stands 95 units tall with its trunk lying
+/// sideways; its first frame stands it up. Its height said inches (a 2.4 m person); its
+/// span along the bones (toe to fingertip, 240 units) says centimetres whatever the
+/// pose. Turned four ways about Y.
+#[test]
+fn bvh_centimetres_with_bone_local_offsets_are_not_read_as_inches() {
+    for facing in [0.0f64, 90.0, 180.0, 270.0] {
+        let turn = glam::DQuat::from_rotation_y(facing.to_radians());
+        let o = |x: f64, y: f64, z: f64| {
+            let v = turn * glam::DVec3::new(x, y, z);
+            format!("OFFSET {:.4} {:.4} {:.4}", v.x, v.y, v.z)
+        };
+        let rot = "CHANNELS 3 Zrotation Xrotation Yrotation";
+        let leg = |s: &str, x: f64| {
+            format!(
+                "JOINT UpperLeg_{s} {{ {} {rot} JOINT LowerLeg_{s} {{ {} {rot} JOINT Foot_{s} {{ {} {rot} End Site {{ {} }} }} }} }}",
+                o(x, -5.0, 0.0),
+                o(0.0, -42.0, 0.0),
+                o(0.0, -42.0, 0.0),
+                o(0.0, -6.0, 12.0)
+            )
+        };
+        let arm = |s: &str, x: f64| {
+            format!(
+                "JOINT Shoulder_{s} {{ {} {rot} JOINT UpperArm_{s} {{ {} {rot} JOINT LowerArm_{s} {{ {} {rot} JOINT Hand_{s} {{ {} {rot} End Site {{ {} }} }} }} }} }}",
+                o(18.0, 0.0, 0.0),
+                o(15.0 * x, 0.0, 0.0),
+                o(28.0 * x, 0.0, 0.0),
+                o(26.0 * x, 0.0, 0.0),
+                o(8.0 * x, 0.0, 0.0)
+            )
+        };
+        let text = format!(
+            "HIERARCHY\nROOT Hips {{ {} CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n\
+             JOINT Spine {{ {} {rot} JOINT Chest {{ {} {rot}\n\
+             JOINT Neck {{ {} {rot} JOINT Head {{ {} {rot} End Site {{ {} }} }} }}\n\
+             {} {} }} }}\n{} {} }}\nMOTION\nFrames: 1\nFrame Time: 0.0333333\n{}\n",
+            o(0.0, 95.0, 0.0),
+            o(12.0, 0.0, 0.0),
+            o(25.0, 0.0, 0.0),
+            o(22.0, 0.0, 0.0),
+            o(10.0, 0.0, 0.0),
+            o(20.0, 0.0, 0.0),
+            arm("L", 1.0),
+            arm("R", -1.0),
+            leg("L", 9.0),
+            leg("R", -9.0),
+            frame(turn)
+        );
+        let c = parse(&text).unwrap_or_else(|e| panic!("facing {facing}°: {e}"));
+        let roles = ragdoll::spec::recognise_roles(&c);
+        assert!(roles.humanoid, "facing {facing}°: {}", roles.why);
+        assert_eq!(layout(&c).metres_per_unit, 0.01, "facing {facing}°");
+        let world = c.skeleton.rest_world();
+        let at = |name: &str| world[c.skeleton.find(name).unwrap()].translation;
+        let shin = at("LowerLeg_L").distance(at("Foot_L"));
+        assert!(
+            (shin - 0.42).abs() < 1e-4,
+            "facing {facing}°: shin {shin} m"
+        );
+    }
+}

@@ -43,22 +43,25 @@
 //!   (quadrupeds) keep BVH's usual Y, and so does a rest pose lying along X (bone-local
 //!   offsets, as Rokoko and LAFAN1 write them), whose hips and shoulders reach across it
 //!   along Z: it stands on neither axis, and its first frame says how it stands.
-//! - **Units**: the candidate that makes the height (extent along the up axis, or the
-//!   largest extent when that one is zero) closest to 1.7 m on a log scale. The candidates
-//!   and the resulting thresholds on the height `h` in file units:
-//!   metres (`h < 7.16`), CMU units of 1/0.45 inch (`7.16 ≤ h < 44.9`, the unit of the CMU
-//!   ASF skeletons that many converted BVH files keep), inches (`44.9 ≤ h < 106.7`, the
-//!   original Biovision sample), centimetres (`106.7 ≤ h < 537.6`, most BVH), millimetres
-//!   above. A skeleton with no extent at all is taken as centimetres. Inches and CMU units
+//! - **Units**: the candidate that makes the skeleton's span closest to 2.5 m on a log
+//!   scale. The span is the longest path between two of its points (joints and End Sites)
+//!   along its bones: bone lengths do not change with the pose the rest is written in, so
+//!   a rest pose lying down or with each bone along its own local axis gets the units of
+//!   the same person standing. A person's span is toe to fingertip, 1.4-1.6 times their
+//!   height. The candidates and the resulting thresholds on the span `s` in file units:
+//!   metres (`s < 10.5`), CMU units of 1/0.45 inch (`10.5 ≤ s < 66.0`, the unit of the CMU
+//!   ASF skeletons that many converted BVH files keep), inches (`66.0 ≤ s < 156.9`, the
+//!   original Biovision sample), centimetres (`156.9 ≤ s < 790.6`, most BVH), millimetres
+//!   above. A skeleton with no span at all is taken as centimetres. Inches and CMU units
 //!   are a person's: a skeleton that role recognition does not take for a person is read
-//!   in centimetres in those bands (a dog 80 units tall is 0.8 m, not 2 m). A rest pose lying
-//!   down (its height under half its breadth) whose first frame stands is measured again
-//!   standing, joints and End Sites, and the skeleton takes that frame's rotations as its
-//!   rest: the ragdoll is built standing.
+//!   in centimetres in those bands (a dog 80 units across is 0.8 m, not 2 m). A rest pose
+//!   lying down (its height under half its breadth) whose first frame stands takes that
+//!   frame's rotations as its rest: the ragdoll is built standing.
 //!
-//! The data files give: `biovision_example_bvhio` 72.35 → inches, 1.84 m;
-//! `cmu_pirouette_threejs` 152.7 → cm, 1.53 m; `mocapbank_bvh-python` 167.3 → cm, 1.67 m;
-//! `two_joint_bvh_anim` (a chain lying along Z, so Z up) 45 → not a person, so
+//! The data files give: `biovision_example_bvhio` spans 102.7 → inches, 1.84 m tall;
+//! `cmu_pirouette_threejs` 236.1 → cm, 1.53 m; `mocapbank_bvh-python` 239.9 → cm, 1.67 m;
+//! `animdraw_rokoko_jesse_dance` (lying along X) 253.7 → cm; `bvh11_cmu_131_01` 39.3 → CMU
+//! units; `two_joint_bvh_anim` (a chain lying along Z, so Z up) 45 → not a person, so
 //! centimetres, 0.45 m.
 //!
 //! # Conversion
@@ -92,8 +95,10 @@ use crate::skeleton::Skeleton;
 /// many BVH conversions of that database kept; a height of about 31 of them is a person.
 pub const CMU_UNIT_M: f32 = 0.0254 / 0.45;
 
-/// The height a detected unit aims for; see the module docs for the thresholds it implies.
-const TYPICAL_HEIGHT_M: f64 = 1.7;
+/// The span (toe to fingertip along the bones) a detected unit aims for: a person 1.7 m
+/// tall spans about 2.5 m (the data files: 1.42-1.62 times their standing height). See the
+/// module docs for the thresholds it implies.
+const TYPICAL_SPAN_M: f64 = 2.5;
 
 /// Unit candidates for detection, metres per file unit.
 const UNIT_CANDIDATES: [f64; 5] = [1.0, CMU_UNIT_M as f64, 0.0254, 0.01, 0.001];
@@ -334,7 +339,7 @@ mod tests {
 
     use glam::Vec3;
 
-    use super::parse::detect_metres_per_unit;
+    use super::parse::metres_per_unit_of_span;
     use super::*;
     use crate::error::{Error, Result};
     use crate::import::ImportOptions;
@@ -459,13 +464,14 @@ mod tests {
 
     #[test]
     fn bvh_unit_thresholds() {
-        let pts = |h: f64| vec![DVec3::ZERO, DVec3::new(0.0, h, 0.0)];
-        let u = |h: f64| detect_metres_per_unit(&pts(h), UpAxis::Y);
-        assert_eq!(u(1.8), 1.0);
-        assert_eq!(u(31.0), CMU_UNIT_M as f64);
-        assert_eq!(u(72.35), 0.0254);
-        assert_eq!(u(152.7), 0.01);
-        assert_eq!(u(1750.0), 0.001);
+        let u = metres_per_unit_of_span;
+        assert_eq!(u(2.5), 1.0);
+        assert_eq!(u(10.4), 1.0);
+        assert_eq!(u(44.0), CMU_UNIT_M as f64);
+        assert_eq!(u(102.7), 0.0254);
+        assert_eq!(u(157.0), 0.01);
+        assert_eq!(u(236.1), 0.01);
+        assert_eq!(u(2500.0), 0.001);
         assert_eq!(u(0.0), 0.01);
     }
 

@@ -14,7 +14,7 @@ use super::hierarchy::{PJoint, read_hierarchy};
 use super::text::parse_error;
 
 use super::{
-    BvhJoint, BvhLayout, CMU_UNIT_M, Channel, TYPICAL_HEIGHT_M, UNIT_CANDIDATES, compose_rotation,
+    BvhJoint, BvhLayout, CMU_UNIT_M, Channel, TYPICAL_SPAN_M, UNIT_CANDIDATES, compose_rotation,
     up_rotation,
 };
 use crate::error::Result;
@@ -43,7 +43,7 @@ pub fn parse(text: &str, path: &Path, opts: &ImportOptions) -> Result<Character>
     let up = opts.up.unwrap_or_else(|| detect_up(&positions));
     let metres_per_unit = match opts.units {
         Some(u) => f64::from(u.to_metres()),
-        None => detect_metres_per_unit(&positions, up),
+        None => metres_per_unit_of_span(span(&joints)),
     };
     let convert = Convert {
         c: up_rotation(up),
@@ -81,20 +81,6 @@ pub fn parse(text: &str, path: &Path, opts: &ImportOptions) -> Result<Character>
     };
     if let Some(standing) = standing_first_frame(&character) {
         character.skeleton = standing;
-        if opts.units.is_none() {
-            // Joints and End Sites, as the first detection measured them.
-            let world = character.skeleton.rest_world();
-            let tips = (character.skeleton.joints().iter().zip(&world))
-                .filter_map(|(j, t)| j.tip.map(|tip| t.transform_point(tip)));
-            let rest: Vec<DVec3> = (world.iter().map(|t| t.translation).chain(tips))
-                .map(|p| p.as_dvec3() / metres_per_unit)
-                .collect();
-            let better = detect_metres_per_unit(&rest, UpAxis::Y);
-            if better != metres_per_unit {
-                let factor = (better / metres_per_unit) as f32;
-                crate::import::size::scale(&mut character, factor, path)?;
-            }
-        }
     }
     if opts.units.is_none() {
         centimetres_unless_a_person(&mut character, path)?;
@@ -300,22 +286,48 @@ fn detect_up(points: &[DVec3]) -> UpAxis {
     }
 }
 
-/// Metres per unit making the height closest to [`TYPICAL_HEIGHT_M`] (module docs).
-pub(super) fn detect_metres_per_unit(points: &[DVec3], up: UpAxis) -> f64 {
-    let e = extent(points);
-    let along_up = match up {
-        UpAxis::Y => e.y,
-        UpAxis::Z => e.z,
+/// The skeleton's span in file units: the longest path between two of its points (joints
+/// and End Sites) along its bones. Bone lengths do not depend on the pose the offsets are
+/// written in, so neither does the span: a person's is toe to fingertip, about 1.5 times
+/// their height, whether the rest pose stands, lies along the ground, or has every bone
+/// along its own local axis (Bandai Namco's files, whose centimetre person stood 100 units
+/// tall and was read as inches, 2.55 m). The root's own offset is no bone.
+///
+/// Linear in the joints: each joint's two longest branches, children before parents.
+pub(super) fn span(joints: &[PJoint]) -> f64 {
+    let n = joints.len();
+    // The two longest branches below each joint.
+    let mut top = vec![(0.0f64, 0.0f64); n];
+    let push = |t: &mut (f64, f64), len: f64| {
+        if len > t.0 {
+            *t = (len, t.0);
+        } else if len > t.1 {
+            t.1 = len;
+        }
     };
-    let h = if along_up > 1e-9 {
-        along_up
-    } else {
-        e.max_element()
-    };
-    if !(h > 1e-9 && h.is_finite()) {
+    for (i, j) in joints.iter().enumerate() {
+        if let Some(e) = j.end_site {
+            push(&mut top[i], e.length());
+        }
+    }
+    let mut best = 0.0f64;
+    for i in (0..n).rev() {
+        let (a, b) = top[i];
+        best = best.max(a + b);
+        if let Some(p) = joints[i].parent.filter(|&p| p < i) {
+            push(&mut top[p], a + joints[i].offset.length());
+        }
+    }
+    if best.is_finite() { best } else { 0.0 }
+}
+
+/// Metres per unit making the span closest to [`TYPICAL_SPAN_M`] (module docs);
+/// centimetres for a skeleton with no span at all.
+pub(super) fn metres_per_unit_of_span(span: f64) -> f64 {
+    if !(span > 1e-9 && span.is_finite()) {
         return 0.01;
     }
-    let miss = |u: f64| (h * u / TYPICAL_HEIGHT_M).ln().abs();
+    let miss = |u: f64| (span * u / TYPICAL_SPAN_M).ln().abs();
     UNIT_CANDIDATES
         .into_iter()
         .min_by(|a, b| miss(*a).total_cmp(&miss(*b)))
