@@ -198,3 +198,45 @@ fn a_horses_ik_hooves_join_their_legs_and_its_bent_hind_legs_hinge() {
         }
     }
 }
+
+/// A chibi 1 m tall whose head is as large as the rest of it, its bones named only by
+/// number, turned four ways: a humanoid by its shape, its head body holding the head.
+/// Measured against a height that counts the head's skin, its legs did not drop far
+/// enough below the pelvis nor its spine rise far enough above it: it became a chain,
+/// one heavy body on the head.
+#[test]
+fn a_chibi_with_a_head_as_large_as_its_body_is_a_humanoid() {
+    use ragdoll::spec::{Role, recognise_roles};
+    let mut bones = rigid_parts_files::chibi();
+    for (k, b) in bones.0.iter_mut().enumerate() {
+        b.name = format!("bone{k}");
+    }
+    for facing in FACINGS {
+        let label = format!("chibi facing {facing}°");
+        let c = load_as("chibi.glb", &bones_glb(&bones, facing));
+        let roles = recognise_roles(&c);
+        assert!(roles.humanoid, "{label}: {}", roles.why);
+        let name = |r: Role| roles.joint(r).map(|j| c.skeleton.joints()[j].name.clone());
+        // Bones 4-9 are the left leg and arm, 10-15 the right (the chibi faces +Z).
+        for (role, bone) in [
+            (Role::Pelvis, "bone0"),
+            (Role::Head, "bone3"),
+            (Role::ThighL, "bone4"),
+            (Role::ShinL, "bone5"),
+            (Role::FootL, "bone6"),
+            (Role::UpperArmL, "bone7"),
+            (Role::ForearmL, "bone8"),
+            (Role::HandR, "bone15"),
+        ] {
+            assert_eq!(name(role).as_deref(), Some(bone), "{label}: {role:?}");
+        }
+        let spec = build_spec(&c, &BuildOptions::default()).unwrap();
+        let head = spec.bodies.iter().find(|b| b.bone == "bone3").unwrap();
+        // The head's skin is a box 0.44 x 0.45 x 0.44 m.
+        assert!(
+            head.shape.volume() > 0.5 * 0.44 * 0.45 * 0.44,
+            "{label}: the head body is {:?}",
+            head.shape
+        );
+    }
+}

@@ -245,3 +245,84 @@ pub fn horse() -> Bones {
     }
     b
 }
+
+/// A chibi humanoid 1 m tall, facing +Z, whose head is as large as the rest of its body:
+/// legs 0.3 m, a trunk of 0.25 m, a head 0.45 m across from the neck to the top, short
+/// arms; Mixamo-like names.
+pub fn chibi() -> Bones {
+    let mut b = Bones::default();
+    let hips = b.add(
+        "Hips",
+        None,
+        Vec3::new(0.0, 0.32, 0.0),
+        Vec3::new(0.0, 0.4, 0.0),
+        0.1,
+    );
+    let spine = b.add(
+        "Spine",
+        Some(hips),
+        Vec3::new(0.0, 0.4, 0.0),
+        Vec3::new(0.0, 0.48, 0.0),
+        0.1,
+    );
+    let neck = b.add(
+        "Neck",
+        Some(spine),
+        Vec3::new(0.0, 0.52, 0.0),
+        Vec3::new(0.0, 0.55, 0.0),
+        0.04,
+    );
+    b.add(
+        "Head",
+        Some(neck),
+        Vec3::new(0.0, 0.55, 0.0),
+        Vec3::new(0.0, 1.0, 0.0),
+        0.22,
+    );
+    for (side, s) in [(1.0f32, "Left"), (-1.0, "Right")] {
+        let m = Vec3::new(side, 1.0, 1.0);
+        let up = b.add(
+            &format!("{s}UpLeg"),
+            Some(hips),
+            Vec3::new(0.07, 0.3, 0.0) * m,
+            Vec3::new(0.07, 0.17, 0.01) * m,
+            0.045,
+        );
+        let leg = b.add(
+            &format!("{s}Leg"),
+            Some(up),
+            Vec3::new(0.07, 0.17, 0.01) * m,
+            Vec3::new(0.07, 0.04, 0.0) * m,
+            0.04,
+        );
+        b.add(
+            &format!("{s}Foot"),
+            Some(leg),
+            Vec3::new(0.07, 0.04, 0.0) * m,
+            Vec3::new(0.07, 0.01, 0.1) * m,
+            0.035,
+        );
+        let arm = b.add(
+            &format!("{s}Arm"),
+            Some(spine),
+            Vec3::new(0.1, 0.5, 0.0) * m,
+            Vec3::new(0.2, 0.42, 0.0) * m,
+            0.035,
+        );
+        let fore = b.add(
+            &format!("{s}ForeArm"),
+            Some(arm),
+            Vec3::new(0.2, 0.42, 0.0) * m,
+            Vec3::new(0.28, 0.35, 0.0) * m,
+            0.03,
+        );
+        b.add(
+            &format!("{s}Hand"),
+            Some(fore),
+            Vec3::new(0.28, 0.35, 0.0) * m,
+            Vec3::new(0.32, 0.3, 0.0) * m,
+            0.035,
+        );
+    }
+    b
+}

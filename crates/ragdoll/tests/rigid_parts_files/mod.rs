@@ -12,7 +12,7 @@ mod bones;
 mod skinned;
 
 #[allow(unused_imports)] // not every test binary uses them
-pub use bones::{Bone, Bones, bones_glb, horse, spider};
+pub use bones::{Bone, Bones, bones_glb, chibi, horse, spider};
 #[allow(unused_imports)]
 pub use skinned::{SkinStyle, skinned_robot};
 

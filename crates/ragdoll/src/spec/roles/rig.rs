@@ -29,6 +29,10 @@ pub(crate) struct Rig<'a> {
     pub ground: f32,
     /// Standing height H, metres (never zero).
     pub height: f32,
+    /// The height of the joints and end sites alone, without the skin, metres (never
+    /// zero): what measures compare with when they measure joints, so that a head of skin
+    /// as large as the body (a chibi) does not make its skeleton look short.
+    pub skeleton_height: f32,
     /// Diagonal of the bounding box of joints, tips and skin, metres (never zero).
     pub extent: f32,
     /// Every skinned vertex of every mesh: position and its four influences.
@@ -120,6 +124,12 @@ impl<'a> Rig<'a> {
             lo = lo.min(*p);
             hi = hi.max(*p);
         }
+        let (bone_lo, bone_hi) = pos
+            .iter()
+            .chain(tips.iter().flatten())
+            .fold((f32::MAX, f32::MIN), |(lo, hi), p| {
+                (lo.min(p.y), hi.max(p.y))
+            });
         let (sub_lo, sub_hi, sub_count) = subtree_stats(&pos, &tips, &children);
         let highest_sibling = highest_siblings(&children, &sub_hi);
         let mut depth = vec![0usize; n];
@@ -137,6 +147,7 @@ impl<'a> Rig<'a> {
             children,
             ground: lo.y,
             height: (hi.y - lo.y).max(1e-3),
+            skeleton_height: (bone_hi - bone_lo).max(1e-3),
             extent: (hi - lo).length().max(1e-3),
             verts,
             skin_weight,

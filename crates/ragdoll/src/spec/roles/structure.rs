@@ -177,7 +177,8 @@ fn humanoid_at(rig: &Rig, pelvis: usize) -> Option<Humanoid> {
 /// The children of `pelvis` whose subtrees look like legs; `None` unless there are at
 /// least two.
 fn leg_roots(rig: &Rig, pelvis: usize) -> Option<Vec<usize>> {
-    let h = rig.height;
+    // Joints against the joints' own height, as for the spine (`spine_start`).
+    let h = rig.skeleton_height;
     let py = rig.pos[pelvis].y;
     let leg_like = |c: usize| {
         let (lo, hi, count) = rig.subtree_stats(c);
@@ -204,7 +205,9 @@ fn leg_roots(rig: &Rig, pelvis: usize) -> Option<Vec<usize>> {
 /// reaching highest, if it reaches high enough. Above the pelvis that child is the
 /// highest sibling of the branch we came up, known without looking at the others.
 fn spine_start(rig: &Rig, pelvis: usize, legs: &[usize]) -> Option<usize> {
-    let h = rig.height;
+    // Joints against the joints' own height: a chibi's head of skin, as large as the rest
+    // of it, put its skeleton's top under a quarter of its height above the pelvis.
+    let h = rig.skeleton_height;
     let py = rig.pos[pelvis].y;
     let stats = |c: usize| rig.subtree_stats(c);
     let leg_set: HashSet<usize> = legs.iter().copied().collect();
