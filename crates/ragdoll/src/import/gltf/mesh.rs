@@ -189,27 +189,7 @@ fn read_skin_meshes(
     else {
         return Ok(());
     };
-    let ibms = match skin.inverse_bind_matrices() {
-        Some(a) => {
-            let mut m = reader.mat4s(&a)?;
-            if m.len() < slots.len() {
-                return Err(format_err(
-                    reader.path(),
-                    format!("accessor {}", a.index()),
-                    format!(
-                        "holds {} inverse bind matrices for a skin of {} joints",
-                        m.len(),
-                        slots.len()
-                    ),
-                ));
-            }
-            if let Some(w) = bind_rest_where_degenerate(&mut m, &slots, graph, skin, a.index()) {
-                warnings.push(w);
-            }
-            m
-        }
-        None => vec![Mat4::IDENTITY; slots.len()],
-    };
+    let ibms = inverse_binds(skin, &slots, graph, reader, warnings)?;
     let joint_mats: Vec<Mat4> = slots
         .iter()
         .zip(&ibms)
@@ -251,22 +231,7 @@ fn read_skin_meshes(
                 continue;
             };
             if !repair.is_empty() {
-                let sets: Vec<String> = weights::influence_sets(&prim)
-                    .iter()
-                    .enumerate()
-                    .map(|(k, (j, w))| {
-                        format!(
-                            "JOINTS_{k} accessor {}, WEIGHTS_{k} accessor {}",
-                            j.index(),
-                            w.index()
-                        )
-                    })
-                    .collect();
-                let place = format!(
-                    "mesh \"{mesh_name}\" primitive {} ({})",
-                    prim.index(),
-                    sets.join(", ")
-                );
+                let place = primitive_place(&prim, &mesh_name);
                 let root = &rig.joints[slot_to_joint[skin_slots.root]].name;
                 warnings.push(repair.sentence(&place, m.positions.len(), slots.len(), root));
             }
@@ -274,6 +239,57 @@ fn read_skin_meshes(
         }
     }
     Ok(())
+}
+
+/// A skin's inverse bind matrices, one per joint (identity when the skin has none); those
+/// that cannot be inverted are repaired with a warning ([`bind_rest_where_degenerate`]).
+fn inverse_binds(
+    skin: &gltf::Skin,
+    slots: &[usize],
+    graph: &NodeGraph,
+    reader: &Reads,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<Mat4>> {
+    let Some(a) = skin.inverse_bind_matrices() else {
+        return Ok(vec![Mat4::IDENTITY; slots.len()]);
+    };
+    let mut m = reader.mat4s(&a)?;
+    if m.len() < slots.len() {
+        return Err(format_err(
+            reader.path(),
+            format!("accessor {}", a.index()),
+            format!(
+                "holds {} inverse bind matrices for a skin of {} joints",
+                m.len(),
+                slots.len()
+            ),
+        ));
+    }
+    if let Some(w) = bind_rest_where_degenerate(&mut m, slots, graph, skin, a.index()) {
+        warnings.push(w);
+    }
+    Ok(m)
+}
+
+/// Where a primitive's weights are, for a repair's warning: the mesh, the primitive and
+/// each influence set's accessors.
+fn primitive_place(prim: &gltf::Primitive, mesh_name: &str) -> String {
+    let sets: Vec<String> = weights::influence_sets(prim)
+        .iter()
+        .enumerate()
+        .map(|(k, (j, w))| {
+            format!(
+                "JOINTS_{k} accessor {}, WEIGHTS_{k} accessor {}",
+                j.index(),
+                w.index()
+            )
+        })
+        .collect();
+    format!(
+        "mesh \"{mesh_name}\" primitive {} ({})",
+        prim.index(),
+        sets.join(", ")
+    )
 }
 
 /// The accessor reader with this import's [`ReadBudget`]: every read is charged before it
