@@ -115,8 +115,23 @@ fn count(obj: &serde_json::Map<String, Value>, key: &str) -> usize {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
+
+    /// A node tree the node and skin repairs are tested on: a hip with a leg and an arm
+    /// under an `Armature`, and a `sword` outside it; three skins over them.
+    pub(in crate::import::gltf::repair) fn tree() -> Value {
+        serde_json::json!({
+            "nodes": [
+                {"name": "Armature", "children": [1]},
+                {"name": "hip", "children": [2, 3]},
+                {"name": "leg"},
+                {"name": "arm"},
+                {"name": "sword"}
+            ],
+            "skins": [{"joints": [2, 3], "skeleton": 2}, {"joints": [2, 4], "skeleton": 2}, {"joints": [1, 2], "skeleton": 0}]
+        })
+    }
 
     #[test]
     fn a_long_list_of_places_is_cut_and_counted() {

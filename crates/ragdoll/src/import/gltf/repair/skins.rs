@@ -144,19 +144,7 @@ pub(super) fn repair_skeletons(obj: &mut Map<String, Value>) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn tree() -> Value {
-        json!({
-            "nodes": [
-                {"name": "Armature", "children": [1]},
-                {"name": "hip", "children": [2, 3]},
-                {"name": "leg"},
-                {"name": "arm"},
-                {"name": "sword"}
-            ],
-            "skins": [{"joints": [2, 3], "skeleton": 2}, {"joints": [2, 4], "skeleton": 2}, {"joints": [1, 2], "skeleton": 0}]
-        })
-    }
+    use crate::import::gltf::repair::tests::tree;
 
     #[test]
     fn a_skeleton_that_is_no_common_root_is_set_to_the_nearest_or_removed() {
