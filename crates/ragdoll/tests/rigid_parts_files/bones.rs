@@ -6,7 +6,7 @@
 use glam::{Mat4, Quat, Vec3};
 use serde_json::Value;
 
-use super::Doc;
+use super::{Doc, UNIT_BOX};
 
 /// One bone: its joint (`head`) and where it ends (`tail`), world space, metres, facing
 /// +Z; `radius` is the half-thickness of its box of skin, 0 for a bone without skin.
@@ -57,15 +57,9 @@ fn bone_box(b: &Bone) -> Vec<Vec3> {
         (z * 2.0 * b.radius).extend(0.0),
         ((b.head + b.tail) * 0.5).extend(1.0),
     );
-    (0..8)
-        .map(|k| {
-            let s = Vec3::new(
-                if k & 1 == 0 { -0.5 } else { 0.5 },
-                if k & 2 == 0 { -0.5 } else { 0.5 },
-                if k & 4 == 0 { -0.5 } else { 0.5 },
-            );
-            frame.transform_point3(s)
-        })
+    UNIT_BOX
+        .iter()
+        .map(|&c| frame.transform_point3(c))
         .collect()
 }
 

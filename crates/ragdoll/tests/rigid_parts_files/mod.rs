@@ -16,6 +16,37 @@ pub use bones::{Bone, Bones, bones_glb, chibi, horse, spider};
 #[allow(unused_imports)]
 pub use skinned::{SkinStyle, skinned_robot};
 
+/// The corners of a box one unit wide centred on the origin, corner `k` at -0.5 or +0.5
+/// along X, Y and Z as bits 0, 1 and 2 of `k` say.
+pub const UNIT_BOX: [Vec3; 8] = [
+    Vec3::new(-0.5, -0.5, -0.5),
+    Vec3::new(0.5, -0.5, -0.5),
+    Vec3::new(-0.5, 0.5, -0.5),
+    Vec3::new(0.5, 0.5, -0.5),
+    Vec3::new(-0.5, -0.5, 0.5),
+    Vec3::new(0.5, -0.5, 0.5),
+    Vec3::new(-0.5, 0.5, 0.5),
+    Vec3::new(0.5, 0.5, 0.5),
+];
+
+/// The twelve triangles (outward) of a box whose [`UNIT_BOX`] corners start at vertex
+/// `base`.
+pub fn box_triangles(base: u16) -> Vec<u16> {
+    const FACES: [[u16; 4]; 6] = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ];
+    FACES
+        .iter()
+        .flat_map(|f| [f[0], f[1], f[2], f[0], f[2], f[3]])
+        .map(|i| base + i)
+        .collect()
+}
+
 /// A glTF document under construction: one binary buffer, its views and accessors.
 #[derive(Default)]
 pub struct Doc {
@@ -46,27 +77,8 @@ impl Doc {
     /// A box mesh `size` wide, centred on `centre` in its node's space; returns its index.
     pub fn cuboid(&mut self, name: &str, size: Vec3, centre: Vec3) -> usize {
         let h = size / 2.0;
-        let mut pos = Vec::new();
-        for k in 0..8 {
-            let s = Vec3::new(
-                if k & 1 == 0 { -1.0 } else { 1.0 },
-                if k & 2 == 0 { -1.0 } else { 1.0 },
-                if k & 4 == 0 { -1.0 } else { 1.0 },
-            );
-            pos.push(centre + s * h);
-        }
-        let faces: [[u16; 4]; 6] = [
-            [0, 2, 3, 1],
-            [4, 5, 7, 6],
-            [0, 1, 5, 4],
-            [2, 6, 7, 3],
-            [0, 4, 6, 2],
-            [1, 3, 7, 5],
-        ];
-        let idx: Vec<u16> = faces
-            .iter()
-            .flat_map(|f| [f[0], f[1], f[2], f[0], f[2], f[3]])
-            .collect();
+        let pos: Vec<Vec3> = UNIT_BOX.iter().map(|&c| centre + c * size).collect();
+        let idx = box_triangles(0);
         let pbytes: Vec<u8> = pos
             .iter()
             .flat_map(|p| p.to_array())

@@ -8,7 +8,7 @@ use std::collections::HashMap;
 use glam::{Mat4, Quat, Vec3};
 use serde_json::{Value, json};
 
-use super::{Doc, ROBOT};
+use super::{Doc, ROBOT, UNIT_BOX, box_triangles};
 
 /// How the robot's boxes are bound to its bones.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -53,17 +53,12 @@ pub fn part_worlds(facing_deg: f32) -> HashMap<&'static str, Mat4> {
     out
 }
 
-/// The corners of a box `size` wide centred on `centre` (eight), in `world`'s frame.
+/// The corners of a box `size` wide centred on `centre` (eight, as [`UNIT_BOX`]), in
+/// `world`'s frame.
 fn corners(world: Mat4, size: Vec3, centre: Vec3) -> Vec<Vec3> {
-    (0..8)
-        .map(|k| {
-            let s = Vec3::new(
-                if k & 1 == 0 { -0.5 } else { 0.5 },
-                if k & 2 == 0 { -0.5 } else { 0.5 },
-                if k & 4 == 0 { -0.5 } else { 0.5 },
-            );
-            world.transform_point3(centre + s * size)
-        })
+    UNIT_BOX
+        .iter()
+        .map(|&c| world.transform_point3(centre + c * size))
         .collect()
 }
 
@@ -71,24 +66,11 @@ impl Doc {
     /// A skinned mesh of boxes, each bound with weight 1 to one skin slot: `boxes` are
     /// (slot, the box's corners in bind space, world). Returns the mesh index.
     pub fn skinned_boxes(&mut self, name: &str, boxes: &[(u16, Vec<Vec3>)]) -> usize {
-        const FACES: [[u16; 4]; 6] = [
-            [0, 2, 3, 1],
-            [4, 5, 7, 6],
-            [0, 1, 5, 4],
-            [2, 6, 7, 3],
-            [0, 4, 6, 2],
-            [1, 3, 7, 5],
-        ];
         let (mut pos, mut idx, mut jnt, mut wgt) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for (slot, c) in boxes {
             let base = pos.len() as u16;
             pos.extend_from_slice(c);
-            idx.extend(
-                FACES
-                    .iter()
-                    .flat_map(|f| [f[0], f[1], f[2], f[0], f[2], f[3]])
-                    .map(|i| base + i),
-            );
+            idx.extend(box_triangles(base));
             for _ in 0..8 {
                 jnt.extend([*slot, 0, 0, 0]);
                 wgt.extend([1.0f32, 0.0, 0.0, 0.0]);
