@@ -1,4 +1,4 @@
-//! `ragdoll bench`: the pile workload of DESIGN §6. N built-in humanoids dropped from
+//! `ragdoll bench`: the pile workload. N built-in humanoids dropped from
 //! staggered heights in a grid of piles; reports ragdoll-steps per second (N × steps over
 //! the wall seconds of stepping, and over its CPU seconds, which a busy machine disturbs
 //! less), whether the run stayed stable, and the limit violation before and after the

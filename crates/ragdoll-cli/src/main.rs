@@ -83,7 +83,7 @@ enum Command {
     /// Rig a mesh without a skeleton (OBJ, or glTF without a skin): a spine along its
     /// centre line, optional mirrored limbs, automatic skin weights; writes a skinned .glb.
     Rig(rig_cmd::RigArgs),
-    /// Measure simulation speed on the pile workload (DESIGN §6). A benchmark, not a test.
+    /// Measure simulation speed on the pile workload. A benchmark, not a test.
     Bench(bench::BenchArgs),
     /// Draw a baked result (.glb written by ragdoll) as a PNG or an animated GIF, on the CPU.
     Preview(preview_cmd::PreviewArgs),

@@ -1,4 +1,4 @@
-//! Time per preview frame (DESIGN: previews must stay under 50 ms a frame at 640×480):
+//! Time per preview frame (a preview must stay under 50 ms a frame at 640×480):
 //! `cargo bench -p ragdoll-preview`. A timing print, not a test; a few seconds long.
 
 use std::time::Instant;

@@ -1,4 +1,4 @@
-//! The JSON report written next to every baked result (DESIGN §5): what was simulated and
+//! The JSON report written next to every baked result: what was simulated and
 //! how well the simulation kept its promises.
 
 use serde::{Deserialize, Serialize};

@@ -1,4 +1,4 @@
-//! Blasts acting on bodies in a world: physical facts (DESIGN §7, §8), not "it moved".
+//! Blasts acting on bodies in a world: physical facts, not "it moved".
 
 mod common;
 
@@ -114,7 +114,7 @@ fn the_character_is_thrown_away_from_the_charge_from_every_side() {
     }
 }
 
-/// DESIGN §7: a standing adult (≈ 0.5 m² facing the charge) 10 m from 10 kg of TNT receives
+/// A standing adult (≈ 0.5 m² facing the charge) 10 m from 10 kg of TNT receives
 /// on the order of 50-100 N·s, about 1 m/s for 75 kg; we accept 0.4-2 m/s (the humanoid's
 /// silhouette and the reflection model set where in that band it lands).
 #[test]

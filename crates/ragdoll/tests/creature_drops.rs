@@ -257,7 +257,7 @@ fn creatures_land_whole_and_come_to_rest() {
                 continue;
             }
             assert!(speed < 0.2, "{what}: still moving at {speed} m/s");
-            // DESIGN §5's impacts: contacts 3 cm deep at most.
+            // Impacts: contacts 3 cm deep at most.
             assert!(m.max_penetration_m < 0.03, "{what}: {m:?}");
             // rapier's soft joints open 12-13 mm in the README's piles.
             let joint_gap = if backend == BackendKind::Rigid {

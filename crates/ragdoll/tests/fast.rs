@@ -73,7 +73,7 @@ fn pinned_link_swings_with_the_pendulum_period_of_theory() {
 #[test]
 fn a_whipping_chain_stays_joined_within_its_limits() {
     // Five links released horizontal, pinned at the top: they whip down and swing. The
-    // joints must stay closed (DESIGN §5: 5 mm) and the cones held by the solver itself.
+    // joints must stay closed (5 mm) and the cones held by the solver itself.
     let (character, spec) = common::chain(5, 0.3, Vec3::X, 60.0);
     let (mut world, id) = World::with_ragdoll(&character, &spec, &no_ground()).unwrap();
     world
@@ -285,7 +285,7 @@ fn a_pile_of_four_comes_to_rest_without_sinking_or_gaining_energy() {
     // Four across each other: the light parts caught between the bodies and the floor
     // are what a one-pass solver gets wrong (a hand pushed through a pelvis, an ankle
     // opened), and limbs lying on the floor roll unless the contacts resist it. Stated
-    // bounds (DESIGN §5 for impacts): contacts 3 cm, joints 1 cm, no energy gained in any
+    // bounds for impacts: contacts 3 cm, joints 1 cm, no energy gained in any
     // frame, and after 5 s nothing moves at all (the pile sleeps).
     let (mut world, ids, spec) = pile(4, &fast());
     world.run(5.0);

@@ -1,5 +1,5 @@
 //! Animation hand-over: a clip plays kinematically, then physics takes over with its
-//! velocities (DESIGN §4, Activation).
+//! velocities.
 
 mod common;
 

@@ -1,5 +1,5 @@
 //! Powered mode: joint motors track the animation clip with a strength keyed over time
-//! (DESIGN §4, Activation).
+//! (powered mode).
 
 mod common;
 

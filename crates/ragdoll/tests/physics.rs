@@ -1,4 +1,4 @@
-//! Physics facts the rigid backend must reproduce (DESIGN §8): not "it did not crash".
+//! Physics facts the rigid backend must reproduce: not "it did not crash".
 
 use glam::{Quat, Vec3};
 use ragdoll::math::Transform;

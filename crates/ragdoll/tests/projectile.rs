@@ -87,7 +87,7 @@ fn a_shot_that_misses_hits_nothing() {
 
 #[test]
 fn energy_drift_is_measured_from_after_the_shot() {
-    // A shot puts momentum in on purpose: the drift metric (DESIGN §5) starts after it,
+    // A shot puts momentum in on purpose: the drift metric starts after it,
     // as after a blast. Read across the shot, the chest's 200 N·s read as a 98 % gain.
     let character = humanoid();
     let spec = build_spec(&character, &BuildOptions::default()).unwrap();

@@ -1,6 +1,6 @@
 //! Events that act on ragdolls: blasts, projectiles, pushes, fields and pins. `blast.rs`
 //! holds the physics of the air blast (Kingery–Bulmash curves, Friedlander histories, the
-//! load on one body part, DESIGN §7); the world applies it to every body part over the
+//! load on one body part); the world applies it to every body part over the
 //! substeps.
 //!
 //! Every event checks its values against the bounds below (`validate`), so an input whose

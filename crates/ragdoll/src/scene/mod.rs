@@ -1,6 +1,6 @@
 //! Scene files: several characters and a timeline of events in one TOML file, run in one
 //! [`World`] and baked to one glTF holding every character, a BVH per character and a JSON
-//! report (DESIGN §4: "a scene is a timeline of events").
+//! report: a scene is a timeline of events.
 //!
 //! The format (every key is optional unless marked; the README's "Scene files" section and
 //! `examples/` show it with comments):

@@ -44,7 +44,7 @@ impl SegmentMassFractions {
 /// Adult male segment masses, percent of body mass.
 ///
 /// de Leva, P. (1996). Adjustments to Zatsiorsky–Seluyanov's segment inertia parameters.
-/// Journal of Biomechanics 29(9), 1223–1230, Table 4 (the values DESIGN §3 quotes).
+/// Journal of Biomechanics 29(9), 1223–1230, Table 4.
 pub const DE_LEVA_MALE: SegmentMassFractions = SegmentMassFractions {
     head_neck: 6.94,
     trunk_upper: 15.96,
@@ -80,15 +80,14 @@ pub const DE_LEVA_FEMALE: SegmentMassFractions = SegmentMassFractions {
 /// the head–neck–chest chain strains the solver.
 pub const NECK_SHARE_OF_HEAD_NECK: f32 = 0.2;
 
-/// Default body mass of a humanoid, kg (DESIGN §3).
+/// Default body mass of a humanoid, kg: an adult man's, as in biomechanics references.
 pub const DEFAULT_HUMANOID_MASS_KG: f32 = 75.0;
 
-/// Density used to weigh non-humanoid bodies, kg/m³: water, close to soft tissue
-/// (DESIGN §3).
+/// Density used to weigh non-humanoid bodies, kg/m³: water, close to soft tissue.
 pub const BODY_DENSITY_KG_M3: f32 = 1000.0;
 
-// Joint ranges, degrees, measured from the anatomical neutral pose. The targets are those of
-// DESIGN §3 and are in line with the average active ranges of the American Academy of
+// Joint ranges, degrees, measured from the anatomical neutral pose. The targets
+// are in line with the average active ranges of the American Academy of
 // Orthopaedic Surgeons (Greene & Heckman, "The Clinical Measurement of Joint Motion",
 // AAOS 1994): knee 0–135/140, elbow 0–150, hip flexion 120 / extension 20–30 /
 // abduction 45, ankle dorsiflexion 20 / plantarflexion 50, neck rotation 60–80.

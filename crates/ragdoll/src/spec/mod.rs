@@ -6,7 +6,7 @@
 //! - `roles/` recognises pelvis, spine, limbs… in named passes: name hints (or a VRM bone
 //!   table) confirmed by geometry, the shape-only structure search as the fallback, and
 //!   the side from names and facing together;
-//! - `anthropometry.rs` holds body-segment masses and joint ranges (de Leva 1996, DESIGN §3);
+//! - `anthropometry.rs` holds body-segment masses and joint ranges (de Leva 1996);
 //! - `build/` turns a skeleton plus its roles into a spec;
 //! - `validate.rs` holds the bounds every value of a spec is checked against, `file.rs`
 //!   reads a spec file with the line of every mistake.

@@ -1,6 +1,6 @@
 //! What a simulation leaves behind: every skeleton joint's world transform for every output
 //! frame, ready for the exporters (which know nothing of backends), and the quality metrics
-//! of DESIGN §5.
+//! of the README's report section.
 
 use serde::{Deserialize, Serialize};
 
@@ -23,7 +23,7 @@ impl Track {
     }
 }
 
-/// How well the simulation kept its promises, worst case over the run (DESIGN §5).
+/// How well the simulation kept its promises, worst case over the run.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Metrics {
     /// Worst excursion of any joint beyond its limits, degrees (a hinge bending off its axis

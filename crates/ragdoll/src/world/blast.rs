@@ -13,7 +13,7 @@ use crate::spec::Shape;
 
 use crate::error::Result;
 
-/// Drag coefficient of a body part: DESIGN §7 gives C_d ≈ 1…1.3 for bluff bodies; a
+/// Drag coefficient of a body part: bluff bodies have C_d ≈ 1…1.3; a
 /// standing person's limbs and trunk are close to cylinders across the flow (1.2).
 pub(crate) const DRAG_COEFFICIENT: f64 = 1.2;
 

@@ -1,4 +1,4 @@
-//! Pushes, fields and pins (DESIGN §4): what they do to the bodies over one substep.
+//! Pushes, fields and pins: what they do to the bodies over one substep.
 
 use crate::backend::BodyImpulse;
 use glam::Vec3;

@@ -1,4 +1,4 @@
-//! Powered mode (DESIGN §4, Activation): joint motors make a physical ragdoll track its
+//! Powered mode: joint motors make a physical ragdoll track its
 //! animation clip, with a strength keyed over time; a strength fading to 0 leaves it limp.
 //!
 //! Where the backend can ([`Backend::drive_joint`], rapier), each joint gets a drive inside

@@ -1,4 +1,4 @@
-//! Bodies that start inside each other (DESIGN §3: no initial interpenetration).
+//! Bodies that start inside each other (a ragdoll must not start interpenetrating).
 //!
 //! - Between two ragdolls it is refused: characters placed on one spot were a user's
 //!   mistake, and 100 humanoids at one spot cost rapier 23 s and 768 MB (every one of the

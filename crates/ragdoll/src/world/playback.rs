@@ -1,4 +1,4 @@
-//! Playing a character's animation before physics takes over (DESIGN §4, Activation): the
+//! Playing a character's animation before physics takes over: the
 //! bodies follow the clip kinematically until the activation moment, then become dynamic
 //! with the clip's velocities, so the hand-over keeps the motion's momentum.
 

@@ -1,5 +1,5 @@
 //! Recording and measuring: output frames from the bodies' states, the rigid backend's
-//! limit projection, and the quality metrics (DESIGN §5).
+//! limit projection, and the quality metrics (README, The report).
 
 use glam::Vec3;
 
@@ -213,7 +213,7 @@ impl super::World {
     }
 
     /// Whether every blast has gone off and passed every body part, every projectile has
-    /// been fired, and pins, pushes, fields and motors are over (DESIGN §5 measures the
+    /// been fired, and pins, pushes, fields and motors are over (the drift metric measures the
     /// energy drift only after the last event).
     fn events_done(&self) -> bool {
         use crate::events::Field;

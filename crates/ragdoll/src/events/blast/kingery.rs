@@ -20,7 +20,7 @@ pub(super) const fn kb(z_min: f64, z_max: f64, c: [f64; 7]) -> KbRange {
 // Kingery–Bulmash fits for a hemispherical surface burst of TNT, metric form, from
 // D. Swisdak, "Simplified Kingery Airblast Calculations", Naval Surface Warfare Center,
 // Minutes of the 26th DoD Explosives Safety Seminar, 1994 (the basis of UFC 3-340-02 and
-// ConWep). Coefficients exactly as in DESIGN §7. Units of Y: times in ms/kg^(1/3),
+// ConWep). Coefficients exactly as published. Units of Y: times in ms/kg^(1/3),
 // pressures in kPa, impulses in kPa·ms/kg^(1/3), shock speed in km/s.
 
 /// Arrival time t_a, ms/kg^(1/3).
@@ -105,7 +105,7 @@ pub(super) fn kb_max(ranges: &[KbRange]) -> f64 {
 
 /// Peak dynamic pressure behind a shock of overpressure `p` (any pressure unit, with the
 /// ambient pressure `p0` in the same unit): `q = 5p² / (2(p + 7p₀))`, the ideal-gas
-/// (γ = 1.4) Rankine–Hugoniot result (DESIGN §7).
+/// (γ = 1.4) Rankine–Hugoniot result.
 pub(super) fn dynamic_from_overpressure(p: f64, p0: f64) -> f64 {
     5.0 * p * p / (2.0 * (p + 7.0 * p0))
 }

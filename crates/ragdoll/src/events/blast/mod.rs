@@ -1,4 +1,4 @@
-//! Air blast physics (DESIGN §7): how strong the shock from a TNT charge is at a given
+//! Air blast physics: how strong the shock from a TNT charge is at a given
 //! distance, how its pressure decays in time, and what net force it puts on one body part.
 //!
 //! Everything here is pure functions on plain data, so that the curves can be tested
@@ -28,7 +28,7 @@
 //! ```
 //! use ragdoll::events::blast::{part_impulse, surface_burst};
 //!
-//! // 10 kg of TNT on the ground, 10 m away (DESIGN §7 check values).
+//! // 10 kg of TNT on the ground, 10 m away.
 //! let b = surface_burst(10.0, 10.0);
 //! assert!((b.arrival_s - 15.8e-3).abs() < 0.2e-3);
 //! assert!((b.incident_pa - 49e3).abs() < 0.5e3);
@@ -47,12 +47,12 @@ use kingery::{dynamic_from_overpressure, scaled, scaled_phase};
 /// pressure are written in terms of it.
 pub const AMBIENT_PRESSURE_PA: f64 = 101_325.0;
 
-/// Speed of sound in ambient air, in metres per second (DESIGN §7: a₀ ≈ 340 m/s). Used
+/// Speed of sound in ambient air, in metres per second (a₀ ≈ 340 m/s). Used
 /// where the fits end: far from the charge the shock is an acoustic wave.
 pub const SOUND_SPEED_M_S: f64 = 340.0;
 
 /// How many kilograms of TNT in free air make the same blast as one kilogram on the
-/// ground (DESIGN §7): the ground reflects the half of the energy that went down, minus
+/// ground: the ground reflects the half of the energy that went down, minus
 /// what cratering and heating the ground take. A charge well above the ground therefore
 /// reads the surface-burst curves with `W / 1.8`.
 pub const FREE_AIR_FACTOR: f64 = 1.8;
@@ -357,7 +357,7 @@ pub fn surface_burst(tnt_kg: f64, standoff_m: f64) -> BlastAt {
 
 /// The blast of `tnt_kg` kilograms of TNT detonated far from any surface (free air),
 /// `standoff_m` metres from its centre: the surface-burst curves read with
-/// `W / FREE_AIR_FACTOR` (DESIGN §7). Same conventions as [`surface_burst`];
+/// `W / FREE_AIR_FACTOR`. Same conventions as [`surface_burst`];
 /// [`BlastAt::tnt_kg`] holds the reduced charge.
 pub fn air_burst(tnt_kg: f64, standoff_m: f64) -> BlastAt {
     surface_burst(tnt_kg / FREE_AIR_FACTOR, standoff_m)

@@ -428,7 +428,7 @@ fn blast_standing_adult_sanity() {
             area * b.incident_impulse_pa_s,
         );
     }
-    // DESIGN §7: on the order of 50–100 N·s at 10 m (about 1 m/s for 75 kg). The
+    // On the order of 50–100 N·s at 10 m (about 1 m/s for 75 kg). The
     // model gives ~70: ~32 from the reflection excess clearing over 3·0.3/U, ~29 from
     // the incident pressure before the back face is loaded, ~8 from drag.
     assert!((50.0..=100.0).contains(&j10), "{j10}");

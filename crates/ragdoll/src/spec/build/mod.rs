@@ -1,4 +1,4 @@
-//! Skeleton + roles → [`RagdollSpec`] (DESIGN §3): one body per joint with a role, shaped
+//! Skeleton + roles → [`RagdollSpec`]: one body per joint with a role, shaped
 //! from the skin when there is one and from body proportions otherwise, weighed with
 //! de Leva's segment fractions (humanoids) or by volume (anything else), linked by joints
 //! whose axes come from the rest pose so limits hold whatever way the character faces.
@@ -43,7 +43,7 @@ use order::{parent_body, parent_first};
 /// weighed by its volume).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct BuildOptions {
-    /// Total mass, kg. `None`: 75 kg for a humanoid (DESIGN §3), volume × 1000 kg/m³ for
+    /// Total mass, kg. `None`: 75 kg for a humanoid, volume × 1000 kg/m³ for
     /// anything else (so a creature's mass follows its size): the volume its skin encloses
     /// where the skin is closed, else its bodies' shapes'.
     pub total_mass_kg: Option<f32>,
