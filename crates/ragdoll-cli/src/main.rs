@@ -153,8 +153,8 @@ enum UpArg {
 /// How to build the ragdoll.
 #[derive(Args, Debug, Clone)]
 struct RagdollArgs {
-    /// Total body mass in kg (humanoids default to 75 kg; other creatures to their volume
-    /// times the density of water).
+    /// Total body mass in kg (humanoids default to 75 kg at 1.75 m tall, scaled as the cube
+    /// of their height; other creatures to their volume times the density of water).
     #[arg(long, allow_negative_numbers = true)]
     mass: Option<f32>,
     /// Use the female table of body-segment masses (de Leva 1996). Not with --spec, whose

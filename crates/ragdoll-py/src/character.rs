@@ -84,7 +84,7 @@ pub fn load(
     Ok(Character { inner, input })
 }
 
-/// The built-in humanoid: 1.8 m, 75 kg once built, no skin.
+/// The built-in humanoid: 1.75 m, 75 kg once built, no skin.
 #[pyfunction]
 pub fn humanoid() -> Character {
     Character {

@@ -355,12 +355,38 @@ fn a_vanishing_motor_strength_runs_as_no_motor() {
             "strength {tiny}"
         );
     }
+    // A weak motor's collapse is another collapse, not a torn or forced one: rapier's
+    // worst solver limit violation in a 3 s collapse is chaotic (5-16 degrees without
+    // motors as the mass goes from 70 to 78 kg), so weak motors are held to within half
+    // as much again of no motor's worst over the same five masses.
+    let worst = |strength: f32| {
+        let mut worst = ragdoll::track::Metrics::default();
+        for mass in [70.0, 72.0, 74.0, 76.0, 78.0] {
+            let opts = BuildOptions {
+                total_mass_kg: Some(mass),
+                ..Default::default()
+            };
+            let spec = build_spec(&character, &opts).unwrap();
+            let (mut world, id) =
+                World::with_ragdoll(&character, &spec, &WorldSettings::default()).unwrap();
+            world.set_motors(id, Motors::constant(strength)).unwrap();
+            world.run(3.0);
+            let m = world.metrics();
+            worst.max_joint_separation_m =
+                worst.max_joint_separation_m.max(m.max_joint_separation_m);
+            worst.max_limit_violation_solver_deg = worst
+                .max_limit_violation_solver_deg
+                .max(m.max_limit_violation_solver_deg);
+        }
+        worst
+    };
+    let none = worst(0.0);
     for weak in [1e-5, 1e-3] {
-        let (_, m) = run(weak);
+        let m = worst(weak);
         assert!(m.max_joint_separation_m < 0.005, "strength {weak}: {m:?}");
         assert!(
-            m.max_limit_violation_solver_deg < 20.0,
-            "strength {weak}: {m:?}"
+            m.max_limit_violation_solver_deg < 1.5 * none.max_limit_violation_solver_deg,
+            "strength {weak}: {m:?}, no motor: {none:?}"
         );
     }
     assert!(

@@ -205,8 +205,10 @@ fn height_scales_the_built_in_humanoid() {
     let ratio = h[0] / h[1];
     let mass = |k: usize| scene.characters[k].spec.total_mass_kg();
     assert!(
-        (mass(0) - mass(1)).abs() < 1e-3,
-        "the mass stays 75 kg unless given"
+        (mass(0) / mass(1) - ratio.powi(3)).abs() < 1e-3,
+        "the mass goes as the volume, the cube of the height: {} kg and {} kg",
+        mass(0),
+        mass(1)
     );
     let bodies = |k: usize| {
         scene.characters[k]

@@ -249,12 +249,15 @@ fn gltf_units_scale_the_skeleton_and_its_clips() {
     for (a, b) in worlds(&m).iter().zip(worlds(&cm)) {
         assert!((*a * 0.01 - b).length() < 1e-5, "{a} {b}");
     }
-    assert!((import::character_height(&cm) - 1.5).abs() < 1e-5);
-    // Read as metres the avatar is 150 m tall, and told so.
+    // Its joints span 1.5 m; a skeleton without skin stands as much taller than its
+    // joints as the built-in humanoid does (1.75 m to 1.72).
+    let stands = 1.75 / ragdoll::skeleton::humanoid().skeleton.rest_height();
+    assert!((import::character_height(&cm) - 1.5 * stands).abs() < 1e-5);
+    // Read as metres the avatar is 150 m (standing, 152.6 m) tall, and told so.
     assert!(
         m.warnings
             .iter()
-            .any(|w| w.contains("150.0 m tall") && w.contains("--units cm")),
+            .any(|w| w.contains("152.6 m tall") && w.contains("--units cm")),
         "{:?}",
         m.warnings
     );

@@ -42,11 +42,12 @@ pub(super) fn check_height(height_m: Option<f32>) -> Result<()> {
     }
 }
 
-/// The vertical extent of a character in its rest pose, metres: of its meshes when it has
-/// any (the top of the head, not the head joint), else of its skeleton's joints and bone
-/// tips.
+/// How tall a character stands in its rest pose, metres
+/// ([`Character::height_along`] the vertical): its meshes' extent (the top of the head,
+/// not the head joint), else its joints' scaled as the built-in humanoid's are to its
+/// 1.75 m.
 pub fn character_height(c: &Character) -> f32 {
-    height_along(c, Vec3::Y)
+    c.height_along(Vec3::Y)
 }
 
 /// [`character_height`] of the character standing: measured along the way its roles
@@ -57,14 +58,7 @@ pub fn standing_height(c: &Character) -> f32 {
     let up = crate::spec::recognise_roles(c)
         .upright
         .map_or(Vec3::Y, |q| q.inverse() * Vec3::Y);
-    height_along(c, up)
-}
-
-/// The character's extent along `up` (unit) in its rest pose: of its meshes, else of its
-/// joints and bone ends.
-fn height_along(c: &Character, up: Vec3) -> f32 {
-    let meshes = c.meshes.iter().flat_map(|m| &m.positions).copied();
-    extent_along(meshes, up).unwrap_or_else(|| c.skeleton.rest_extent_along(up))
+    c.height_along(up)
 }
 
 fn extent_along(points: impl Iterator<Item = Vec3>, up: Vec3) -> Option<f32> {
@@ -276,14 +270,21 @@ mod tests {
         }
     }
 
+    /// How much taller than its joints' extent a skeleton stands: as the built-in
+    /// humanoid's 1.75 m is to its joints' 1.72 m.
+    fn stands() -> f32 {
+        1.75 / crate::skeleton::humanoid().skeleton.rest_height()
+    }
+
     #[test]
     fn scaling_keeps_the_shape_and_scales_every_position() {
         let mut c = two_joints(Source::BuiltIn);
-        assert_eq!(character_height(&c), 100.0);
+        assert!((stands() - 1.75 / 1.72).abs() < 1e-6);
+        assert!((character_height(&c) - 100.0 * stands()).abs() < 1e-3);
         scale(&mut c, 0.01, Path::new("c.bvh")).unwrap();
         let w = c.skeleton.rest_world();
         assert!((w[1].translation.y - 1.8).abs() < 1e-5);
-        assert!((character_height(&c) - 1.0).abs() < 1e-5);
+        assert!((character_height(&c) - stands()).abs() < 1e-5);
         let mut posed = vec![Transform::IDENTITY; 2];
         c.skeleton
             .world_from_local(&c.clips[0].frames[0], &mut posed);
@@ -345,7 +346,7 @@ mod tests {
         assert!(character_height(&giant) < PLAUSIBLE_HEIGHT_M.end() / 2.0);
         let w = implausible(&giant, Path::new("cm.glb")).unwrap_or_default();
         assert!(
-            w.contains("172.0 m tall") && w.contains("--units cm"),
+            w.contains("175.0 m tall") && w.contains("--units cm"),
             "{w}"
         );
     }
@@ -355,13 +356,13 @@ mod tests {
         let c = two_joints(Source::BuiltIn);
         let w = implausible(&c, Path::new("big.glb")).unwrap();
         assert!(
-            w.contains("100.0 m tall") && w.contains("--units cm"),
+            w.contains("101.7 m tall") && w.contains("--units cm"),
             "{w}"
         );
         let mut small = two_joints(Source::BuiltIn);
         scale(&mut small, 1e-4, Path::new("s")).unwrap();
         let w = implausible(&small, Path::new("s")).unwrap();
-        assert!(w.contains("10.0 mm tall"), "{w}");
+        assert!(w.contains("10.2 mm tall"), "{w}");
         let mut fine = two_joints(Source::BuiltIn);
         scale(&mut fine, 0.017, Path::new("f")).unwrap();
         assert_eq!(implausible(&fine, Path::new("f")), None);

@@ -328,6 +328,37 @@ pub struct Character {
 }
 
 impl Character {
+    /// How tall the character stands along `up` (unit) in its rest pose, metres: its
+    /// meshes' extent when it has any (the top of the head, the soles). A skeleton's joints
+    /// stop short of the soles and the crown, so its joints' extent is scaled as the
+    /// built-in humanoid's is to its standing height ([`DEFAULT_HEIGHT_M`]): a skeleton of
+    /// the built-in humanoid's size stands exactly as tall.
+    pub fn height_along(&self, up: Vec3) -> f32 {
+        if self.meshes.iter().any(|m| !m.positions.is_empty()) {
+            return self.extent_along(up);
+        }
+        let reference = humanoid().skeleton.rest_height();
+        // The ratio first: a skeleton as tall as the reference gets exactly its height.
+        self.skeleton.rest_extent_along(up) / reference * DEFAULT_HEIGHT_M
+    }
+
+    /// The character's extent along `up` (unit) in its rest pose, metres: of its meshes
+    /// when it has any, else of its joints and bone ends.
+    pub fn extent_along(&self, up: Vec3) -> f32 {
+        let (lo, hi) = self.meshes.iter().flat_map(|m| &m.positions).fold(
+            (f32::INFINITY, f32::NEG_INFINITY),
+            |(lo, hi), p| {
+                let h = p.dot(up);
+                (lo.min(h), hi.max(h))
+            },
+        );
+        if hi >= lo {
+            hi - lo
+        } else {
+            self.skeleton.rest_extent_along(up)
+        }
+    }
+
     /// The character turned by `yaw` radians about the vertical axis through the origin,
     /// skeleton and skin together: to make it face another way before building its ragdoll
     /// (roles and limits do not depend on the facing).

@@ -80,8 +80,37 @@ pub const DE_LEVA_FEMALE: SegmentMassFractions = SegmentMassFractions {
 /// the head–neck–chest chain strains the solver.
 pub const NECK_SHARE_OF_HEAD_NECK: f32 = 0.2;
 
-/// Default body mass of a humanoid, kg: an adult man's, as in biomechanics references.
+/// Default body mass of a humanoid [`REFERENCE_HUMANOID_HEIGHT_M`] tall, kg: an adult
+/// man's, as in crash-test and biomechanics references.
 pub const DEFAULT_HUMANOID_MASS_KG: f32 = 75.0;
+
+/// Standing height at which a humanoid weighs [`DEFAULT_HUMANOID_MASS_KG`], metres.
+pub const REFERENCE_HUMANOID_HEIGHT_M: f32 = 1.75;
+
+/// A humanoid's default mass at a standing height of `height_m`: 75 kg at 1.75 m, scaled
+/// as its volume (the cube of its height). A character scaled in its file keeps its
+/// proportions, so its volume goes as the cube: a 0.9 m child-sized figure weighs 10 kg
+/// and a 5.6 m giant 2,460 kg, which a blast throws as fast as physics says rather than at
+/// a 75 kg figure's speed. Heights are taken within [`HUMANOID_MASS_HEIGHTS_M`], so the
+/// lightest segment (a hand, 0.6 %) stays above the lightest body a spec may have; a
+/// height that is not a number gives 75 kg.
+///
+/// ```
+/// use ragdoll::spec::humanoid_mass_kg;
+/// assert_eq!(humanoid_mass_kg(1.75), 75.0);
+/// assert!((humanoid_mass_kg(3.5) - 600.0).abs() < 1e-3);
+/// ```
+pub fn humanoid_mass_kg(height_m: f32) -> f32 {
+    if height_m.is_nan() {
+        return DEFAULT_HUMANOID_MASS_KG;
+    }
+    let (lo, hi) = HUMANOID_MASS_HEIGHTS_M.into_inner();
+    DEFAULT_HUMANOID_MASS_KG * (height_m.clamp(lo, hi) / REFERENCE_HUMANOID_HEIGHT_M).powi(3)
+}
+
+/// The heights [`humanoid_mass_kg`] scales over, metres: from a 5 cm figurine (1.8 g) to
+/// a 100 m giant (14,000 t).
+pub const HUMANOID_MASS_HEIGHTS_M: std::ops::RangeInclusive<f32> = 0.05..=100.0;
 
 /// Density used to weigh non-humanoid bodies, kg/m³: water, close to soft tissue.
 pub const BODY_DENSITY_KG_M3: f32 = 1000.0;

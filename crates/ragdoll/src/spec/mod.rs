@@ -345,6 +345,10 @@ pub use frames::{
     JointAngles, Resolved, ResolvedJoint, find_label, fit_limits_to_pose, start_pose,
 };
 
+pub use anthropometry::{
+    DEFAULT_HUMANOID_MASS_KG, HUMANOID_MASS_HEIGHTS_M, REFERENCE_HUMANOID_HEIGHT_M,
+    humanoid_mass_kg,
+};
 pub(crate) use build::shapes_overlap;
 pub use build::{BuildOptions, build_spec, build_spec_with_roles};
 pub use mesh::bodies_mesh;

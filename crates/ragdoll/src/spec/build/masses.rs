@@ -17,7 +17,9 @@ pub(super) const MAX_LINKED_MASS_RATIO: f32 = 5.0;
 
 impl Builder<'_> {
     /// Each body's mass. `enclosed_m3`: the volume the character's skin encloses, where it
-    /// is closed ([`super::volume::enclosed_volume_m3`]).
+    /// is closed ([`super::volume::enclosed_volume_m3`]); `standing_m`: its height
+    /// standing ([`crate::skeleton::Character::height_along`] the way it stands), which
+    /// weighs a humanoid ([`humanoid_mass_kg`]).
     ///
     /// A creature's share is its shapes' volume, its extra shapes' (`extras`) with its own:
     /// they hold skin the body carries.
@@ -27,10 +29,15 @@ impl Builder<'_> {
         extras: &[Vec<ExtraPlan>],
         parents: &[usize],
         enclosed_m3: Option<f32>,
+        standing_m: f32,
     ) -> Vec<f32> {
+        let humanoid_total = || {
+            self.opts
+                .total_mass_kg
+                .unwrap_or_else(|| humanoid_mass_kg(standing_m))
+        };
         let mut m: Vec<f32> = if self.roles.humanoid {
-            let total = self.opts.total_mass_kg.unwrap_or(DEFAULT_HUMANOID_MASS_KG);
-            self.humanoid_masses(plans, total)
+            self.humanoid_masses(plans, humanoid_total())
         } else {
             let own: Vec<f32> = plans.iter().map(|p| p.shape.volume()).collect();
             let shares: Vec<f32> = own
@@ -48,8 +55,8 @@ impl Builder<'_> {
             shares.iter().map(|x| total * x / v).collect()
         };
         let total = match (self.roles.humanoid, self.opts.total_mass_kg) {
-            (_, Some(t)) => t,
-            (true, None) => DEFAULT_HUMANOID_MASS_KG,
+            (true, _) => humanoid_total(),
+            (false, Some(t)) => t,
             (false, None) => m.iter().sum(),
         };
         stabilize_masses(&mut m, parents, MAX_LINKED_MASS_RATIO);

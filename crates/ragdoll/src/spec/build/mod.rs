@@ -39,11 +39,12 @@ use collision::{collision_filter, filter_start_overlaps};
 pub(super) use extras::shape_holds;
 use order::{parent_body, parent_first};
 
-/// Options for [`build_spec`]; the default builds a 75 kg male humanoid (or a creature
-/// weighed by its volume).
+/// Options for [`build_spec`]; the default builds a male humanoid weighed by its height
+/// (75 kg at 1.75 m, see [`super::humanoid_mass_kg`]), or a creature weighed by its volume.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct BuildOptions {
-    /// Total mass, kg. `None`: 75 kg for a humanoid, volume × 1000 kg/m³ for
+    /// Total mass, kg. `None`: [`super::humanoid_mass_kg`] of its standing height for a
+    /// humanoid (75 kg at 1.75 m), volume × 1000 kg/m³ for
     /// anything else (so a creature's mass follows its size): the volume its skin encloses
     /// where the skin is closed, else its bodies' shapes'.
     pub total_mass_kg: Option<f32>,
@@ -225,7 +226,8 @@ impl<'a> Builder<'a> {
             .collect();
         let enclosed = volume::enclosed_volume_m3(&character.meshes);
         let extras = self.extras(&plans);
-        let masses = self.masses(&plans, &extras, &parents, enclosed);
+        let standing = character.height_along(Vec3::Y);
+        let masses = self.masses(&plans, &extras, &parents, enclosed, standing);
 
         let mut names: Vec<String> = Vec::new();
         let mut taken = HashSet::new();

@@ -1,4 +1,4 @@
-use glam::{Quat, Vec3};
+use glam::{Quat, Vec3, Vec4};
 
 use super::collision::{COLLISION_MARGIN_M, Solid, nearby_pairs, segment_distance, solid};
 use super::joints::{cone_centre, rotate_toward, swing_twist};
@@ -179,8 +179,14 @@ fn spec_build_missing_segments_give_their_mass_to_neighbours() {
         "{:?}",
         spec.bodies.iter().map(|b| &b.name).collect::<Vec<_>>()
     );
-    assert!((spec.total_mass_kg() - 75.0).abs() < 1e-3);
-    assert!(body(&spec, "head").mass_kg > 4.5, "head carries the neck");
+    // A skeleton weighs as the built-in humanoid scaled to its joints' height.
+    let k = c2.skeleton.rest_height() / c.skeleton.rest_height();
+    let want = crate::spec::humanoid_mass_kg(k * 1.75);
+    assert!((spec.total_mass_kg() - want).abs() < 1e-3);
+    assert!(
+        body(&spec, "head").mass_kg > 0.06 * want,
+        "head carries the neck"
+    );
 }
 
 /// Rotates `p` about the axis `axis` through `pivot` by `deg`.
@@ -529,4 +535,68 @@ fn spec_build_cone_centre_convention() {
             (cone_tilt_deg[0] - tilt[0]).abs() < 1e-3 && (cone_tilt_deg[1] - tilt[1]).abs() < 1e-3
         );
     }
+}
+
+/// A humanoid's default mass goes as its volume: 75 kg at 1.75 m, eight times that at
+/// twice the height, and the segments keep their shares.
+#[test]
+fn spec_build_humanoid_mass_scales_as_volume() {
+    let scaled = |k: f32| {
+        let mut c = humanoid();
+        let joints = c
+            .skeleton
+            .joints()
+            .iter()
+            .map(|j| crate::skeleton::Joint {
+                rest: crate::math::Transform {
+                    translation: j.rest.translation * k,
+                    ..j.rest
+                },
+                tip: j.tip.map(|t| t * k),
+                ..j.clone()
+            })
+            .collect();
+        c.skeleton = Skeleton::new(joints).unwrap();
+        c
+    };
+    // The built-in humanoid stands 1.75 m from soles to crown and weighs 75 kg.
+    let (s, b) = (build(&scaled(1.0)), build(&scaled(2.0)));
+    assert!(
+        (s.total_mass_kg() - 75.0).abs() < 1e-3,
+        "{}",
+        s.total_mass_kg()
+    );
+    assert!(
+        (b.total_mass_kg() / s.total_mass_kg() - 8.0).abs() < 1e-3,
+        "{} vs {}",
+        b.total_mass_kg(),
+        s.total_mass_kg()
+    );
+    for (x, y) in s.bodies.iter().zip(&b.bodies) {
+        assert!((y.mass_kg / x.mass_kg - 8.0).abs() < 1e-3, "{}", x.name);
+    }
+}
+
+/// A skinned humanoid is weighed by its skin's height, the top of its head and its soles.
+#[test]
+fn spec_build_skinned_humanoid_is_weighed_by_its_skin() {
+    let mut c = humanoid();
+    // A skin reaching 5 cm above the crown and down to the floor: 1.80 m. Two points,
+    // each on the joint nearest it (a foot, the head).
+    let joint = |name: &str| c.skeleton.joints().iter().position(|j| j.name == name);
+    let (foot, head) = (
+        joint("foot_l").unwrap() as u16,
+        joint("head").unwrap() as u16,
+    );
+    c.meshes.push(crate::skeleton::SkinnedMesh {
+        positions: vec![Vec3::new(0.09, 0.0, 0.05), Vec3::new(0.0, 1.80, 0.0)],
+        joints: vec![[foot, 0, 0, 0], [head, 0, 0, 0]],
+        weights: vec![Vec4::X, Vec4::X],
+        ..Default::default()
+    });
+    let want = 75.0 * (1.80f32 / 1.75).powi(3);
+    let got = crate::spec::build_spec(&c, &BuildOptions::default())
+        .unwrap()
+        .total_mass_kg();
+    assert!((got - want).abs() < 1e-3, "{got} vs {want}");
 }

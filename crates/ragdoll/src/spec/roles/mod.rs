@@ -181,7 +181,7 @@ pub(super) fn with_size_warning(mut roles: Roles) -> Roles {
     {
         let (lo, hi) = HUMANOID_HEIGHT_M.into_inner();
         roles.warning = Some(format!(
-            "a humanoid {h:.2} m tall, where people stand {lo} to {hi} m: if its file is in other units, say so (--units), or give its height (--height); its ragdoll weighs the same whatever its size"
+            "a humanoid {h:.2} m tall, where people stand {lo} to {hi} m: if its file is in other units, say so (--units), or give its height (--height); its ragdoll weighs what a humanoid of this size would (75 kg at 1.75 m, as the cube of the height)"
         ));
     }
     roles
