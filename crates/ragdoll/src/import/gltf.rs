@@ -132,14 +132,17 @@ pub fn from_bytes_with(
 ) -> Result<Character> {
     let units = opts.units.map_or(1.0, |u| u.to_metres());
     let container = data::split_container(bytes, path)?;
-    let json = read_json(&container, path)?;
+    let mut json = read_json(&container, path)?;
     refuse_unreadable(&json, path)?;
+    // Embedded buffers are decoded before anything copies the document's text.
+    let lifted = data::lift_data_buffers(&mut json, data::MAX_BUFFER_BYTES)
+        .map_err(|(i, message)| format_err(path, format!("buffer {i}"), message))?;
     let doc = parse_document(&json, path)?;
     let dir = path
         .parent()
         .map(Path::to_path_buf)
         .unwrap_or_else(|| PathBuf::from("."));
-    let mut buffers = data::resolve_buffers(&doc, container.bin, &dir, path)?;
+    let mut buffers = data::resolve_buffers(&doc, container.bin, lifted, &dir, path)?;
     let (json, doc, repairs) = repair_source(json, doc, &mut buffers, path)?;
     let reader = Reads {
         reader: AccessorReader {
@@ -196,7 +199,7 @@ pub fn from_bytes_with(
         skeleton,
         meshes,
         clips,
-        source: Source::Gltf(Box::new(GltfSource {
+        source: Source::Gltf(std::sync::Arc::new(GltfSource {
             path: path.to_path_buf(),
             dir,
             json,

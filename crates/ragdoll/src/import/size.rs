@@ -174,6 +174,7 @@ pub(super) fn scale(c: &mut Character, s: f32, path: &Path) -> Result<()> {
     }
     let mut joints = c.skeleton.joints().to_vec();
     if let Source::Gltf(src) = &mut c.source {
+        let src = std::sync::Arc::make_mut(src);
         let by = Transform {
             scale: Vec3::splat(s),
             ..Transform::IDENTITY

@@ -17,8 +17,9 @@ pub enum Source {
     BuiltIn,
     /// A BVH file.
     Bvh(BvhLayout),
-    /// A glTF 2.0 file.
-    Gltf(Box<GltfSource>),
+    /// A glTF 2.0 file. Shared: its buffers may hold hundreds of megabytes, and a
+    /// character is copied (turned, stood up) several times while its roles are found.
+    Gltf(std::sync::Arc<GltfSource>),
     /// A mesh that came without a skeleton (an OBJ, a glTF without a skin), rigged by
     /// [`crate::rig`]: its exporters write a fresh glTF of the mesh and its automatic skin.
     /// Holds the file read.

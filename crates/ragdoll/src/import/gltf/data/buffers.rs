@@ -3,8 +3,6 @@
 
 use std::path::Path;
 
-use base64::Engine;
-
 use super::format_err;
 use crate::error::Result;
 use crate::files::{MAX_INPUT_BYTES, Refusal};
@@ -45,40 +43,10 @@ pub(crate) fn decode_data_uri(
     uri: &str,
     limit: u64,
 ) -> Option<std::result::Result<(Vec<u8>, String), String>> {
-    let rest = uri.strip_prefix("data:")?;
-    let Some((header, payload)) = rest.split_once(',') else {
-        return Some(Err("a data: URI without a comma".into()));
-    };
-    let (mime, is_base64) = match header.strip_suffix(";base64") {
-        Some(m) => (m, true),
-        None => (header, false),
-    };
-    let mime = mime.split(';').next().unwrap_or("").to_string();
-    // Base64 holds 3 bytes in 4 characters; percent-encoding at most one per character.
-    let most = if is_base64 {
-        payload.len() / 4 * 3 + 3
-    } else {
-        payload.len()
-    };
-    if most as u64 > limit {
-        return Some(Err(format!(
-            "a data: URI of up to {most} bytes, more than the {limit} bytes still allowed ({BUDGET_NOTE})"
-        )));
+    if !uri.starts_with("data:") {
+        return None;
     }
-    if is_base64 {
-        let cleaned: String = payload
-            .chars()
-            .filter(|c| !c.is_ascii_whitespace())
-            .collect();
-        Some(
-            base64::engine::general_purpose::STANDARD
-                .decode(cleaned.as_bytes())
-                .map(|bytes| (bytes, mime))
-                .map_err(|e| format!("bad base64 in a data: URI: {e}")),
-        )
-    } else {
-        Some(Ok((percent_decode(payload), mime)))
-    }
+    super::data_uri::decode_owned(uri.to_string(), limit).ok()
 }
 
 /// Most bytes a glTF's buffers may hold together, and, when it is exported, its images
@@ -86,7 +54,7 @@ pub(crate) fn decode_data_uri(
 /// the GLB binary chunk) cannot multiply it in memory.
 pub const MAX_BUFFER_BYTES: u64 = MAX_INPUT_BYTES;
 
-const BUDGET_NOTE: &str = "a glTF's buffers, and its images, may hold 1024 MiB together";
+pub(super) const BUDGET_NOTE: &str = "a glTF's buffers, and its images, may hold 1024 MiB together";
 
 /// Why an external URI was not read: a sentence naming the URI, and whether the file is
 /// merely absent or unreadable (which a missing texture may be forgiven) rather than
@@ -179,13 +147,15 @@ fn missing_image_warning(index: usize, image: &serde_json::Value, e: &UriError) 
     )
 }
 
-/// Resolves every buffer: the GLB binary chunk, `data:` URIs, or files in the glTF's
-/// folder. Each result is cut to the buffer's declared `byteLength`, so later bounds checks
+/// Resolves every buffer: the GLB binary chunk, `data:` URIs (`lifted`: those already
+/// taken out of the document by [`super::lift_data_buffers`], by buffer index), or files
+/// in the glTF's folder. Each result is cut to the buffer's declared `byteLength`, so later bounds checks
 /// hold against what the file promised, and together they hold at most
 /// [`MAX_BUFFER_BYTES`].
 pub(crate) fn resolve_buffers(
     doc: &gltf::Document,
     bin: Option<&[u8]>,
+    mut lifted: Vec<Option<Vec<u8>>>,
     dir: &Path,
     path: &Path,
 ) -> Result<Vec<Vec<u8>>> {
@@ -203,8 +173,10 @@ pub(crate) fn resolve_buffers(
                 ),
             ));
         }
-        let mut data = match buffer.source() {
-            gltf::buffer::Source::Bin => match bin {
+        let lifted = lifted.get_mut(buffer.index()).and_then(Option::take);
+        let mut data = match (lifted, buffer.source()) {
+            (Some(bytes), _) => bytes,
+            (None, gltf::buffer::Source::Bin) => match bin {
                 Some(b) => b.get(..declared).unwrap_or(b).to_vec(),
                 None => {
                     return Err(format_err(
@@ -214,7 +186,7 @@ pub(crate) fn resolve_buffers(
                     ));
                 }
             },
-            gltf::buffer::Source::Uri(uri) => match decode_data_uri(uri, left) {
+            (None, gltf::buffer::Source::Uri(uri)) => match decode_data_uri(uri, left) {
                 Some(Ok((bytes, _))) => bytes,
                 Some(Err(message)) => return Err(format_err(path, place, message)),
                 None => read_external(dir, uri, left).map_err(|m| format_err(path, &place, m))?,

@@ -9,6 +9,7 @@
 mod accessor;
 mod buffers;
 mod container;
+mod data_uri;
 
 use std::path::Path;
 
@@ -20,6 +21,7 @@ pub use buffers::MAX_BUFFER_BYTES;
 pub(crate) use buffers::{decode_data_uri, missing_images, read_external, resolve_buffers};
 pub(crate) use container::{Container, check_json_size, split_container};
 pub use container::{MAX_JSON_OBJECTS, MAX_JSON_VALUES};
+pub(crate) use data_uri::lift_data_buffers;
 
 /// Builds an [`Error::Format`] for `path`.
 pub(crate) fn format_err(
