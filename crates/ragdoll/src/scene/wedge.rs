@@ -67,6 +67,16 @@ pub enum WedgeMode {
     Zip,
 }
 
+impl WedgeMode {
+    /// Its name in scene files: `cross` or `zip`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            WedgeMode::Cross => "cross",
+            WedgeMode::Zip => "zip",
+        }
+    }
+}
+
 /// One varied key.
 #[derive(Clone, Debug)]
 pub struct WedgeKey {
