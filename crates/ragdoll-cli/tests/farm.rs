@@ -404,3 +404,19 @@ fn the_slurm_scripts_chain_the_merge_after_the_array() {
         assert!(o.status.success(), "{sh}: {}", stderr(&o));
     }
 }
+
+/// The example and the README's wedge stay in step with the parser.
+#[test]
+fn the_example_and_the_readme_wedge_list_their_variants() {
+    let example = repo().join("examples/wedge_crowd.toml");
+    let o = ok(&repo(), &["wedge", example.to_str().unwrap(), "--list"]);
+    assert_eq!(stdout_lines(&o).len(), 6);
+    let readme = std::fs::read_to_string(repo().join("README.md")).unwrap();
+    let section = &readme[readme.find("## Wedges and farm jobs").unwrap()..];
+    let start = section.find("```toml\n").unwrap() + 8;
+    let block = &section[start..start + section[start..].find("```").unwrap()];
+    let dir = tempfile::tempdir().unwrap();
+    let base = "[[blast]]\ntnt_kg = 1.0\nposition = [0.0, 0.3, 0.0]\n";
+    std::fs::write(dir.path().join("shot.toml"), format!("{base}{block}")).unwrap();
+    assert_eq!(names(dir.path())[4], "4_at=1.5,0.3,0_tnt_kg=1");
+}
