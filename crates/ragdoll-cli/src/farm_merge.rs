@@ -2,12 +2,14 @@
 //! is checked first (present, readable, made from the plan's inputs and values, every
 //! output matching its hash); one that fails is refused naming the variant, and nothing is
 //! written. The table, `results.csv` and `results.json`, puts each variant's wedge values
-//! beside its report's metrics and what it cost to run.
+//! beside its report's metrics and what it cost to run; the contact sheet
+//! (`contact-sheet-001.png`, ...; see `farm_sheet.rs`) shows every variant's preview.
 
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
+use rayon::prelude::*;
 use serde_json::{Map, Value, json};
 
 use crate::farm::{Plan, read_capped};
@@ -28,22 +30,31 @@ struct Row {
 
 pub fn run(a: &MergeArgs) -> Result<()> {
     let plan = Plan::load(&a.job.join("plan.json"))?;
-    let mut rows = Vec::with_capacity(plan.variants.len());
-    let mut refused = Vec::new();
-    for v in &plan.variants {
-        let dir = variant_dir(&a.job, &v.name);
-        let manifest = if dir.join(MANIFEST).exists() {
-            Manifest::check(&dir, &plan, v)
-        } else {
-            Err(anyhow::anyhow!(
-                "not run yet (no {}); run task {} again",
-                dir.join(MANIFEST).display(),
-                v.task
-            ))
-        };
-        match manifest.and_then(|m| row(&dir, &m)) {
+    // Checked in parallel: a check hashes every output, and 10,000 variants are gigabytes.
+    let checked: Vec<Result<Row, String>> = plan
+        .variants
+        .par_iter()
+        .map(|v| {
+            let dir = variant_dir(&a.job, &v.name);
+            let manifest = if dir.join(MANIFEST).exists() {
+                Manifest::check(&dir, &plan, v)
+            } else {
+                Err(anyhow::anyhow!(
+                    "not run yet (no {}); run task {} again",
+                    dir.join(MANIFEST).display(),
+                    v.task
+                ))
+            };
+            manifest
+                .and_then(|m| row(&dir, &m))
+                .map_err(|e| format!("variant {}: {e:#}", v.name))
+        })
+        .collect();
+    let (mut rows, mut refused) = (Vec::new(), Vec::new());
+    for c in checked {
+        match c {
             Ok(r) => rows.push(r),
-            Err(e) => refused.push(format!("variant {}: {e:#}", v.name)),
+            Err(e) => refused.push(e),
         }
     }
     if let Some(first) = refused.first() {
@@ -78,6 +89,10 @@ pub fn run(a: &MergeArgs) -> Result<()> {
         .collect();
     let text = serde_json::to_string_pretty(&json)?;
     staging.write(&a.job.join("results.json"), text.as_bytes())?;
+    for (n, png) in crate::farm_sheet::pages(&a.job, &plan)?.iter().enumerate() {
+        let name = format!("contact-sheet-{:03}.png", n + 1);
+        staging.write(&a.job.join(name), png)?;
+    }
     for path in staging.commit()? {
         outln!("{}", path.display());
     }

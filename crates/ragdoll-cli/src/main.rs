@@ -43,6 +43,7 @@ mod clip_list;
 mod commands;
 mod farm;
 mod farm_merge;
+mod farm_sheet;
 mod farm_task;
 mod farm_templates;
 mod fatal;

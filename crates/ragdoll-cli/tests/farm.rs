@@ -199,6 +199,9 @@ fn merge_writes_one_row_per_variant_with_its_values() {
     assert_eq!(json.as_array().unwrap().len(), 4);
     assert_eq!(json[2]["values"]["blast[0].tnt_kg"], 2.0);
     assert!(json[2]["max_penetration_m"].is_number());
+    let sheet = std::fs::read(d.join("job/contact-sheet-001.png")).unwrap();
+    assert_eq!(&sheet[1..4], b"PNG");
+    assert!(!d.join("job/contact-sheet-002.png").exists(), "4 variants fit one page");
 }
 
 #[test]
