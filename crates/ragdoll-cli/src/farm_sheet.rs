@@ -11,7 +11,7 @@ use rayon::prelude::*;
 use serde_json::Value;
 
 use crate::farm::{Plan, PlanVariant};
-use crate::farm_task::{PREVIEW_FILE, variant_dir};
+use crate::farm_task::variant_dir;
 
 /// A shrunk preview, pixels (a quarter of the preview's 640 × 480).
 const TILE_W: usize = 160;
@@ -33,11 +33,11 @@ const BACKGROUND: u8 = 36;
 pub fn pages(job: &Path, plan: &Plan) -> Result<Vec<Vec<u8>>> {
     let lines = 1 + plan.keys.len();
     plan.variants
-        .chunks(PER_PAGE)
+        .par_chunks(PER_PAGE)
         .map(|chunk| {
             let tiles: Vec<Vec<u8>> = chunk
                 .par_iter()
-                .map(|v| tile(&variant_dir(job, &v.name).join(PREVIEW_FILE)))
+                .map(|v| tile(&variant_dir(job, &v.name).join(THUMB_FILE)))
                 .collect();
             page(plan, chunk, &tiles, lines)
         })
@@ -89,28 +89,40 @@ fn compact(v: &Value) -> String {
     }
 }
 
-/// A preview shrunk to a tile by averaging the pixels each tile pixel covers; a missing
-/// or unreadable picture is a grey tile (the manifest vouched for the variant; its
-/// picture is only a view of it).
-fn tile(path: &Path) -> Vec<u8> {
-    let grey = || vec![90u8; TILE_W * TILE_H * 3];
-    let Ok(bytes) = std::fs::read(path) else {
-        return grey();
+/// The thumbnail each variant keeps beside its preview, so merging 10,000 variants
+/// decodes 10,000 small pictures, not 10,000 full ones (a whole merge of 10,000 took
+/// 30 s with full ones, 11 s with thumbnails, on two shared cores).
+pub const THUMB_FILE: &str = "thumb.png";
+
+/// A preview picture (PNG bytes) shrunk to a tile, as PNG bytes.
+pub fn thumbnail(preview: &[u8]) -> Result<Vec<u8>> {
+    let Some((w, h, rgb)) = decode(preview) else {
+        bail!("the preview picture could not be read back for its thumbnail");
     };
-    let Some((w, h, rgb)) = decode(&bytes) else {
-        return grey();
+    encode(TILE_W, TILE_H, &shrink(w, h, &rgb))
+}
+
+/// A variant's tile from its thumbnail; a missing or unreadable picture is a grey tile
+/// (the manifest vouched for the variant; its picture is only a view of it).
+fn tile(path: &Path) -> Vec<u8> {
+    let picture = std::fs::read(path).ok().and_then(|b| decode(&b));
+    match picture {
+        Some((w, h, rgb)) => shrink(w, h, &rgb),
+        None => vec![90u8; TILE_W * TILE_H * 3],
+    }
+}
+
+/// A picture shrunk (or stretched) to a tile, each tile pixel the mean of those it covers.
+fn shrink(w: usize, h: usize, rgb: &[u8]) -> Vec<u8> {
+    let span = |t: usize, n: usize, tiles: usize| {
+        let a = t * n / tiles;
+        (a, ((t + 1) * n / tiles).clamp(a + 1, n.max(a + 1)))
     };
     let mut out = Vec::with_capacity(TILE_W * TILE_H * 3);
     for ty in 0..TILE_H {
-        let (ya, yb) = (
-            ty * h / TILE_H,
-            ((ty + 1) * h / TILE_H).max(ty * h / TILE_H + 1),
-        );
+        let (ya, yb) = span(ty, h, TILE_H);
         for tx in 0..TILE_W {
-            let (xa, xb) = (
-                tx * w / TILE_W,
-                ((tx + 1) * w / TILE_W).max(tx * w / TILE_W + 1),
-            );
+            let (xa, xb) = span(tx, w, TILE_W);
             let mut sum = [0u32; 3];
             for y in ya..yb.min(h) {
                 for x in xa..xb.min(w) {
@@ -120,7 +132,7 @@ fn tile(path: &Path) -> Vec<u8> {
                     }
                 }
             }
-            let n = ((yb.min(h) - ya) * (xb.min(w) - xa)).max(1) as u32;
+            let n = ((yb.min(h).saturating_sub(ya)) * (xb.min(w).saturating_sub(xa))).max(1) as u32;
             out.extend(sum.map(|s| (s / n) as u8));
         }
     }
@@ -152,6 +164,9 @@ fn encode(width: usize, height: usize, rgb: &[u8]) -> Result<Vec<u8>> {
     let mut enc = png::Encoder::new(&mut out, width as u32, height as u32);
     enc.set_color(png::ColorType::Rgb);
     enc.set_depth(png::BitDepth::Eight);
+    // Fast deflate, and pages drawn in parallel: with both, merging 10,000 variants went
+    // from 11 s to 7 s on two cores (a page is 0.8 MB).
+    enc.set_compression(png::Compression::Fast);
     let written = enc
         .write_header()
         .and_then(|mut w| w.write_image_data(rgb).and_then(|()| w.finish()));

@@ -33,8 +33,8 @@ pub const MANIFEST: &str = "manifest.json";
 /// The variant's scene, written beside its outputs so it can be run again alone.
 const SCENE_FILE: &str = "scene.toml";
 
-/// The preview picture the contact sheet is made of.
-pub const PREVIEW_FILE: &str = "preview.png";
+/// The variant's preview picture (its thumbnail makes its tile of the contact sheet).
+const PREVIEW_FILE: &str = "preview.png";
 
 #[derive(Args, Debug)]
 pub struct RunTaskArgs {
@@ -174,7 +174,10 @@ fn make_variant(job: &Path, plan: &Plan, wedge: &Wedge, v: &PlanVariant) -> Resu
     scene.path = Path::new("variants").join(&v.name).join(SCENE_FILE);
     let result = scene.run()?;
     files.extend(scene.encode(&result)?);
-    files.push((PREVIEW_FILE.into(), preview(&scene, &result)?));
+    let picture = preview(&scene, &result)?;
+    let thumb = crate::farm_sheet::thumbnail(&picture)?;
+    files.push((PREVIEW_FILE.into(), picture));
+    files.push((crate::farm_sheet::THUMB_FILE.into(), thumb));
     crate::fatal::debug_panic_point("variant-staged");
     let mut listed = Vec::with_capacity(files.len());
     for (name, bytes) in &files {

@@ -201,7 +201,10 @@ fn merge_writes_one_row_per_variant_with_its_values() {
     assert!(json[2]["max_penetration_m"].is_number());
     let sheet = std::fs::read(d.join("job/contact-sheet-001.png")).unwrap();
     assert_eq!(&sheet[1..4], b"PNG");
-    assert!(!d.join("job/contact-sheet-002.png").exists(), "4 variants fit one page");
+    assert!(
+        !d.join("job/contact-sheet-002.png").exists(),
+        "4 variants fit one page"
+    );
 }
 
 #[test]
