@@ -97,6 +97,22 @@ pub fn run(a: &MergeArgs) -> Result<()> {
         outln!("{}", path.display());
     }
     errln!("{}: {} variants merged", a.job.display(), rows.len());
+    // A killed task's temporary folders are never read, nor removed by a task (another
+    // node may still be writing one); once the job is merged they are plainly dead.
+    let leftovers = std::fs::read_dir(a.job.join("variants"))
+        .map(|d| {
+            d.filter_map(|e| e.ok())
+                .filter(|e| e.file_name().to_string_lossy().starts_with(".tmp-"))
+                .count()
+        })
+        .unwrap_or(0);
+    if leftovers > 0 {
+        errln!(
+            "note: {leftovers} temporary folder{} of killed tasks in {} (.tmp-*) can be deleted",
+            if leftovers == 1 { "" } else { "s" },
+            a.job.join("variants").display()
+        );
+    }
     Ok(())
 }
 

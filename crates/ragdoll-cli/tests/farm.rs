@@ -299,7 +299,12 @@ fn a_task_killed_mid_variant_leaves_nothing_half_written_and_a_rerun_finishes() 
         "{err}"
     );
     ok(d, &["run-task", "job/plan.json", "--task", "0"]);
-    ok(d, &["merge", "job"]);
+    let merged = ok(d, &["merge", "job"]);
+    let note = stderr(&merged);
+    assert!(
+        note.contains("note: 1 temporary folder of killed tasks"),
+        "{note}"
+    );
     assert_eq!(
         variants(d).iter().filter(|v| !v.starts_with('.')).count(),
         4

@@ -28,6 +28,20 @@
 //! generator (as crowds do), so a wedge gives the same variants on every machine. Names
 //! are the variant's index, zero-padded so they sort, then `label=value` pairs, cleaned
 //! to characters every file system takes: `07_tnt_kg=2_time_s=0.4`.
+//!
+//! ```no_run
+//! use ragdoll::scene::{Scene, wedge::Wedge};
+//! let wedge = Wedge::load("examples/wedge_crowd.toml".as_ref())?.expect("a [wedge] table");
+//! for variant in wedge.variants() {
+//!     // Written beside where it will run, its relative files rewritten for that folder.
+//!     let dir = std::path::Path::new("out").join(&variant.name);
+//!     std::fs::create_dir_all(&dir).map_err(|e| ragdoll::Error::io(&dir, e))?;
+//!     let text = wedge.scene_text(&variant, &dir)?;
+//!     let scene = Scene::from_toml(&text, &dir.join("scene.toml"))?;
+//!     scene.write(&scene.run()?, &dir)?;
+//! }
+//! # Ok::<(), ragdoll::Error>(())
+//! ```
 
 use std::path::{Path, PathBuf};
 
@@ -179,6 +193,10 @@ impl Wedge {
             line: crate::spec::line_at(text, pos),
             message,
         };
+        // TOML syntax first, so a mistake anywhere in the file is not blamed on the wedge.
+        let mut base: Table = text.parse().map_err(|e: toml::de::Error| {
+            at(e.span().map_or(0, |s| s.start), e.message().trim().into())
+        })?;
         let doc: RawDoc = toml::from_str(text).map_err(|e| {
             let pos = e.span().map_or(0, |s| s.start);
             at(pos, format!("[wedge]: {}", e.message().trim()))
@@ -186,9 +204,6 @@ impl Wedge {
         let Some(raw) = doc.wedge else {
             return Ok(None);
         };
-        let mut base: Table = text.parse().map_err(|e: toml::de::Error| {
-            at(e.span().map_or(0, |s| s.start), e.message().trim().into())
-        })?;
         base.remove("wedge");
         let wedge_pos = raw.span().start;
         let raw = raw.into_inner();
