@@ -75,6 +75,9 @@ pub struct PlanVariant {
     pub task: usize,
     /// Each varied key's value, by key.
     pub values: serde_json::Map<String, serde_json::Value>,
+    /// The seed of each random generator the variant's scene runs (its crowds').
+    #[serde(default)]
+    pub seeds: serde_json::Map<String, serde_json::Value>,
 }
 
 impl Plan {
@@ -210,6 +213,11 @@ fn make_plan(wedge: &Wedge, tasks: usize, job: &Path) -> Result<Plan> {
         .map(|v| {
             task_lists[task_of(v.index)].push(v.index);
             PlanVariant {
+                seeds: wedge
+                    .seeds(&v)
+                    .into_iter()
+                    .map(|(k, s)| (k, s.into()))
+                    .collect(),
                 index: v.index,
                 name: v.name,
                 task: task_of(v.index),

@@ -197,6 +197,7 @@ mod tests {
                     index: i,
                     name: format!("{i}_tnt_kg={i}"),
                     task: 0,
+                    seeds: Default::default(),
                     values: [("blast[0].tnt_kg".to_string(), Value::from(i))]
                         .into_iter()
                         .collect(),

@@ -43,6 +43,7 @@
 //! # Ok::<(), ragdoll::Error>(())
 //! ```
 
+use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
@@ -304,6 +305,28 @@ impl Wedge {
             let _ = set(&mut table, &k.path, v.clone());
         }
         table
+    }
+
+    /// The seeds of the variant's random generators: each crowd's `seed` (0 where the
+    /// file leaves it out, as crowds do), by key. With the values, they pin down
+    /// everything drawn at random in the variant.
+    pub fn seeds(&self, variant: &Variant) -> Vec<(String, i64)> {
+        let changed = self.keys.iter().any(|k| k.path[0].name == "crowd");
+        let table = if changed {
+            Cow::Owned(self.scene_table(variant))
+        } else {
+            Cow::Borrowed(&self.base)
+        };
+        let crowds = table.get("crowd").and_then(Value::as_array);
+        crowds
+            .into_iter()
+            .flatten()
+            .enumerate()
+            .map(|(i, c)| {
+                let seed = c.get("seed").and_then(Value::as_integer).unwrap_or(0);
+                (format!("crowd[{i}].seed"), seed)
+            })
+            .collect()
     }
 
     /// The variant's scene as a file to be written into `dir`: [`Wedge::scene_table`]

@@ -94,6 +94,13 @@ random = { count = 50, min = [-1.0, 0.0, -1.0], max = [1.0, 1.0, 1.0], seed = 3 
     let (a, b) = (wedge(vary).unwrap().unwrap(), wedge(vary).unwrap().unwrap());
     assert_eq!(a.keys[0].values, b.keys[0].values);
     assert_eq!(a.len(), 2500);
+    assert_eq!(
+        a.seeds(&a.variant(51)),
+        [(
+            "crowd[0].seed".to_string(),
+            a.keys[0].values[1].as_integer().unwrap()
+        )]
+    );
     let seeds: Vec<i64> = a.keys[0]
         .values
         .iter()
