@@ -431,3 +431,98 @@ fn the_example_and_the_readme_wedge_list_their_variants() {
     std::fs::write(dir.path().join("shot.toml"), format!("{base}{block}")).unwrap();
     assert_eq!(names(dir.path())[4], "4_at=1.5,0.3,0_tnt_kg=1");
 }
+
+/// Character files a wedge names are hashed into the plan, found from the job folder and
+/// from a variant written anywhere else, and an edited one is refused by name.
+#[test]
+fn character_files_are_hashed_and_found_from_anywhere() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(d, &["demo", "-o", "made", "--seconds", "0.3"]);
+    std::fs::create_dir_all(d.join("scenes/chars")).unwrap();
+    std::fs::copy(d.join("made/demo.bvh"), d.join("scenes/chars/a.bvh")).unwrap();
+    std::fs::copy(d.join("made/demo.bvh"), d.join("scenes/chars/b.bvh")).unwrap();
+    let scene = "duration_s = 0.3\nfps = 10\nbackend = \"fast\"\n\
+        [[character]]\nname = \"cat\"\nfile = \"chars/a.bvh\"\n\
+        [[wedge.vary]]\nkey = \"character[0].file\"\nlabel = \"who\"\nvalues = [\"chars/a.bvh\", \"chars/b.bvh\"]\n";
+    std::fs::write(d.join("scenes/shot.toml"), scene).unwrap();
+    ok(
+        d,
+        &["plan", "scenes/shot.toml", "--tasks", "1", "-o", "jobs/one"],
+    );
+    let plan = read_json(&d.join("jobs/one/plan.json"));
+    let inputs: Vec<&str> = plan["inputs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|i| i["path"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        inputs,
+        [
+            "../../scenes/shot.toml",
+            "../../scenes/chars/a.bvh",
+            "../../scenes/chars/b.bvh"
+        ]
+    );
+    ok(d, &["run-task", "jobs/one/plan.json", "--task", "0"]);
+    let name = "1_who=chars-b.bvh";
+    let job = d.join("jobs/one/variants").join(name);
+    let written = std::fs::read_to_string(job.join("scene.toml")).unwrap();
+    assert!(
+        written.contains("file = \"../../../../scenes/chars/b.bvh\""),
+        "{written}"
+    );
+    ok(
+        d,
+        &[
+            "wedge",
+            "scenes/shot.toml",
+            "--variant",
+            name,
+            "-o",
+            "x/y/v.toml",
+        ],
+    );
+    ok(d, &["simulate", "x/y/v.toml", "-o", "x/out"]);
+    for f in ["scene.glb", "cat.bvh"] {
+        let same =
+            std::fs::read(job.join(f)).unwrap() == std::fs::read(d.join("x/out").join(f)).unwrap();
+        assert!(same, "{f} differs between the job and a run alone");
+    }
+    let mut edited = std::fs::read(d.join("scenes/chars/b.bvh")).unwrap();
+    edited.extend_from_slice(b"\n");
+    std::fs::write(d.join("scenes/chars/b.bvh"), edited).unwrap();
+    let err = fails(d, &["run-task", "jobs/one/plan.json", "--task", "0"]);
+    assert!(
+        err.contains("chars/b.bvh: changed since the job was planned"),
+        "{err}"
+    );
+}
+
+#[test]
+fn misuse_is_one_clear_line() {
+    let dir = shot("");
+    let d = dir.path();
+    std::fs::write(d.join("plain.toml"), "duration_s = 0.3\n[[character]]\n").unwrap();
+    let err = fails(d, &["wedge", "plain.toml", "--list"]);
+    assert!(err.contains("plain.toml: has no [wedge] table"), "{err}");
+    let err = fails(d, &["plan", "shot.toml", "--tasks", "0", "-o", "job"]);
+    assert!(err.contains("--tasks: must be at least 1"), "{err}");
+    assert!(!d.join("job").exists());
+    ok(d, &["plan", "shot.toml", "--tasks", "9", "-o", "job"]);
+    let plan = read_json(&d.join("job/plan.json"));
+    assert_eq!(
+        plan["tasks"].as_array().unwrap().len(),
+        4,
+        "one task per variant at most"
+    );
+    let err = fails(d, &["run-task", "job/plan.json", "--task", "4"]);
+    assert!(err.contains("--task 4: the plan has tasks 0 to 3"), "{err}");
+    std::fs::write(d.join("job/plan.json"), "{\"format\": ").unwrap();
+    let err = fails(d, &["run-task", "job/plan.json", "--task", "0"]);
+    assert!(
+        err.contains("job/plan.json: not a plan written by `ragdoll plan`"),
+        "{err}"
+    );
+}
