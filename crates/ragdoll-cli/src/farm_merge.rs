@@ -30,14 +30,35 @@ struct Row {
 
 pub fn run(a: &MergeArgs) -> Result<()> {
     let plan = Plan::load(&a.job.join("plan.json"))?;
+    let rows = check_all(&a.job, &plan)?;
+    let mut staging = Staging::new();
+    let csv = csv(&plan, &rows);
+    staging.write(&a.job.join("results.csv"), csv.as_bytes())?;
+    let text = serde_json::to_string_pretty(&results_json(&plan, &rows))?;
+    staging.write(&a.job.join("results.json"), text.as_bytes())?;
+    for (n, png) in crate::farm_sheet::pages(&a.job, &plan)?.iter().enumerate() {
+        let name = format!("contact-sheet-{:03}.png", n + 1);
+        staging.write(&a.job.join(name), png)?;
+    }
+    for path in staging.commit()? {
+        outln!("{}", path.display());
+    }
+    errln!("{}: {} variants merged", a.job.display(), rows.len());
+    note_leftovers(&a.job);
+    Ok(())
+}
+
+/// Every variant's row, in plan order; or an error naming the first variant refused (the
+/// next 20 printed above it), so nothing is merged from a job with a bad variant.
+fn check_all(job: &Path, plan: &Plan) -> Result<Vec<Row>> {
     // Checked in parallel: a check hashes every output, and 10,000 variants are gigabytes.
     let checked: Vec<Result<Row, String>> = plan
         .variants
         .par_iter()
         .map(|v| {
-            let dir = variant_dir(&a.job, &v.name);
+            let dir = variant_dir(job, &v.name);
             let manifest = if dir.join(MANIFEST).exists() {
-                Manifest::check(&dir, &plan, v)
+                Manifest::check(&dir, plan, v)
             } else {
                 Err(anyhow::anyhow!(
                     "not run yet (no {}); run task {} again",
@@ -57,26 +78,27 @@ pub fn run(a: &MergeArgs) -> Result<()> {
             Err(e) => refused.push(e),
         }
     }
-    if let Some(first) = refused.first() {
-        for r in refused.iter().skip(1).take(20) {
-            errln!("{r}");
-        }
-        bail!(
-            "{}: {first}{}; nothing merged",
-            a.job.display(),
-            match refused.len() {
-                1 => String::new(),
-                n => format!(" (and {} more variants, listed above)", n - 1),
-            }
-        );
+    let Some(first) = refused.first() else {
+        return Ok(rows);
+    };
+    for r in refused.iter().skip(1).take(20) {
+        errln!("{r}");
     }
-    let mut staging = Staging::new();
-    let csv = csv(&plan, &rows);
-    staging.write(&a.job.join("results.csv"), csv.as_bytes())?;
-    let json: Vec<Value> = plan
-        .variants
+    bail!(
+        "{}: {first}{}; nothing merged",
+        job.display(),
+        match refused.len() {
+            1 => String::new(),
+            n => format!(" (and {} more variants, listed above)", n - 1),
+        }
+    )
+}
+
+/// The table as JSON: one object a variant, its values under `values`.
+fn results_json(plan: &Plan, rows: &[Row]) -> Vec<Value> {
+    plan.variants
         .iter()
-        .zip(&rows)
+        .zip(rows)
         .map(|(v, r)| {
             let mut o = Map::new();
             o.insert("variant".into(), json!(v.name));
@@ -86,20 +108,14 @@ pub fn run(a: &MergeArgs) -> Result<()> {
             o.extend(r.fields.iter().cloned());
             Value::Object(o)
         })
-        .collect();
-    let text = serde_json::to_string_pretty(&json)?;
-    staging.write(&a.job.join("results.json"), text.as_bytes())?;
-    for (n, png) in crate::farm_sheet::pages(&a.job, &plan)?.iter().enumerate() {
-        let name = format!("contact-sheet-{:03}.png", n + 1);
-        staging.write(&a.job.join(name), png)?;
-    }
-    for path in staging.commit()? {
-        outln!("{}", path.display());
-    }
-    errln!("{}: {} variants merged", a.job.display(), rows.len());
-    // A killed task's temporary folders are never read, nor removed by a task (another
-    // node may still be writing one); once the job is merged they are plainly dead.
-    let leftovers = std::fs::read_dir(a.job.join("variants"))
+        .collect()
+}
+
+/// Says how many temporary folders killed tasks left. Tasks never remove them (another
+/// node may still be writing one); once the job is merged they are plainly dead.
+fn note_leftovers(job: &Path) {
+    let variants = job.join("variants");
+    let leftovers = std::fs::read_dir(&variants)
         .map(|d| {
             d.filter_map(|e| e.ok())
                 .filter(|e| e.file_name().to_string_lossy().starts_with(".tmp-"))
@@ -110,10 +126,9 @@ pub fn run(a: &MergeArgs) -> Result<()> {
         errln!(
             "note: {leftovers} temporary folder{} of killed tasks in {} (.tmp-*) can be deleted",
             if leftovers == 1 { "" } else { "s" },
-            a.job.join("variants").display()
+            variants.display()
         );
     }
-    Ok(())
 }
 
 /// A checked variant's row: its cost from the manifest, then the report's numbers.
