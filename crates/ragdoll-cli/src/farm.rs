@@ -157,6 +157,7 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
             a.output.display()
         );
     }
+    check_loads(&wedge)?;
     let tasks = a.tasks.min(wedge.len());
     let mut staging = Staging::new();
     staging.make_folder(&a.output)?;
@@ -185,6 +186,31 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
         wedge.len(),
         if tasks == 1 { "" } else { "s" }
     );
+    Ok(())
+}
+
+/// Loads the first and the last variant's scenes (characters read, ragdolls built), so a
+/// value the scene refuses (the far end of a range, a missing character file) is found
+/// before a farm spends a task on it. Not every variant: each load reads its character
+/// files again, and a wedge may have 100,000.
+fn check_loads(wedge: &Wedge) -> Result<()> {
+    let dir = match wedge.path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    for i in [0, wedge.len() - 1] {
+        let v = wedge.variant(i);
+        let text = wedge.scene_text(&v, dir)?;
+        ragdoll::scene::Scene::from_toml(&text, &dir.join(format!("{}.toml", v.name)))
+            .with_context(|| {
+                format!(
+                    "{}: variant {} would not run (`ragdoll wedge --variant {} -o FILE` writes its scene)",
+                    wedge.path.display(),
+                    v.name,
+                    v.index
+                )
+            })?;
+    }
     Ok(())
 }
 

@@ -507,6 +507,17 @@ fn misuse_is_one_clear_line() {
     std::fs::write(d.join("plain.toml"), "duration_s = 0.3\n[[character]]\n").unwrap();
     let err = fails(d, &["wedge", "plain.toml", "--list"]);
     assert!(err.contains("plain.toml: has no [wedge] table"), "{err}");
+    std::fs::write(
+        d.join("far.toml"),
+        SHOT.replace("values = [0.5, 2.0]", "values = [0.5, -2.0]"),
+    )
+    .unwrap();
+    let err = fails(d, &["plan", "far.toml", "--tasks", "1", "-o", "job"]);
+    assert!(
+        err.contains("far.toml: variant 3_tnt_kg=-2_at=0.5,0.3,0.5 would not run"),
+        "{err}"
+    );
+    assert!(err.contains("tnt_kg"), "{err}");
     let err = fails(d, &["plan", "shot.toml", "--tasks", "0", "-o", "job"]);
     assert!(err.contains("--tasks: must be at least 1"), "{err}");
     assert!(!d.join("job").exists());
