@@ -2,7 +2,7 @@
 //!
 //! A farm kills tasks (preemption, time limits, a node lost), and reruns them. Each
 //! variant is therefore made in a temporary folder beside the others
-//! (`variants/.tmp-NAME-PID`), every file synced, its manifest written last, and the
+//! (`variants/.tmp-NAME-PID-TIME`), every file synced, its manifest written last, and the
 //! folder renamed to `variants/NAME` in one step: a variant folder is complete or absent,
 //! whenever the task is killed. A rerun skips variants whose manifest checks out and makes
 //! the rest; a killed run's temporary folder is left alone (it may be another node's live
@@ -159,10 +159,14 @@ pub fn run(a: &RunTaskArgs) -> Result<()> {
 fn make_variant(job: &Path, plan: &Plan, wedge: &Wedge, v: &PlanVariant) -> Result<f64> {
     let started = Instant::now();
     let cpu = cpu_time::ProcessTime::now();
-    let tmp = job
-        .join("variants")
-        .join(format!(".tmp-{}-{}", v.name, std::process::id()));
-    let _ = std::fs::remove_dir_all(&tmp);
+    // The process id alone could repeat on another node of a shared file system; the
+    // clock's nanoseconds make two runs' folders differ, and create_dir refuses a clash.
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos());
+    let tmp =
+        job.join("variants")
+            .join(format!(".tmp-{}-{}-{nanos:x}", v.name, std::process::id()));
     std::fs::create_dir(&tmp).with_context(|| tmp.display().to_string())?;
     let guard = RemoveOnDrop(tmp.clone());
     let variant = wedge.variant(v.index);
