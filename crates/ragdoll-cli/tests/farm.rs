@@ -537,3 +537,25 @@ fn misuse_is_one_clear_line() {
         "{err}"
     );
 }
+
+/// Variants made from other inputs than the plan's (the job planned again after an edit)
+/// are stale: merge refuses them by name, and a task remakes them.
+#[test]
+fn a_stale_variant_is_refused_then_remade() {
+    let dir = shot("");
+    let d = dir.path();
+    plan_and_run(d, 1);
+    let mut text = std::fs::read_to_string(d.join("shot.toml")).unwrap();
+    text.push_str("# edited\n");
+    std::fs::write(d.join("shot.toml"), text).unwrap();
+    std::fs::remove_file(d.join("job/plan.json")).unwrap();
+    ok(d, &["plan", "shot.toml", "--tasks", "1", "-o", "job"]);
+    let err = fails(d, &["merge", "job"]);
+    assert!(
+        err.contains("variant 0_tnt_kg=0.5_at=0,0.3,0: ") && err.contains("stale"),
+        "{err}"
+    );
+    let rerun = ok(d, &["run-task", "job/plan.json", "--task", "0"]);
+    assert!(stderr(&rerun).contains("remade"), "{}", stderr(&rerun));
+    ok(d, &["merge", "job"]);
+}

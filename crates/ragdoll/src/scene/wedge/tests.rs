@@ -216,3 +216,12 @@ fn a_scene_with_a_wedge_still_reads_as_its_base() {
     let scene = crate::scene::Scene::from_toml(text, Path::new("s.toml")).unwrap();
     assert_eq!(scene.duration_s, 0.3);
 }
+
+#[test]
+fn relative_paths_climb_to_the_common_folder() {
+    let rel = |t: &str, b: &str| relative_path(Path::new(t), Path::new(b));
+    assert_eq!(rel("/a/b/c.glb", "/a/b"), PathBuf::from("c.glb"));
+    assert_eq!(rel("/a/b/c.glb", "/a/x/y"), PathBuf::from("../../b/c.glb"));
+    assert_eq!(rel("/a/./c.glb", "/a"), PathBuf::from("c.glb"));
+    assert_eq!(rel("/c.glb", "/"), PathBuf::from("c.glb"));
+}
