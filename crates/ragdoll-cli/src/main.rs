@@ -41,6 +41,11 @@ mod character;
 mod checks;
 mod clip_list;
 mod commands;
+mod farm;
+mod farm_merge;
+mod farm_sheet;
+mod farm_task;
+mod farm_templates;
 mod fatal;
 mod inspect;
 mod output;
@@ -50,6 +55,7 @@ mod progress;
 mod rig_cmd;
 mod scene_cmd;
 mod view_cmd;
+mod wedge_cmd;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -90,6 +96,15 @@ enum Command {
     /// Open the interactive viewer: serves a local web page that shows the simulation live;
     /// drag body parts, place blasts, scrub, edit the ragdoll.
     View(view_cmd::ViewArgs),
+    /// List the variants a scene's [wedge] table makes, or write one as a scene file.
+    Wedge(wedge_cmd::WedgeArgs),
+    /// Split a wedge into a farm job: plan.json, an Open Job Description template and
+    /// Slurm scripts in a job folder.
+    Plan(farm::PlanArgs),
+    /// Run one task of a planned job: its variants, each renamed into place when complete.
+    RunTask(farm_task::RunTaskArgs),
+    /// Check every variant of a job and gather their values and metrics into one table.
+    Merge(farm_merge::MergeArgs),
 }
 
 /// How to read a character file.
@@ -497,5 +512,9 @@ fn run() -> anyhow::Result<()> {
         Command::Preview(a) => preview_cmd::run(&a),
         Command::Rig(a) => rig_cmd::run(&a),
         Command::View(a) => view_cmd::run(&a),
+        Command::Wedge(a) => wedge_cmd::run(&a),
+        Command::Plan(a) => farm::plan(&a),
+        Command::RunTask(a) => farm_task::run(&a),
+        Command::Merge(a) => farm_merge::run(&a),
     }
 }

@@ -44,6 +44,20 @@ fn check(rows: Vec<Case>) {
             "[roles]\nthigh_l = \"no_such_joint\"\n",
         )
         .unwrap();
+        // A two-variant wedge for the farm commands, planned for those that run a job.
+        std::fs::write(
+            dir.path().join("wedge.toml"),
+            "duration_s = 0.2\nfps = 10\nbackend = \"fast\"\n[[character]]\nname = \"solo\"\n\
+             [[wedge.vary]]\nkey = \"character[0].facing_deg\"\nvalues = [0, 90]\n",
+        )
+        .unwrap();
+        if c.sub == "run-task" || c.sub == "merge" {
+            let o = run(
+                dir.path(),
+                &["plan", "wedge.toml", "--tasks", "1", "-o", "job"],
+            );
+            assert!(o.status.success(), "{what}: plan: {}", err(&o));
+        }
         let valid: Vec<&str> = c.valid.iter().map(String::as_str).collect();
         let o = if c.sub == "view" && c.flag != "--help" {
             serve_briefly(dir.path(), &valid)
@@ -148,6 +162,16 @@ fn preview_flags() {
 #[test]
 fn view_flags() {
     check(rows("view"));
+}
+
+#[test]
+fn farm_flags() {
+    check(
+        ["wedge", "plan", "run-task", "merge"]
+            .into_iter()
+            .flat_map(rows)
+            .collect(),
+    );
 }
 
 /// The long flags `ragdoll [SUB] --help` lists.

@@ -57,6 +57,8 @@ use ragdoll::track::Track;
 use ragdoll::{Error, Result};
 
 use camera::{Camera, NEAR};
+/// Text on a picture (a contact sheet's labels), in the frame counter's font.
+pub use font::draw_text;
 use ground::Ground;
 use mesh::{cube, draw_lit, icosphere, vertex_normals};
 use raster::Target;

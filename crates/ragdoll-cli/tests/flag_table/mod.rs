@@ -475,6 +475,43 @@ fn view() -> Vec<Case> {
     t
 }
 
+fn variant_written(dir: &Path, _: &Output) {
+    let text = std::fs::read_to_string(dir.join("v.toml")).unwrap();
+    assert!(
+        !text.contains("wedge") && text.contains("facing_deg"),
+        "{text}"
+    );
+}
+fn job_planned(dir: &Path, _: &Output) {
+    assert_eq!(
+        json(&dir.join("job/plan.json"))["tasks"]
+            .as_array()
+            .unwrap()
+            .len(),
+        2
+    );
+}
+
+/// `wedge`, `plan`, `run-task` and `merge`, on the runner's `wedge.toml` (two variants;
+/// planned into `job/` for `run-task` and `merge`).
+#[rustfmt::skip]
+fn farm() -> Vec<Case> {
+    let list = &["wedge", "wedge.toml", "--list"];
+    vec![
+        help("wedge", &["wedge"]),
+        case("wedge", "--list", &["wedge", "wedge.toml"], &["--list"], None, &["--list=yes"], "--list"),
+        case("wedge", "--json", list, &["--json"], None, &["--json=yes"], "--json"),
+        case("wedge", "--variant", &["wedge", "wedge.toml", "-o", "v.toml"], &["--variant", "1"], Some(variant_written), &["--variant", "9"], "no variant is called"),
+        case("wedge", "--output", &["wedge", "wedge.toml", "--variant", "0"], &["--output", "v.toml"], Some(variant_written), &["--output", "."], "is a folder"),
+        help("plan", &["plan"]),
+        case("plan", "--tasks", &["plan", "wedge.toml", "-o", "job"], &["--tasks", "2"], Some(job_planned), &["--tasks", "0"], "--tasks"),
+        case("plan", "--output", &["plan", "wedge.toml", "--tasks", "2"], &["--output", "job"], Some(job_planned), &["--output", "job.json"], "job.json"),
+        help("run-task", &["run-task"]),
+        case("run-task", "--task", &["run-task", "job/plan.json"], &["--task", "0"], None, &["--task", "1"], "--task 1"),
+        help("merge", &["merge"]),
+    ]
+}
+
 #[rustfmt::skip]
 fn top() -> Vec<Case> {
     vec![
@@ -496,6 +533,7 @@ pub fn table() -> Vec<Case> {
         bench(),
         preview(),
         view(),
+        farm(),
     ]
     .into_iter()
     .flatten()

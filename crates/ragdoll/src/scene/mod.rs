@@ -55,6 +55,9 @@
 //! the event bounds in [`crate::events`], the spec bounds in [`crate::spec`]), and the
 //! scene itself to [`MAX_CHARACTERS`], [`MAX_SCENE_BODIES`] and [`MAX_EVENTS`].
 //!
+//! A `[wedge]` table makes the file stand for many variants of itself (see [`wedge`]);
+//! read as one scene, the table is skipped and the file runs as written.
+//!
 //! Loading reads every character file and builds every ragdoll, so a scene that loads
 //! runs: mistakes surface before minutes of simulation, not after.
 
@@ -65,6 +68,7 @@ mod parse;
 mod raw;
 mod report;
 mod timeline;
+pub mod wedge;
 
 pub use characters::{
     MAX_CHARACTER_KG, MAX_CHARACTER_NAME_BYTES, MAX_FACING_DEG, MAX_SCENE_CHARACTER_BYTES,

@@ -40,6 +40,10 @@ pub(super) struct RawScene {
     pub(super) field: Vec<S<RawField>>,
     #[serde(default)]
     pub(super) pin: Vec<S<RawPin>>,
+    /// The variants the file stands for, read by `wedge.rs`; a run of the file itself is
+    /// its base scene, as written.
+    #[serde(rename = "wedge", default)]
+    _wedge: Option<de::IgnoredAny>,
 }
 
 #[derive(Deserialize, Clone, Copy)]
