@@ -5,7 +5,7 @@
 
 use glam::Vec3;
 
-use super::narrow::{Found, ends};
+use super::narrow::{CLOSING_MARGIN_M, Found, ends};
 use super::solve::turn_rate;
 use super::{FRICTION, FastBackend};
 use crate::backend::broad::BroadPhase;
@@ -58,6 +58,18 @@ pub(super) struct Collide {
     pub boxes: Vec<(Vec3, Vec3)>,
     /// Candidate pairs of this step.
     pub pairs: Vec<(u32, u32)>,
+    /// Per pair of `pairs` once culled: seconds into the step before which the two cannot
+    /// come within [`TOUCH_M`] (0 for pairs that may touch at once), so the substeps
+    /// before it skip the pair's distance test; each test that finds them apart moves it
+    /// on by the gap it found.
+    pub wait: Vec<f32>,
+    /// Per pair: the fastest the two may close on each other in this step, m/s.
+    pub closing: Vec<f32>,
+    /// Per ragdoll: the fastest any point of it moves at the step's start, m/s.
+    pub ragdoll_speed: Vec<f32>,
+    /// The step's length, and the seconds into it that the present substep ends at.
+    pub dt: f32,
+    pub elapsed: f32,
     contacts: Vec<Contact>,
     /// Ragdolls to wake, found while looking for pairs.
     pub wake: Vec<usize>,
@@ -130,10 +142,16 @@ impl FastBackend {
             let (a, b) = (a as usize, b as usize);
             let (oa, ob) = (self.owner[a] as usize, self.owner[b] as usize);
             // Two parts of one compound: their joints are frozen, they move as one.
-            if oa == ob {
+            if oa == ob
+                || self
+                    .collide
+                    .wait
+                    .get(k)
+                    .is_some_and(|&t| t > self.collide.elapsed)
+            {
                 continue;
             }
-            if let Some(f) = self.pair_contact(a, b) {
+            if let Some(f) = self.pair_contact_rescheduled(k, a, b) {
                 if f.depth > -TOUCH_M && self.ragdoll_of[oa] != self.ragdoll_of[ob] {
                     self.collide.touching[a] = true;
                     self.collide.touching[b] = true;
@@ -141,6 +159,33 @@ impl FastBackend {
                 if f.depth > 0.0 {
                     self.resolve(a, Some(b), f);
                 }
+            }
+        }
+    }
+
+    /// [`FastBackend::pair_contact`] of candidate pair `k` (shapes `a` and `b`); when the
+    /// two are farther apart, the pair's next test waits for as long as they need to
+    /// close the gap (`Collide::wait`), for the rest of the step when they cannot.
+    fn pair_contact_rescheduled(&mut self, k: usize, a: usize, b: usize) -> Option<Found> {
+        let c = &self.collide;
+        let Some(&speed) = c.closing.get(k) else {
+            return self.pair_contact(a, b);
+        };
+        let left = (c.dt - c.elapsed).max(0.0);
+        let found = self.pair_contact_within(a, b, TOUCH_M + speed * left + CLOSING_MARGIN_M);
+        let c = &mut self.collide;
+        match found {
+            Some(f) if f.depth > -TOUCH_M => Some(f),
+            Some(f) => {
+                let gap = -f.depth - TOUCH_M - CLOSING_MARGIN_M;
+                if gap > 0.0 && speed > 0.0 {
+                    c.wait[k] = c.elapsed + gap / speed;
+                }
+                None
+            }
+            None => {
+                c.wait[k] = f32::INFINITY;
+                None
             }
         }
     }

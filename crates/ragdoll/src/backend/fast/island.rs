@@ -134,6 +134,8 @@ impl FastBackend {
             owner, attach, ragdoll_of, ragdolls, joints, pins, compounds, skin
         );
         self.collide.pairs.clear();
+        self.collide.wait.clear();
+        self.collide.closing.clear();
     }
 
     /// Copies each island's ragdolls, joints, pins and pairs into its solver, with body

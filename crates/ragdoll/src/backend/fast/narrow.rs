@@ -12,8 +12,12 @@ use super::contact::TOUCH_M;
 use crate::backend::geom::{nearest_hit, ray_shape};
 use crate::spec::Shape;
 
-/// Extra room around every box of the broad phase, metres.
+/// Extra room around every box of the broad phase, metres: what a step's constraints may
+/// move a body beyond its velocity.
 const BROAD_MARGIN_M: f32 = 0.02;
+
+/// The same room for two shapes closing on each other: one margin each.
+pub(super) const CLOSING_MARGIN_M: f32 = 2.0 * BROAD_MARGIN_M;
 
 /// Farthest point of a shape from its centre, metres.
 pub(super) fn reach(shape: &Shape) -> f32 {
@@ -104,6 +108,8 @@ impl FastBackend {
             ..
         } = self;
         collide.pairs.clear();
+        collide.wait.clear();
+        collide.closing.clear();
         collide.wake.clear();
         let (pairs, wake) = (&mut collide.pairs, &mut collide.wake);
         let body_of = |k: usize| {
@@ -141,14 +147,9 @@ impl FastBackend {
         }
     }
 
-    /// How far any point of shape `c` may move in a step of `dt` at its body's present
-    /// velocities, with [`BROAD_MARGIN_M`] to spare for what the step's constraints add.
-    pub(super) fn travel(&self, c: usize, dt: f32) -> f32 {
-        let lever = reach(&self.shape[c]) + self.attach[c].map_or(0.0, |t| t.translation.length());
-        self.travel_of(self.owner[c] as usize, lever, dt)
-    }
-
-    /// [`FastBackend::travel`] of the whole world's shape `k` (`extras.rs`).
+    /// How far any point of the whole world's shape `k` (`extras.rs`) may move in a step
+    /// of `dt` at its body's present velocities, with [`BROAD_MARGIN_M`] to spare for what
+    /// the step's constraints add.
     fn world_travel(&self, k: usize, dt: f32) -> f32 {
         let (shape, at) = self.world_shape(k);
         let lever = reach(&shape) + at.map_or(0.0, |t| t.translation.length());
@@ -166,14 +167,78 @@ impl FastBackend {
     /// (slanted capsules' boxes overlap while their surfaces stay apart). One exact
     /// distance per pair and step drops the pairs that cannot touch before the substeps
     /// test them 32 times.
+    ///
+    /// Nor can two shapes touch before they have closed their gap: each pair kept gets
+    /// the time into the step before which it cannot (`Collide::wait`), the substeps
+    /// before that skip it, and a test that finds it still apart puts its next one off
+    /// again. 1,000 kg of TNT among 200 people 1 m apart threw them at up to 100 m/s:
+    /// their boxes, grown by their travel, overlapped by the million, and each pair kept
+    /// was tested 32 substeps times 4 passes a step.
+    ///
+    /// The bound is each ragdoll's fastest point, not the sum of the two bodies' own
+    /// speeds against each other: a crowd's neighbours move together, but within a step
+    /// a ground contact stops one of them and a joint drags a body along with the one a
+    /// blast struck, so neither their relative velocity nor a body's own bounds where it
+    /// goes (a relative bound let a pile's bodies 46 mm into each other, 5.6 before).
     pub(super) fn cull_pairs(&mut self, dt: f32) {
         let mut pairs = std::mem::take(&mut self.collide.pairs);
+        let (mut wait, mut closing) = (
+            std::mem::take(&mut self.collide.wait),
+            std::mem::take(&mut self.collide.closing),
+        );
+        wait.clear();
+        closing.clear();
+        self.measure_ragdoll_speeds();
         pairs.retain(|&(a, b)| {
             let (a, b) = (a as usize, b as usize);
-            let within = TOUCH_M + self.travel(a, dt) + self.travel(b, dt);
-            self.pair_contact_within(a, b, within).is_some()
+            let speed = self.closing_speed(a, b);
+            let within = TOUCH_M + speed * dt + CLOSING_MARGIN_M;
+            let Some(found) = self.pair_contact_within(a, b, within) else {
+                return false;
+            };
+            // The gap the pair must close, beyond the margin, before it can touch.
+            let gap = -found.depth - TOUCH_M - CLOSING_MARGIN_M;
+            wait.push(if gap > 0.0 && speed > 0.0 {
+                gap / speed
+            } else {
+                0.0
+            });
+            closing.push(speed);
+            true
         });
         self.collide.pairs = pairs;
+        self.collide.wait = wait;
+        self.collide.closing = closing;
+        self.collide.dt = dt;
+    }
+
+    /// How fast shapes `a` and `b` may close on each other at their ragdolls' present
+    /// velocities, m/s: each as fast as the fastest point of its ragdoll
+    /// (`Collide::ragdoll_speed`), whatever its own body's velocity says, since a joint
+    /// drags a body along with the one a blast strikes within the step.
+    fn closing_speed(&self, a: usize, b: usize) -> f32 {
+        let speed = |c: usize| {
+            let r = self.ragdoll_of[self.owner[c] as usize];
+            self.collide.ragdoll_speed[r]
+        };
+        speed(a) + speed(b)
+    }
+
+    /// Fills `Collide::ragdoll_speed`: per ragdoll, the fastest any point of its shapes
+    /// moves at its bodies' present velocities, m/s.
+    fn measure_ragdoll_speeds(&mut self) {
+        let mut speeds = std::mem::take(&mut self.collide.ragdoll_speed);
+        speeds.clear();
+        speeds.resize(self.ragdolls.len(), 0.0);
+        for c in 0..self.shape.len() {
+            let i = self.owner[c] as usize;
+            let lever =
+                reach(&self.shape[c]) + self.attach[c].map_or(0.0, |t| t.translation.length());
+            let v = self.vel[i].length() + self.angvel[i].length() * lever;
+            let s = &mut speeds[self.ragdoll_of[i]];
+            *s = s.max(v);
+        }
+        self.collide.ragdoll_speed = speeds;
     }
 
     /// The closest points of shapes `a` and `b`, if they are within [`TOUCH_M`].
@@ -182,7 +247,7 @@ impl FastBackend {
     }
 
     /// The closest points of shapes `a` and `b`, if they are within `within` metres.
-    fn pair_contact_within(&self, a: usize, b: usize, within: f32) -> Option<Found> {
+    pub(super) fn pair_contact_within(&self, a: usize, b: usize, within: f32) -> Option<Found> {
         let (pos_a, rot_a) = self.shape_pose(a);
         let (pos_b, rot_b) = self.shape_pose(b);
         if let (

@@ -78,6 +78,7 @@ impl FastBackend {
         self.step_rot.clone_from(&self.rot);
         for s in 0..n {
             let (frac0, frac) = (s as f32 / n as f32, (s + 1) as f32 / n as f32);
+            self.collide.elapsed = frac * dt;
             self.apply_drives(h);
             self.integrate(h, frac);
             for pass in 0..self.settings.iterations.max(1) {
