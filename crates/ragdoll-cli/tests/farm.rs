@@ -559,3 +559,30 @@ fn a_stale_variant_is_refused_then_remade() {
     assert!(stderr(&rerun).contains("remade"), "{}", stderr(&rerun));
     ok(d, &["merge", "job"]);
 }
+
+/// The README shows the example job's contact sheet and the commands that made it; the
+/// picture keeps the size a fresh merge of the example gives (remake it with those
+/// commands when the sheet's layout changes).
+#[test]
+fn the_readme_contact_sheet_is_the_example_jobs() {
+    let readme = std::fs::read_to_string(repo().join("README.md")).unwrap();
+    for line in [
+        "ragdoll plan examples/wedge_crowd.toml --tasks 3 -o out/wedge_job",
+        "cp out/wedge_job/contact-sheet-001.png docs/wedge_contact_sheet.png",
+        "(docs/wedge_contact_sheet.png)",
+    ] {
+        assert!(readme.contains(line), "the README lacks {line:?}");
+    }
+    let shown = std::fs::read(repo().join("docs/wedge_contact_sheet.png")).unwrap();
+    assert!(shown.len() < 300_000, "{} bytes", shown.len());
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let example = repo().join("examples/wedge_crowd.toml");
+    let example = example.to_str().unwrap();
+    ok(d, &["plan", example, "--tasks", "1", "-o", "job"]);
+    ok(d, &["run-task", "job/plan.json", "--task", "0"]);
+    ok(d, &["merge", "job"]);
+    let made = std::fs::read(d.join("job/contact-sheet-001.png")).unwrap();
+    // A PNG's IHDR: width and height, big-endian, at bytes 16..24.
+    assert_eq!(&shown[..24], &made[..24], "docs/wedge_contact_sheet.png");
+}
