@@ -226,15 +226,7 @@ fn make_variant(job: &Path, plan: &Plan, wedge: &Wedge, v: &PlanVariant) -> Resu
 
 /// The variant's preview picture: the middle frame, as `simulate --preview x.png` draws.
 fn preview(scene: &Scene, result: &ragdoll::scene::SceneResult) -> Result<Vec<u8>> {
-    let actors: Vec<_> = scene
-        .characters
-        .iter()
-        .zip(&result.tracks)
-        .map(|(c, t)| (&c.character, &c.spec, t))
-        .collect();
-    let blasts: Vec<_> = scene.blasts.iter().map(|b| b.event).collect();
-    let shots: Vec<_> = scene.projectiles.iter().map(|p| p.event).collect();
-    let markers = crate::preview_cmd::markers(&blasts, &shots, &result.report.projectiles);
+    let (actors, markers) = crate::scene_cmd::drawn(scene, result);
     Ok(ragdoll_preview::png(
         &actors,
         &markers,

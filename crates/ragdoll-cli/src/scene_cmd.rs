@@ -15,6 +15,27 @@ use crate::commands::check_finite;
 use crate::output::{self, Staging};
 use crate::progress::Progress;
 
+/// What a scene's preview draws: each character with its spec and track, and a marker for
+/// each blast and shot.
+pub(crate) fn drawn<'a>(
+    scene: &'a Scene,
+    result: &'a SceneResult,
+) -> (
+    Vec<ragdoll_preview::Actor<'a>>,
+    Vec<ragdoll_preview::Marker>,
+) {
+    let actors: Vec<_> = scene
+        .characters
+        .iter()
+        .zip(&result.tracks)
+        .map(|(c, t)| (&c.character, &c.spec, t))
+        .collect();
+    let blasts: Vec<_> = scene.blasts.iter().map(|b| b.event).collect();
+    let shots: Vec<_> = scene.projectiles.iter().map(|p| p.event).collect();
+    let markers = crate::preview_cmd::markers(&blasts, &shots, &result.report.projectiles);
+    (actors, markers)
+}
+
 /// Whether `simulate` was given a scene file rather than a character: the `.toml`
 /// extension decides (a character is `.bvh`, `.glb` or `.gltf`).
 pub fn is_scene(file: &Path) -> bool {
@@ -50,15 +71,7 @@ pub fn run(a: &SimulateArgs, matches: &ArgMatches) -> Result<()> {
     for (name, bytes) in scene.encode(&result)? {
         staging.write(&a.output.join(name), &bytes)?;
     }
-    let actors: Vec<_> = scene
-        .characters
-        .iter()
-        .zip(&result.tracks)
-        .map(|(c, t)| (&c.character, &c.spec, t))
-        .collect();
-    let blasts: Vec<_> = scene.blasts.iter().map(|b| b.event).collect();
-    let shots: Vec<_> = scene.projectiles.iter().map(|p| p.event).collect();
-    let markers = crate::preview_cmd::markers(&blasts, &shots, &result.report.projectiles);
+    let (actors, markers) = drawn(&scene, &result);
     let preview = a
         .preview
         .stage(&mut staging, &actors, &markers, &progress)?;

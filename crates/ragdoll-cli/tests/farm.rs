@@ -15,34 +15,6 @@ mod common;
 
 use common::*;
 
-const SHOT: &str = r#"
-duration_s = 0.3
-fps = 10
-backend = "fast"
-
-[[character]]
-name = "ann"
-position = [0.0, 0.0, 1.5]
-
-[[character]]
-name = "ben"
-position = [1.5, 0.0, 0.0]
-
-[[blast]]
-tnt_kg = 1.0
-position = [0.0, 0.3, 0.0]
-time_s = 0.1
-
-[[wedge.vary]]
-key = "blast[0].tnt_kg"
-values = [0.5, 2.0]
-
-[[wedge.vary]]
-key = "blast[0].position"
-label = "at"
-values = [[0.0, 0.3, 0.0], [0.5, 0.3, 0.5]]
-"#;
-
 /// A temporary folder holding `shot.toml`, with `tail` added at its end.
 fn shot(tail: &str) -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();

@@ -72,3 +72,32 @@ pub fn examples() -> (Vec<PathBuf>, Vec<PathBuf>) {
 pub fn read_json(path: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
+
+/// The farm tests' shot: two built-in humanoids for 0.3 s at 10 fps, a blast wedged four ways.
+pub const SHOT: &str = r#"
+duration_s = 0.3
+fps = 10
+backend = "fast"
+
+[[character]]
+name = "ann"
+position = [0.0, 0.0, 1.5]
+
+[[character]]
+name = "ben"
+position = [1.5, 0.0, 0.0]
+
+[[blast]]
+tnt_kg = 1.0
+position = [0.0, 0.3, 0.0]
+time_s = 0.1
+
+[[wedge.vary]]
+key = "blast[0].tnt_kg"
+values = [0.5, 2.0]
+
+[[wedge.vary]]
+key = "blast[0].position"
+label = "at"
+values = [[0.0, 0.3, 0.0], [0.5, 0.3, 0.5]]
+"#;
