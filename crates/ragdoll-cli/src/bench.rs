@@ -87,6 +87,11 @@ pub struct BenchArgs {
         value_name = "N"
     )]
     impact_passes: usize,
+    /// Measure the farm commands instead, on a wedge of this many variants: `plan`, a
+    /// task's overhead beyond its simulation, and `merge` with and without its contact
+    /// sheet (see `docs/farm.md`).
+    #[arg(long, value_name = "VARIANTS")]
+    farm: Option<usize>,
     #[command(flatten)]
     backend: crate::BackendArgs,
 }
@@ -115,6 +120,9 @@ impl Row {
 }
 
 pub fn run(a: &BenchArgs) -> Result<()> {
+    if let Some(variants) = a.farm {
+        return crate::bench_farm::run(variants, a.json);
+    }
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let mut threads = a.threads.clone();
     if threads.is_empty() {

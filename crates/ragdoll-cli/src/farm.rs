@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use ragdoll::scene::wedge::{Wedge, relative_path};
+use ragdoll::scene::wedge::{Wedge, portable_path, relative_path};
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
@@ -227,7 +227,7 @@ fn make_plan(wedge: &Wedge, tasks: usize, job: &Path) -> Result<Plan> {
             )
         })?;
         inputs.push(Input {
-            path: relative_path(&abs, job).to_string_lossy().into_owned(),
+            path: portable_path(&relative_path(&abs, job)),
             sha256: sha256_file(&abs)?,
         });
     }

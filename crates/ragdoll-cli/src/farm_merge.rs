@@ -20,6 +20,10 @@ use crate::output::Staging;
 pub struct MergeArgs {
     /// The job folder (holding plan.json).
     job: PathBuf,
+    /// Write the tables only, not the contact sheet (which decodes every variant's
+    /// thumbnail): for a first look at a large job, or a merge run again after a fix.
+    #[arg(long)]
+    no_sheet: bool,
 }
 
 /// One row: a variant, its values, its cost and its report's metrics.
@@ -36,7 +40,12 @@ pub fn run(a: &MergeArgs) -> Result<()> {
     staging.write(&a.job.join("results.csv"), csv.as_bytes())?;
     let text = serde_json::to_string_pretty(&results_json(&plan, &rows))?;
     staging.write(&a.job.join("results.json"), text.as_bytes())?;
-    for (n, png) in crate::farm_sheet::pages(&a.job, &plan)?.iter().enumerate() {
+    let pages = if a.no_sheet {
+        Vec::new()
+    } else {
+        crate::farm_sheet::pages(&a.job, &plan)?
+    };
+    for (n, png) in pages.iter().enumerate() {
         let name = format!("contact-sheet-{:03}.png", n + 1);
         staging.write(&a.job.join(name), png)?;
     }

@@ -284,7 +284,7 @@ fn debug_stall_point(point: &str) {
 }
 
 /// Removes a temporary folder on an error or a panic unwinding through.
-struct RemoveOnDrop(PathBuf);
+pub struct RemoveOnDrop(pub PathBuf);
 
 impl Drop for RemoveOnDrop {
     fn drop(&mut self) {

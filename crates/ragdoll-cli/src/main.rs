@@ -37,6 +37,7 @@ macro_rules! out {
 }
 
 mod bench;
+mod bench_farm;
 mod character;
 mod checks;
 mod clip_list;
@@ -89,7 +90,8 @@ enum Command {
     /// Rig a mesh without a skeleton (OBJ, or glTF without a skin): a spine along its
     /// centre line, optional mirrored limbs, automatic skin weights; writes a skinned .glb.
     Rig(rig_cmd::RigArgs),
-    /// Measure simulation speed on the pile workload. A benchmark, not a test.
+    /// Measure simulation speed on the pile workload (or, with --farm, the farm commands).
+    /// A benchmark, not a test.
     Bench(bench::BenchArgs),
     /// Draw a baked result (.glb written by ragdoll) as a PNG or an animated GIF, on the CPU.
     Preview(preview_cmd::PreviewArgs),

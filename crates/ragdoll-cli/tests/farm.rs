@@ -152,6 +152,9 @@ fn merge_writes_one_row_per_variant_with_its_values() {
     let dir = shot("");
     let d = dir.path();
     plan_and_run(d, 2);
+    ok(d, &["merge", "job", "--no-sheet"]);
+    assert!(d.join("job/results.json").exists());
+    assert!(!d.join("job/contact-sheet-001.png").exists(), "--no-sheet");
     ok(d, &["merge", "job"]);
     let csv = std::fs::read_to_string(d.join("job/results.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
@@ -177,6 +180,23 @@ fn merge_writes_one_row_per_variant_with_its_values() {
         !d.join("job/contact-sheet-002.png").exists(),
         "4 variants fit one page"
     );
+}
+
+/// The farm benchmark runs the real commands (its numbers are for `docs/farm.md`, not
+/// asserted here): every cost measured, every variant but the tasks' made from theirs.
+#[test]
+fn bench_farm_plans_runs_and_merges_a_wedge() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = ok(dir.path(), &["bench", "--farm", "5", "--json"]);
+    let r: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(r["variants"], 5);
+    assert_eq!(r["variants_linked"], 2, "three tasks run for real");
+    for step in ["plan", "task", "merge_tables", "merge_with_sheet"] {
+        assert!(r[step]["wall_s"].as_f64().unwrap() > 0.0, "{step}: {r}");
+    }
+    assert!(r["task_simulation_s"].as_f64().unwrap() > 0.0, "{r}");
+    let refused = fails(dir.path(), &["bench", "--farm", "0"]);
+    assert!(refused.contains("--farm"), "{refused}");
 }
 
 #[test]

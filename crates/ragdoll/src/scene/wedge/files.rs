@@ -52,6 +52,19 @@ pub(super) fn for_each_file(table: &mut Table, mut f: impl FnMut(&mut String)) {
     }
 }
 
+/// A path as a job file stores it: a relative path with `/` between its parts on every
+/// system (Windows reads `/` too), so a job planned on one system runs on another; an
+/// absolute path as the system writes it (it names this machine's files anyway).
+pub fn portable_path(path: &Path) -> String {
+    if path.is_absolute() || path.has_root() {
+        return path.to_string_lossy().into_owned();
+    }
+    path.components()
+        .map(|c| c.as_os_str().to_string_lossy())
+        .collect::<Vec<_>>()
+        .join("/")
+}
+
 /// `target` relative to the folder `base`, both absolute and free of symbolic links:
 /// `../a/b.glb`. Paths with no common root (two Windows drives) stay absolute. A job
 /// folder names its inputs so, and moves with them.

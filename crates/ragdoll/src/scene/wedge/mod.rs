@@ -50,8 +50,8 @@ use serde::Deserialize;
 use toml::{Spanned, Table, Value};
 
 use crate::error::{Error, Result};
-pub use files::relative_path;
 use files::{for_each_file, is_file_key, strings};
+pub use files::{portable_path, relative_path};
 use values::{RawRandom, RawRange, name_value, random, range};
 
 mod files;
@@ -333,9 +333,7 @@ impl Wedge {
         for_each_file(&mut table, |s| {
             let p = Path::new(s.as_str());
             if p.is_relative() {
-                *s = relative_path(&from.join(p), &to)
-                    .to_string_lossy()
-                    .into_owned();
+                *s = portable_path(&relative_path(&from.join(p), &to));
             }
         });
         toml::to_string(&table).map_err(|e| Error::Refused {

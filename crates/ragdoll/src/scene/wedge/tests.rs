@@ -225,3 +225,11 @@ fn relative_paths_climb_to_the_common_folder() {
     assert_eq!(rel("/a/./c.glb", "/a"), PathBuf::from("c.glb"));
     assert_eq!(rel("/c.glb", "/"), PathBuf::from("c.glb"));
 }
+
+#[test]
+fn job_files_store_relative_paths_with_forward_slashes() {
+    let built: PathBuf = ["..", "chars", "a.glb"].iter().collect();
+    assert_eq!(portable_path(&built), "../chars/a.glb");
+    assert_eq!(portable_path(Path::new("a.glb")), "a.glb");
+    assert_eq!(portable_path(Path::new("/abs/a.glb")), "/abs/a.glb");
+}
