@@ -36,8 +36,7 @@ pub(crate) fn load(file: &Path, a: &ImportArgs) -> Result<Character> {
     let character = {
         let _progress = Progress::new(0, &format!("reading {}", file.display()));
         import::load(file, &import_options(a))
-            .map_err(import_error)
-            .map_err(|e| naming(&file.display().to_string(), e))?
+            .map_err(|e| naming(&file.display().to_string(), e, import_error))?
     };
     for w in &character.warnings {
         eprintln!("warning: {}", crate::printable::shown(w));
@@ -74,33 +73,31 @@ pub(crate) fn roles(
 pub(crate) fn import_error(e: ragdoll::Error) -> anyhow::Error {
     match e {
         ragdoll::Error::Setting { setting, message } => anyhow::anyhow!("--{setting}: {message}"),
-        ragdoll::Error::Format { ref place, .. } if place.starts_with("clip ") => {
-            anyhow::Error::new(e).context("--clip")
-        }
+        ragdoll::Error::NoSuchClip { .. } => anyhow::Error::new(e).context("--clip"),
         e => e.into(),
     }
 }
 
-/// `err` with the input it is about named in front, unless it names it already: the
-/// builder's and the skeleton's checks ("spec: body ...", "skeleton: joint ...") know no
-/// file, and a user running a batch needs to know which one failed.
-fn naming(input: &str, err: anyhow::Error) -> anyhow::Error {
-    if format!("{err:#}").contains(input) {
-        err
+/// `e` with the input it is about named in front, unless the error names a file itself:
+/// the builder's and the skeleton's checks ("spec: body ...", "skeleton: joint ...") know
+/// no file, and a user running a batch needs to know which one failed. `word` turns the
+/// library's error into the CLI's (naming the flag it is about).
+fn naming(
+    input: &str,
+    e: ragdoll::Error,
+    word: fn(ragdoll::Error) -> anyhow::Error,
+) -> anyhow::Error {
+    if e.path().is_some() {
+        word(e)
     } else {
-        err.context(input.to_string())
+        word(e).context(input.to_string())
     }
 }
 
 /// An error about the file `path`, named once: the library's parse errors already name it,
 /// its spec checks do not.
 pub(crate) fn in_file(path: &Path, e: ragdoll::Error) -> anyhow::Error {
-    let name = path.display().to_string();
-    if e.to_string().contains(&name) {
-        e.into()
-    } else {
-        anyhow::Error::new(e).context(name)
-    }
+    naming(&path.display().to_string(), e, anyhow::Error::new)
 }
 
 /// The spec from `--spec` (its masses scaled to `--mass` when given), or one built from
@@ -131,7 +128,7 @@ pub(crate) fn ragdoll(
             female: a.female,
         };
         let spec = spec::build_spec_with_roles(character, &opts, file.as_ref())
-            .map_err(|e| naming(label, e.into()))?;
+            .map_err(|e| naming(label, e, anyhow::Error::new))?;
         return Ok((spec, roles));
     };
     let mut spec = RagdollSpec::load(path).map_err(|e| in_file(path, e))?;

@@ -261,19 +261,16 @@ fn empty_spec(name: &str) -> RagdollSpec {
     }
 }
 
-/// A preview option out of range, under the flag that set it (the library names them all
-/// `preview`).
+/// A preview option out of range, under the flag that set it (the library names the
+/// option's field).
 fn option_error(e: ragdoll::Error) -> anyhow::Error {
     match e {
-        ragdoll::Error::Setting { message, .. } => {
-            let flag = if message.contains("pixels") {
-                "--size"
-            } else if message.contains("GIF frame rate") {
-                "--gif-fps"
-            } else if message.starts_with("frame") {
-                "--frame"
-            } else {
-                "preview"
+        ragdoll::Error::Setting { setting, message } => {
+            let flag = match setting.as_str() {
+                "width" | "height" | "size" | "supersample" => "--size",
+                "gif_fps" => "--gif-fps",
+                "png_frame" | "frames" => "--frame",
+                _ => "preview",
             };
             anyhow::anyhow!("{flag}: {message}")
         }

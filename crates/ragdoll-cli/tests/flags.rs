@@ -58,6 +58,10 @@ fn check(rows: Vec<Case>) {
             );
             assert!(o.status.success(), "{what}: plan: {}", err(&o));
         }
+        if c.sub == "merge" && c.flag != "--help" {
+            let o = run(dir.path(), &["run-task", "job/plan.json", "--task", "0"]);
+            assert!(o.status.success(), "{what}: run-task: {}", err(&o));
+        }
         let valid: Vec<&str> = c.valid.iter().map(String::as_str).collect();
         let o = if c.sub == "view" && c.flag != "--help" {
             serve_briefly(dir.path(), &valid)

@@ -105,51 +105,63 @@ impl Default for PreviewOptions {
 
 impl PreviewOptions {
     fn validate(&self) -> Result<()> {
-        let bad = |message: String| {
+        // Each error's setting is the option's field name ("size" for the pixel budget of
+        // width, height and supersampling together), so a caller can say which of its own
+        // flags set it.
+        let bad = |setting: &str, message: String| {
             Err(Error::Setting {
-                setting: "preview".into(),
+                setting: setting.into(),
                 message,
             })
         };
         for (name, v) in [("width", self.width), ("height", self.height)] {
             if !(16..=4096).contains(&v) {
-                return bad(format!("{name} must be 16 to 4096 pixels, not {v}"));
+                return bad(name, format!("{name} must be 16 to 4096 pixels, not {v}"));
             }
         }
         if !(1..=4).contains(&self.supersample) {
-            return bad(format!(
-                "supersample must be 1 to 4, not {}",
-                self.supersample
-            ));
+            return bad(
+                "supersample",
+                format!("supersample must be 1 to 4, not {}", self.supersample),
+            );
         }
         let drawn = self.width as u64 * self.height as u64 * (self.supersample as u64).pow(2);
         if drawn > 1 << 24 {
-            return bad(format!(
-                "{}×{} pixels drawn {} times over would need {drawn} pixels of buffer; at most {} (lower the size or the supersampling)",
-                self.width,
-                self.height,
-                self.supersample * self.supersample,
-                1u64 << 24
-            ));
+            return bad(
+                "size",
+                format!(
+                    "{}×{} pixels drawn {} times over would need {drawn} pixels of buffer; at most {} (lower the size or the supersampling)",
+                    self.width,
+                    self.height,
+                    self.supersample * self.supersample,
+                    1u64 << 24
+                ),
+            );
         }
         if !(self.gif_fps.is_finite() && (1.0..=50.0).contains(&self.gif_fps)) {
-            return bad(format!(
-                "the GIF frame rate must be 1 to 50 per second, not {}",
-                self.gif_fps
-            ));
+            return bad(
+                "gif_fps",
+                format!(
+                    "the GIF frame rate must be 1 to 50 per second, not {}",
+                    self.gif_fps
+                ),
+            );
         }
         if !(self.view_from.is_finite() && self.view_from.length() > 1e-6)
             || self.view_from.normalize().y.abs() > 0.999
         {
-            return bad(format!(
-                "the view direction {} must be finite, non-zero and not straight up or down",
-                self.view_from
-            ));
+            return bad(
+                "view_from",
+                format!(
+                    "the view direction {} must be finite, non-zero and not straight up or down",
+                    self.view_from
+                ),
+            );
         }
         if let Some((a, b)) = self.frames
             && a > b
         {
-            return bad(format!("the frame range {a}..{b} is empty"));
+            return bad("frames", format!("the frame range {a}..{b} is empty"));
         }
         Ok(())
     }
@@ -254,7 +266,7 @@ pub fn png(actors: &[Actor<'_>], markers: &[Marker], options: &PreviewOptions) -
     let frame = options.png_frame.unwrap_or((a + b) / 2);
     if frame >= preview.frame_count() {
         return Err(Error::Setting {
-            setting: "preview".into(),
+            setting: "png_frame".into(),
             message: format!(
                 "frame {frame} is past the last frame ({})",
                 preview.frame_count() - 1

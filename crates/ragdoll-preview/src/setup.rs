@@ -183,11 +183,14 @@ pub(crate) fn frame_range(
         .unwrap_or(1);
     let range = frames.unwrap_or((0, count - 1));
     if range.1 >= count {
-        return Err(setting_error(format!(
-            "the frame range ends at {} but the last frame is {}",
-            range.1,
-            count - 1
-        )));
+        return Err(Error::Setting {
+            setting: "frames".into(),
+            message: format!(
+                "the frame range ends at {} but the last frame is {}",
+                range.1,
+                count - 1
+            ),
+        });
     }
     Ok((count, range))
 }

@@ -144,6 +144,17 @@ pub(crate) fn to_py(e: ragdoll::Error) -> PyErr {
                 ..at(&path, message)
             },
         ),
+        E::NoSuchClip {
+            path,
+            asked,
+            message,
+        } => (
+            Kind::Format,
+            Fields {
+                place: Some(asked),
+                ..at(&path, message)
+            },
+        ),
         E::UnsupportedFile { ref path } => (Kind::Format, at(path, text.clone())),
         E::Skeleton { joint, message } => (
             Kind::Skeleton,

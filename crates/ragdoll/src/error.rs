@@ -53,6 +53,17 @@ pub enum Error {
         /// Why it is not read.
         message: String,
     },
+    /// The clip asked for (by index or name) is not in the file; the message lists the
+    /// clips it has.
+    #[error("{}: {asked}: {message}", path.display())]
+    NoSuchClip {
+        /// The file involved.
+        path: PathBuf,
+        /// The clip as asked for: `clip 3` or `clip "walk"`.
+        asked: String,
+        /// The clips the file has.
+        message: String,
+    },
     /// The file's extension or content is not something we import.
     #[error("{}: unsupported file type (expected .bvh, .glb, .gltf, .vrm, .obj or .toml)", path.display())]
     UnsupportedFile {
@@ -86,6 +97,21 @@ pub enum Error {
 }
 
 impl Error {
+    /// The file the error names in its sentence, if it names one: a caller that knows
+    /// which input it was reading names that itself when this is `None` (skeleton, spec
+    /// and setting errors know no file).
+    pub fn path(&self) -> Option<&std::path::Path> {
+        match self {
+            Error::Io { path, .. }
+            | Error::Parse { path, .. }
+            | Error::Format { path, .. }
+            | Error::Refused { path, .. }
+            | Error::NoSuchClip { path, .. }
+            | Error::UnsupportedFile { path } => Some(path),
+            Error::Skeleton { .. } | Error::Spec { .. } | Error::Setting { .. } => None,
+        }
+    }
+
     /// Wraps an I/O error with the path it happened on.
     pub fn io(path: impl Into<PathBuf>, error: std::io::Error) -> Self {
         Error::Io {
@@ -122,6 +148,11 @@ mod tests {
             },
             Error::Refused {
                 path: path.clone(),
+                message: text(),
+            },
+            Error::NoSuchClip {
+                path: path.clone(),
+                asked: "clip 3".into(),
                 message: text(),
             },
             Error::UnsupportedFile { path },
@@ -163,5 +194,15 @@ mod tests {
         let text = err.to_string();
         assert!(text.starts_with("nope.glb: "), "{text}");
         assert_eq!(text.matches("os error 2").count(), 1, "{text}");
+    }
+
+    /// Callers name the input themselves exactly when the sentence does not: `path` must
+    /// agree with the text, or a file is named twice or not at all.
+    #[test]
+    fn path_is_the_file_the_sentence_starts_with() {
+        for e in one_of_each() {
+            let named = e.to_string().starts_with("nope.glb: ");
+            assert_eq!(e.path().is_some(), named, "{e}");
+        }
     }
 }

@@ -214,6 +214,17 @@ fn bench_no_impact_passes(_: &Path, o: &Output) {
     let v: serde_json::Value = serde_json::from_str(&out(o)).unwrap();
     assert_eq!(v["runs"][0]["fast_impact_passes"], 0);
 }
+fn farm_bench(_: &Path, o: &Output) {
+    let v: serde_json::Value = serde_json::from_str(&out(o)).unwrap();
+    assert_eq!(v["variants"], 2);
+}
+fn tables_only(dir: &Path, _: &Output) {
+    assert!(dir.join("job/results.csv").is_file(), "no job/results.csv");
+    assert!(
+        !dir.join("job/contact-sheet-001.png").exists(),
+        "a contact sheet written"
+    );
+}
 fn bench_particle(_: &Path, o: &Output) {
     assert!(out(o).contains("particle"), "{}", out(o));
 }
@@ -440,6 +451,7 @@ fn bench() -> Vec<Case> {
         case("bench", "--no-freeze", &[&base[..], &["--backend", "fast", "--json"]].concat(), &["--no-freeze"], Some(bench_no_freeze), &["--no-freeze=yes"], "--no-freeze"),
         case("bench", "--fast-iterations", &[&base[..], &["--backend", "fast", "--json"]].concat(), &["--fast-iterations", "2"], Some(bench_two_passes), &["--fast-iterations", "0"], "--fast-iterations"),
         case("bench", "--impact-passes", &[&base[..], &["--backend", "fast", "--json"]].concat(), &["--impact-passes", "0"], Some(bench_no_impact_passes), &["--impact-passes", "9"], "--impact-passes"),
+        case("bench", "--farm", &["bench", "--json"], &["--farm", "2"], Some(farm_bench), &["--farm", "0"], "--farm"),
         case("bench", "--compare", &[&base[..], &["--backend", "particle"]].concat(), &["--compare"], Some(bench_compare), &["--compare=yes"], "--compare"),
     ]
 }
@@ -509,6 +521,7 @@ fn farm() -> Vec<Case> {
         help("run-task", &["run-task"]),
         case("run-task", "--task", &["run-task", "job/plan.json"], &["--task", "0"], None, &["--task", "1"], "--task 1"),
         help("merge", &["merge"]),
+        case("merge", "--no-sheet", &["merge", "job"], &["--no-sheet"], Some(tables_only), &["--no-sheet=yes"], "--no-sheet"),
     ]
 }
 

@@ -61,9 +61,9 @@ pub fn choose_clip(character: &mut Character, choice: &ClipChoice, path: &Path) 
             ClipChoice::Index(i) => format!("clip {i}"),
             ClipChoice::Name(n) => format!("clip {n:?}"),
         };
-        return Err(Error::Format {
+        return Err(Error::NoSuchClip {
             path: path.to_path_buf(),
-            place: asked,
+            asked,
             message: no_such_clip(character),
         });
     };

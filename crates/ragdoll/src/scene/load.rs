@@ -117,10 +117,10 @@ fn import_error(c: &Ctx, r: &RawCharacter, f: &S<String>, e: Error) -> Error {
         (Error::Setting { setting, message }, Some(h), _) if setting == "height" => {
             c.err(&h.span(), "height", message)
         }
-        (Error::Format { place, message, .. }, _, Some(k)) if place.starts_with("clip ") => c.err(
+        (Error::NoSuchClip { asked, message, .. }, _, Some(k)) => c.err(
             &k.span(),
             "clip",
-            format!("{}: {place}: {message}", f.get_ref()),
+            format!("{}: {asked}: {message}", f.get_ref()),
         ),
         (e, _, _) => c.err(&f.span(), r.file_key, e),
     }
