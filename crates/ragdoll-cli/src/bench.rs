@@ -65,6 +65,11 @@ pub struct BenchArgs {
     /// does: a ratio taken minutes apart on a shared machine measures the neighbours.
     #[arg(long)]
     compare: bool,
+    /// Run the reference workload too, in the same run: the same piles of a plain
+    /// 11-capsule ragdoll in rapier3d with rapier's defaults and 4 solver iterations, so
+    /// the ratio to a general engine can be reproduced anywhere rapier runs.
+    #[arg(long)]
+    reference: bool,
     /// Keep every joint of the fast backend active: no joint freezing (its level of detail
     /// below sleep), to measure what freezing saves and costs.
     #[arg(long)]
@@ -173,11 +178,12 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     if threads.iter().any(|&t| t == 0 || t > 1024) {
         bail!("--threads: each count must be between 1 and 1024");
     }
-    // Each size runs once per thread count, and on the rigid backend too with --compare.
+    // Each size runs once per thread count, once more each on the rigid backend with
+    // --compare and on plain rapier with --reference.
     check_size(
         &a.ragdolls,
         a.steps,
-        threads.len() * if a.compare { 2 } else { 1 },
+        threads.len() * (1 + usize::from(a.compare) + usize::from(a.reference)),
     )?;
     if !(1..=MAX_FAST_ITERATIONS).contains(&a.fast_iterations) {
         bail!(
@@ -223,6 +229,13 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                 None
             };
             let ratio = base.as_ref().and_then(|b| row.timing.cpu_ratio(&b.timing));
+            let plain = if a.reference {
+                Some(crate::bench_reference::run_plain_pile(
+                    n, t, a.steps, &progress,
+                )?)
+            } else {
+                None
+            };
             if !a.json {
                 progress.suspend(|| {
                     print_row(&row, backend.as_str(), a.steps);
@@ -236,6 +249,9 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                             None => outln!("      {} / rigid: CPU time unknown", backend.as_str()),
                         }
                     }
+                    if let Some(p) = &plain {
+                        crate::bench_reference::print_beside(p, &row.timing, backend, a.steps);
+                    }
                 });
             }
             let mut run = run_json(&row, backend, a.steps);
@@ -245,6 +261,10 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             if let Some(b) = &base {
                 run["rigid"] = run_json(b, BackendKind::Rigid, a.steps);
                 run["cpu_ratio_to_rigid"] = json!(ratio);
+            }
+            if let Some(p) = &plain {
+                run["plain_rapier"] = p.json(a.steps);
+                run["cpu_ratio_to_plain_rapier"] = json!(row.timing.cpu_ratio(&p.timing));
             }
             runs.push(run);
         }
@@ -279,7 +299,7 @@ fn check_size(ragdolls: &[usize], steps: usize, runs_each: usize) -> Result<()> 
     if work > MAX_RAGDOLL_STEPS {
         let minutes = work as f64 / RIGID_STEPS_PER_SECOND / 60.0;
         bail!(
-            "--ragdolls {} run {runs_each} time(s) each (once per thread count, twice with --compare) with --steps {steps} is {work} ragdoll-steps in all, about {minutes:.0} minutes on one core at the {RIGID_STEPS_PER_SECOND} ragdoll-steps a second a rigid pile runs at; a run may do at most {MAX_RAGDOLL_STEPS}",
+            "--ragdolls {} run {runs_each} time(s) each (once per thread count, once more each with --compare and --reference) with --steps {steps} is {work} ragdoll-steps in all, about {minutes:.0} minutes on one core at the {RIGID_STEPS_PER_SECOND} ragdoll-steps a second a rigid pile runs at; a run may do at most {MAX_RAGDOLL_STEPS}",
             summary(ragdolls)
         );
     }
