@@ -65,6 +65,11 @@ pub struct BenchArgs {
     /// does: a ratio taken minutes apart on a shared machine measures the neighbours.
     #[arg(long)]
     compare: bool,
+    /// Run the reference workload too, in the same run: the same piles of a plain
+    /// 11-capsule ragdoll in rapier3d with rapier's defaults and 4 solver iterations, so
+    /// the ratio to a general engine can be reproduced anywhere rapier runs.
+    #[arg(long)]
+    reference: bool,
     /// Keep every joint of the fast backend active: no joint freezing (its level of detail
     /// below sleep), to measure what freezing saves and costs.
     #[arg(long)]
@@ -96,14 +101,62 @@ pub struct BenchArgs {
     backend: crate::BackendArgs,
 }
 
-struct Row {
-    ragdolls: usize,
-    threads: usize,
+/// How long one run stepped: what every workload, ours or the reference, reports alike.
+pub(crate) struct Timing {
+    pub ragdolls: usize,
+    pub threads: usize,
     /// Wall seconds of stepping.
-    seconds: f64,
+    pub seconds: f64,
     /// CPU seconds of stepping, all threads together (`None` where the system would not
     /// say): on a shared machine, wall time says as much about the neighbours as about us.
-    cpu_seconds: Option<f64>,
+    pub cpu_seconds: Option<f64>,
+}
+
+impl Timing {
+    fn per_second(&self, steps: usize, seconds: f64) -> f64 {
+        (self.ragdolls * steps) as f64 / seconds
+    }
+
+    /// The start of a printed row: the workload's label, its size and its speed.
+    pub(crate) fn text(&self, label: &str, steps: usize) -> String {
+        let cpu = match self.cpu_seconds {
+            Some(c) => format!("{:>9.0}/CPU-s ({c:.2} CPU-s)", self.per_second(steps, c)),
+            None => "CPU time unknown".into(),
+        };
+        format!(
+            "pile  {label:<8} N={:<5} threads={:<2} {:>9.0} ragdoll-steps/s ({:.2} s wall)  {cpu}",
+            self.ragdolls,
+            self.threads,
+            self.per_second(steps, self.seconds),
+            self.seconds,
+        )
+    }
+
+    /// The fields of a run's JSON that say how fast it went.
+    pub(crate) fn json(&self, steps: usize) -> serde_json::Value {
+        json!({
+            "ragdolls": self.ragdolls,
+            "threads": self.threads,
+            "steps": steps,
+            "wall_seconds": self.seconds,
+            "cpu_seconds": self.cpu_seconds,
+            "ragdoll_steps_per_second": self.per_second(steps, self.seconds),
+            "ragdoll_steps_per_cpu_second": self.cpu_seconds.map(|c| self.per_second(steps, c)),
+        })
+    }
+
+    /// How many times as many ragdoll-steps per CPU-second this run did as `base` (same
+    /// sizes and steps).
+    pub(crate) fn cpu_ratio(&self, base: &Timing) -> Option<f64> {
+        match (self.cpu_seconds, base.cpu_seconds) {
+            (Some(c), Some(b)) if c > 0.0 => Some(b / c),
+            _ => None,
+        }
+    }
+}
+
+struct Row {
+    timing: Timing,
     metrics: Metrics,
     /// After the last step, when the piles have settled: the deepest overlap in the poses
     /// (bodies in each other or in the ground, measured from the shapes, not the solver's
@@ -111,12 +164,6 @@ struct Row {
     /// much at rest the piles are).
     end_overlap_m: f32,
     end_fastest_mps: f32,
-}
-
-impl Row {
-    fn per_second(&self, steps: usize, seconds: f64) -> f64 {
-        (self.ragdolls * steps) as f64 / seconds
-    }
 }
 
 pub fn run(a: &BenchArgs) -> Result<()> {
@@ -131,11 +178,12 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     if threads.iter().any(|&t| t == 0 || t > 1024) {
         bail!("--threads: each count must be between 1 and 1024");
     }
-    // Each size runs once per thread count, and on the rigid backend too with --compare.
+    // Each size runs once per thread count, once more each on the rigid backend with
+    // --compare and on plain rapier with --reference.
     check_size(
         &a.ragdolls,
         a.steps,
-        threads.len() * if a.compare { 2 } else { 1 },
+        threads.len() * (1 + usize::from(a.compare) + usize::from(a.reference)),
     )?;
     if !(1..=MAX_FAST_ITERATIONS).contains(&a.fast_iterations) {
         bail!(
@@ -180,7 +228,14 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             } else {
                 None
             };
-            let ratio = base.as_ref().and_then(|b| cpu_ratio(&row, b));
+            let ratio = base.as_ref().and_then(|b| row.timing.cpu_ratio(&b.timing));
+            let plain = if a.reference {
+                Some(crate::bench_reference::run_plain_pile(
+                    n, t, a.steps, &progress,
+                )?)
+            } else {
+                None
+            };
             if !a.json {
                 progress.suspend(|| {
                     print_row(&row, backend.as_str(), a.steps);
@@ -194,6 +249,9 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                             None => outln!("      {} / rigid: CPU time unknown", backend.as_str()),
                         }
                     }
+                    if let Some(p) = &plain {
+                        crate::bench_reference::print_beside(p, &row.timing, backend, a.steps);
+                    }
                 });
             }
             let mut run = run_json(&row, backend, a.steps);
@@ -203,6 +261,10 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             if let Some(b) = &base {
                 run["rigid"] = run_json(b, BackendKind::Rigid, a.steps);
                 run["cpu_ratio_to_rigid"] = json!(ratio);
+            }
+            if let Some(p) = &plain {
+                run["plain_rapier"] = p.json(a.steps);
+                run["cpu_ratio_to_plain_rapier"] = json!(row.timing.cpu_ratio(&p.timing));
             }
             runs.push(run);
         }
@@ -237,7 +299,7 @@ fn check_size(ragdolls: &[usize], steps: usize, runs_each: usize) -> Result<()> 
     if work > MAX_RAGDOLL_STEPS {
         let minutes = work as f64 / RIGID_STEPS_PER_SECOND / 60.0;
         bail!(
-            "--ragdolls {} run {runs_each} time(s) each (once per thread count, twice with --compare) with --steps {steps} is {work} ragdoll-steps in all, about {minutes:.0} minutes on one core at the {RIGID_STEPS_PER_SECOND} ragdoll-steps a second a rigid pile runs at; a run may do at most {MAX_RAGDOLL_STEPS}",
+            "--ragdolls {} run {runs_each} time(s) each (once per thread count, once more each with --compare and --reference) with --steps {steps} is {work} ragdoll-steps in all, about {minutes:.0} minutes on one core at the {RIGID_STEPS_PER_SECOND} ragdoll-steps a second a rigid pile runs at; a run may do at most {MAX_RAGDOLL_STEPS}",
             summary(ragdolls)
         );
     }
@@ -255,28 +317,22 @@ fn summary(ragdolls: &[usize]) -> String {
 
 /// One run as the JSON output lists it.
 fn run_json(r: &Row, backend: BackendKind, steps: usize) -> serde_json::Value {
-    json!({
+    let mut run = json!({
         "workload": "pile",
         "backend": backend.as_str(),
-        "ragdolls": r.ragdolls,
-        "threads": r.threads,
-        "steps": steps,
-        "wall_seconds": r.seconds,
-        "cpu_seconds": r.cpu_seconds,
-        "ragdoll_steps_per_second": r.per_second(steps, r.seconds),
-        "ragdoll_steps_per_cpu_second": r.cpu_seconds.map(|c| r.per_second(steps, c)),
         "stable": stable(&r.metrics),
         "metrics": r.metrics,
         "end_overlap_m": r.end_overlap_m,
         "end_fastest_body_mps": r.end_fastest_mps,
-    })
+    });
+    merge(&mut run, r.timing.json(steps));
+    run
 }
 
-/// How many times as many ragdoll-steps per CPU-second `r` did as `base` (same work).
-fn cpu_ratio(r: &Row, base: &Row) -> Option<f64> {
-    match (r.cpu_seconds, base.cpu_seconds) {
-        (Some(c), Some(b)) if c > 0.0 => Some(b / c),
-        _ => None,
+/// Adds the fields of the JSON object `more` to the object `into`.
+pub(crate) fn merge(into: &mut serde_json::Value, more: serde_json::Value) {
+    if let (Some(into), serde_json::Value::Object(more)) = (into.as_object_mut(), more) {
+        into.extend(more);
     }
 }
 
@@ -286,16 +342,9 @@ fn stable(m: &Metrics) -> bool {
 
 fn print_row(r: &Row, backend: &str, steps: usize) {
     let m = &r.metrics;
-    let cpu = match r.cpu_seconds {
-        Some(c) => format!("{:>9.0}/CPU-s ({c:.2} CPU-s)", r.per_second(steps, c)),
-        None => "CPU time unknown".into(),
-    };
     outln!(
-        "pile  {backend:<8} N={:<5} threads={:<2} {:>9.0} ragdoll-steps/s ({:.2} s wall)  {cpu}  stable={}  limit {:.1}° (solver {:.1}°)  penetration {:.1} mm (at the end {:.1} mm, fastest body {:.2} m/s)  separation {:.1} mm  energy gain {:.2} % (most in a frame)",
-        r.ragdolls,
-        r.threads,
-        r.per_second(steps, r.seconds),
-        r.seconds,
+        "{}  stable={}  limit {:.1}° (solver {:.1}°)  penetration {:.1} mm (at the end {:.1} mm, fastest body {:.2} m/s)  separation {:.1} mm  energy gain {:.2} % (most in a frame)",
+        r.timing.text(backend, steps),
         stable(m),
         m.max_limit_violation_deg,
         m.max_limit_violation_solver_deg,
@@ -309,7 +358,7 @@ fn print_row(r: &Row, backend: &str, steps: usize) {
 
 /// Where ragdoll `k` of `n` starts: pile `k / PILE_HEIGHT` on a square grid, one level up
 /// per ragdoll in the pile, each level turned a further 70° so limbs cross.
-fn placement(k: usize, n: usize) -> Transform {
+pub(crate) fn placement(k: usize, n: usize) -> Transform {
     let piles = n.div_ceil(PILE_HEIGHT);
     let side = (piles as f64).sqrt().ceil() as usize;
     let pile = k / PILE_HEIGHT;
@@ -325,32 +374,27 @@ fn placement(k: usize, n: usize) -> Transform {
     )
 }
 
-fn run_pile(
-    character: &skeleton::Character,
-    spec: &spec::RagdollSpec,
-    settings: &WorldSettings,
+/// The ragdolls (indices into the `n` placements) each of `threads` worlds holds:
+/// contiguous shares of whole piles, so no pile is split between worlds.
+pub(crate) fn world_shares(n: usize, threads: usize) -> Vec<std::ops::Range<usize>> {
+    let piles = n.div_ceil(PILE_HEIGHT);
+    let per_world = piles.div_ceil(threads.clamp(1, piles.max(1))) * PILE_HEIGHT;
+    (0..n)
+        .step_by(per_world.max(1))
+        .map(|k| k..(k + per_world).min(n))
+        .collect()
+}
+
+/// Steps every world `steps` times, each on a thread of a pool of `threads`, and times it:
+/// one way of timing for every workload, so that their ratio is of the engines alone.
+pub(crate) fn step_timed<W: Send>(
+    worlds: &mut [W],
     n: usize,
     threads: usize,
     steps: usize,
     progress: &Progress,
-) -> Result<Row> {
-    progress.stage(n as u64, &format!("N={n} threads={threads}: building"));
-    let piles = n.div_ceil(PILE_HEIGHT);
-    let worlds_n = threads.min(piles);
-    // Contiguous shares of whole piles per world.
-    let per_world = piles.div_ceil(worlds_n) * PILE_HEIGHT;
-    let mut worlds = Vec::new();
-    let mut k = 0;
-    while k < n {
-        let mut world = World::new(settings)?;
-        let mut ids = Vec::new();
-        for i in k..(k + per_world).min(n) {
-            ids.push(world.add_ragdoll(character, spec, placement(i, n))?);
-            progress.inc(1);
-        }
-        worlds.push((world, ids));
-        k += per_world;
-    }
+    step: impl Fn(&mut W) + Sync,
+) -> Result<Timing> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()?;
@@ -361,16 +405,43 @@ fn run_pile(
     let started = Instant::now();
     let cpu_started = ProcessTime::try_now().ok();
     pool.install(|| {
-        worlds.par_iter_mut().for_each(|(w, _)| {
+        worlds.par_iter_mut().for_each(|w| {
             crate::fatal::debug_panic_point("worker");
             for _ in 0..steps {
-                w.step();
+                step(w);
                 progress.inc(1);
             }
         })
     });
-    let seconds = started.elapsed().as_secs_f64();
-    let cpu_seconds = cpu_started.map(|t| t.elapsed().as_secs_f64());
+    Ok(Timing {
+        ragdolls: n,
+        threads,
+        seconds: started.elapsed().as_secs_f64(),
+        cpu_seconds: cpu_started.map(|t| t.elapsed().as_secs_f64()),
+    })
+}
+
+fn run_pile(
+    character: &skeleton::Character,
+    spec: &spec::RagdollSpec,
+    settings: &WorldSettings,
+    n: usize,
+    threads: usize,
+    steps: usize,
+    progress: &Progress,
+) -> Result<Row> {
+    progress.stage(n as u64, &format!("N={n} threads={threads}: building"));
+    let mut worlds = Vec::new();
+    for share in world_shares(n, threads) {
+        let mut world = World::new(settings)?;
+        let mut ids = Vec::new();
+        for i in share {
+            ids.push(world.add_ragdoll(character, spec, placement(i, n))?);
+            progress.inc(1);
+        }
+        worlds.push((world, ids));
+    }
+    let timing = step_timed(&mut worlds, n, threads, steps, progress, |(w, _)| w.step())?;
     let mut metrics = Metrics::default();
     let (mut end_overlap_m, mut end_fastest_mps) = (0.0f32, 0.0f32);
     for (w, ids) in &worlds {
@@ -395,10 +466,7 @@ fn run_pile(
         metrics.nan |= m.nan;
     }
     Ok(Row {
-        ragdolls: n,
-        threads,
-        seconds,
-        cpu_seconds,
+        timing,
         metrics,
         end_overlap_m,
         end_fastest_mps,

@@ -244,6 +244,13 @@ fn bench_compare(_: &Path, o: &Output) {
         "{text}"
     );
 }
+fn bench_reference(_: &Path, o: &Output) {
+    let text = out(o);
+    assert!(
+        text.contains("pile  plain-rapier") && text.contains("fast / plain rapier: "),
+        "{text}"
+    );
+}
 fn gif_written(dir: &Path, _: &Output) {
     assert_eq!(&std::fs::read(dir.join("p.gif")).unwrap()[..6], b"GIF89a");
 }
@@ -453,6 +460,7 @@ fn bench() -> Vec<Case> {
         case("bench", "--impact-passes", &[&base[..], &["--backend", "fast", "--json"]].concat(), &["--impact-passes", "0"], Some(bench_no_impact_passes), &["--impact-passes", "9"], "--impact-passes"),
         case("bench", "--farm", &["bench", "--json"], &["--farm", "2"], Some(farm_bench), &["--farm", "0"], "--farm"),
         case("bench", "--compare", &[&base[..], &["--backend", "particle"]].concat(), &["--compare"], Some(bench_compare), &["--compare=yes"], "--compare"),
+        case("bench", "--reference", &[&base[..], &["--backend", "fast"]].concat(), &["--reference"], Some(bench_reference), &["--reference=yes"], "--reference"),
     ]
 }
 
