@@ -182,7 +182,7 @@ fn merge_writes_one_row_per_variant_with_its_values() {
     );
 }
 
-/// The farm benchmark runs the real commands (its numbers are for `docs/farm.md`, not
+/// The farm benchmark runs the real commands (its numbers are for `docs/src/farm.md`, not
 /// asserted here): every cost measured, every variant but the tasks' made from theirs.
 #[test]
 fn bench_farm_plans_runs_and_merges_a_wedge() {
