@@ -408,14 +408,14 @@ fn the_slurm_scripts_chain_the_merge_after_the_array() {
     }
 }
 
-/// The example and the README's wedge stay in step with the parser.
+/// The example and the guide's wedge (its Wedges and farm jobs page) stay in step with
+/// the parser.
 #[test]
-fn the_example_and_the_readme_wedge_list_their_variants() {
+fn the_example_and_the_guide_wedge_list_their_variants() {
     let example = repo().join("examples/wedge_crowd.toml");
     let o = ok(&repo(), &["wedge", example.to_str().unwrap(), "--list"]);
     assert_eq!(stdout_lines(&o).len(), 6);
-    let readme = std::fs::read_to_string(repo().join("README.md")).unwrap();
-    let section = &readme[readme.find("## Wedges and farm jobs").unwrap()..];
+    let section = std::fs::read_to_string(repo().join("docs/src/wedges.md")).unwrap();
     let start = section.find("```toml\n").unwrap() + 8;
     let block = &section[start..start + section[start..].find("```").unwrap()];
     let dir = tempfile::tempdir().unwrap();
