@@ -1,5 +1,5 @@
 //! Any character file, told apart by its content, through role recognition and
-//! `build_spec` into a world on both backends: what `ragdoll simulate FILE` does.
+//! `build_spec` into a world on every backend: what `ragdoll simulate FILE` does.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;

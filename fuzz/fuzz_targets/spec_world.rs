@@ -1,4 +1,4 @@
-//! A spec that parses, applied to the built-in humanoid and stepped on both backends: the
+//! A spec that parses, applied to the built-in humanoid and stepped on every backend: the
 //! shapes and limits a user may write meet parry, rapier and the particle broad phase.
 #![no_main]
 

@@ -94,7 +94,7 @@ pub struct BenchArgs {
     impact_passes: usize,
     /// Measure the farm commands instead, on a wedge of this many variants: `plan`, a
     /// task's overhead beyond its simulation, and `merge` with and without its contact
-    /// sheet (see `docs/farm.md`).
+    /// sheet (see `docs/src/farm.md`).
     #[arg(long, value_name = "VARIANTS")]
     farm: Option<usize>,
     #[command(flatten)]

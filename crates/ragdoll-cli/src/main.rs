@@ -362,7 +362,7 @@ struct BuildArgs {
 
 #[derive(Args, Debug)]
 struct SimulateArgs {
-    /// A .bvh, .glb, .gltf, .vrm or .obj file, or a scene file (.toml; see the README's "Scene files").
+    /// A .bvh, .glb, .gltf, .vrm or .obj file, or a scene file (.toml; see the guide's "Scenes").
     file: PathBuf,
     /// Output file: .glb or .bvh. The report goes next to it as STEM.report.json. For a
     /// scene file, the output folder (--seconds, --fps and --rest-pose then override the

@@ -1,4 +1,4 @@
-//! `ragdoll rig`: a skeleton and automatic skin for a mesh that has none (issue 4), written
+//! `ragdoll rig`: a skeleton and automatic skin for a mesh that has none, written
 //! as a skinned glTF in the rest pose for a modeller or for `ragdoll simulate`.
 
 use std::path::PathBuf;

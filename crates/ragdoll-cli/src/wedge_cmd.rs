@@ -47,7 +47,7 @@ pub fn load(scene: &Path) -> Result<Wedge> {
     match Wedge::load(scene)? {
         Some(w) => Ok(w),
         None => bail!(
-            "{}: has no [wedge] table, so it makes no variants (see the README's \"Wedges and farm jobs\")",
+            "{}: has no [wedge] table, so it makes no variants (see the guide's \"Wedges and farm jobs\")",
             scene.display()
         ),
     }

@@ -9,7 +9,7 @@ mod common;
 
 use common::*;
 
-/// Bounds every simulation must keep (issue #2).
+/// Bounds every simulation must keep.
 const MAX_LIMIT_VIOLATION_DEG: f64 = 2.0;
 const MAX_PENETRATION_M: f64 = 0.03;
 const MAX_JOINT_SEPARATION_M: f64 = 0.005;
@@ -524,7 +524,7 @@ fn activate_plays_the_clip_of_a_file_first() {
     );
 }
 
-/// Issue #3's "done when": on every humanoid in the shared data, `ragdoll blast` throws the
+/// On every humanoid in the shared data, `ragdoll blast` throws the
 /// character away from the charge, earlier and harder when closer.
 #[test]
 #[ignore = "needs ../shared/data"]
@@ -688,7 +688,7 @@ fn bench_reports_cpu_seconds_and_both_limit_readings() {
     );
 }
 
-/// Issue 12's "1 cm at rest", apart from impacts: after 10 s the fast backend's piles lie
+/// The target of 1 cm at rest, apart from impacts: after 10 s the fast backend's piles lie
 /// still, and no body lies deeper than 1 cm in another or in the ground, measured from
 /// the shapes rather than from the solver's contacts.
 #[test]

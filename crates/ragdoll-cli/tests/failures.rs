@@ -1,4 +1,4 @@
-//! How the tool fails (issue 10): every failure path leaves the output folder as it was,
+//! How the tool fails: every failure path leaves the output folder as it was,
 //! a panic anywhere ends as one sentence that says it is a bug, a run that went non-finite
 //! is an error, flag combinations that could have no effect are refused, and progress is
 //! drawn on a terminal but never into a pipe.

@@ -182,7 +182,7 @@ fn merge_writes_one_row_per_variant_with_its_values() {
     );
 }
 
-/// The farm benchmark runs the real commands (its numbers are for `docs/farm.md`, not
+/// The farm benchmark runs the real commands (its numbers are for `docs/src/farm.md`, not
 /// asserted here): every cost measured, every variant but the tasks' made from theirs.
 #[test]
 fn bench_farm_plans_runs_and_merges_a_wedge() {
@@ -408,14 +408,14 @@ fn the_slurm_scripts_chain_the_merge_after_the_array() {
     }
 }
 
-/// The example and the README's wedge stay in step with the parser.
+/// The example and the guide's wedge (its Wedges and farm jobs page) stay in step with
+/// the parser.
 #[test]
-fn the_example_and_the_readme_wedge_list_their_variants() {
+fn the_example_and_the_guide_wedge_list_their_variants() {
     let example = repo().join("examples/wedge_crowd.toml");
     let o = ok(&repo(), &["wedge", example.to_str().unwrap(), "--list"]);
     assert_eq!(stdout_lines(&o).len(), 6);
-    let readme = std::fs::read_to_string(repo().join("README.md")).unwrap();
-    let section = &readme[readme.find("## Wedges and farm jobs").unwrap()..];
+    let section = std::fs::read_to_string(repo().join("docs/src/wedges.md")).unwrap();
     let start = section.find("```toml\n").unwrap() + 8;
     let block = &section[start..start + section[start..].find("```").unwrap()];
     let dir = tempfile::tempdir().unwrap();

@@ -8,7 +8,7 @@
 //! as a reference the simulation has no part in.
 //!
 //! Run `cargo test --release -p ragdoll-cli --test mesh_check -- --ignored --nocapture`
-//! to print the table of every data file (`docs/characters.md` shows it).
+//! to print the table of every data file (`docs/src/characters.md` shows it).
 
 mod common;
 mod mesh_metrics;

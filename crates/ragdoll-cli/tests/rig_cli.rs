@@ -1,4 +1,4 @@
-//! `ragdoll rig` (issue 4): a mesh without a skeleton in, a skinned glTF out, that the
+//! `ragdoll rig`: a mesh without a skeleton in, a skinned glTF out, that the
 //! importer reads back and `ragdoll simulate` runs.
 
 mod common;

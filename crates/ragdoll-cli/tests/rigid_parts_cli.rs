@@ -1,6 +1,6 @@
 //! A character made of rigid mesh parts without a skin, through the CLI: `simulate` bakes
 //! it with its own meshes, measured by the independent mesh check (`mesh_metrics`): no part
-//! stretches and nothing sinks past issue 11's 4 % of the height; `rig` refuses it, since
+//! stretches and nothing sinks past 4 % of the height; `rig` refuses it, since
 //! its node hierarchy already is a skeleton.
 
 mod common;

@@ -8,7 +8,7 @@
 //! it and drops the message; the connection stays open), so a hostile page or a buggy
 //! script can neither crash the server nor push the simulation into NaNs. What an accepted
 //! message then does is bounded again by the session (edit bounds relative to the file's
-//! ragdoll, caps on charges, drags and the recording; see the README's "The viewer").
+//! ragdoll, caps on charges, drags and the recording; see the guide's "The viewer" page).
 //!
 //! The server sends JSON text too, tagged the same way: `scene` (once: skeletons and
 //! meshes), `specs` (on connect and after each change: the specs, the backend, and each

@@ -1,4 +1,4 @@
-//! Body fit (issue 11): each body's shape encloses the skin it carries in the rest pose,
+//! Body fit: each body's shape encloses the skin it carries in the rest pose,
 //! so a character lying on its bodies does not push its mesh into the floor.
 //!
 //! The skin a body carries is worked out here independently of the builder: a vertex

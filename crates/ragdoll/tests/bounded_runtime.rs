@@ -1,4 +1,4 @@
-//! The runtime bounded by the world and physically right at its edges (issue 10): broad
+//! The runtime bounded by the world and physically right at its edges: broad
 //! phases sized by the number of bodies, characters refused when they start inside each
 //! other, early shots on the particle backend, a charge inside a body part, and runs that
 //! go non-finite.
@@ -42,7 +42,7 @@ fn momentum(world: &World, spec: &RagdollSpec, id: ragdoll::world::RagdollId) ->
 
 #[test]
 fn a_one_kilometre_body_keeps_the_particle_broad_phase_small() {
-    // Issue 10: a pelvis capsule edited to a 1000 m radius made the particle broad phase
+    // A pelvis capsule edited to a 1000 m radius made the particle broad phase
     // grow to 12 GB in 30 s and abort (0.7 m was enough to hang it). Specs now stop at
     // spec::MAX_SHAPE_M; at that size the grid must still hold a few cells per body.
     let character = humanoid();
@@ -72,7 +72,7 @@ fn a_one_kilometre_body_keeps_the_particle_broad_phase_small() {
 
 #[test]
 fn ten_thousand_tonnes_of_tnt_keep_the_particle_broad_phase_small() {
-    // Issue 10: `blast --backend particle --tnt 1e7 --at 0,1,0` aborted on an 8 GiB
+    // Found: `blast --backend particle --tnt 1e7 --at 0,1,0` aborted on an 8 GiB
     // allocation: bodies thrown at kilometres a second grew their boxes, and the cells.
     let character = humanoid();
     let spec = humanoid_spec();
@@ -97,7 +97,7 @@ fn ten_thousand_tonnes_of_tnt_keep_the_particle_broad_phase_small() {
 
 #[test]
 fn characters_placed_inside_each_other_are_refused_naming_both() {
-    // Issue 10: 100 humanoids on one spot took 23 s and 768 MB, 200 over 3.7 GB (every
+    // Found: 100 humanoids on one spot took 23 s and 768 MB, 200 over 3.7 GB (every
     // body in contact with every other). The second one on the spot is refused.
     for backend in BackendKind::ALL {
         let character = humanoid();
@@ -161,7 +161,7 @@ fn a_ragdolls_own_parts_starting_inside_each_other_stop_colliding() {
 
 #[test]
 fn a_pile_of_one_ragdolls_bodies_on_one_spot_is_refused_naming_a_body() {
-    // Issue 10: a spec with 2,000 extra bodies on one spot ran past a minute (rapier's
+    // Found: a spec with 2,000 extra bodies on one spot ran past a minute (rapier's
     // contact graph costs the cube of a pile). 40 bodies on one spot are refused at once.
     let (character, mut spec) = common::one_capsule(0.1, 0.4, 5.0);
     for k in 1..40 {
@@ -196,7 +196,7 @@ fn a_pile_of_one_ragdolls_bodies_on_one_spot_is_refused_naming_a_body() {
 
 #[test]
 fn early_shots_hit_the_box_and_deliver_their_momentum_on_both_backends() {
-    // Issue 10: on the particle backend shots before about 0.1 s missed. The ray was cast
+    // Found: on the particle backend shots before about 0.1 s missed. The ray was cast
     // at the capsules inside the boxes: a shot at the chest's lower edge passed between
     // the chest's and the spine's capsules until the body sagged into its line. This one
     // is 7 cm above the chest's centre, where its capsule is 3 cm behind the box's face.
@@ -285,7 +285,7 @@ fn a_charge_inside_a_part_pushes_it_away_from_the_charge_and_nothing_at_its_cent
 fn a_charge_at_the_pelvis_loads_every_other_part_harder_than_from_a_metre_away() {
     // The parts around a contact charge receive far more than from the same charge a
     // metre in front. (The joints then carry those pushes between the parts: a ragdoll
-    // does not come apart, so opposite pushes cancel; see the README.)
+    // does not come apart, so opposite pushes cancel; see the guide's Blasts and shots.)
     let character = humanoid();
     let spec = humanoid_spec();
     let received = |at: Vec3| {

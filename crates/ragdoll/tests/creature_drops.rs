@@ -1,4 +1,4 @@
-//! Creatures beyond quadrupeds and snakes (issue 11 item 7): a spider, a bird with its
+//! Creatures beyond quadrupeds and snakes: a spider, a bird with its
 //! wings spread and a fish, skeletons without skin. A body that carries several limbs (the
 //! spider's thorax, the bird's chest) is built big and heavy enough to hold them, and
 //! dropped, each creature lands without sinking into the floor or flying apart, its
@@ -259,7 +259,7 @@ fn creatures_land_whole_and_come_to_rest() {
             assert!(speed < 0.2, "{what}: still moving at {speed} m/s");
             // Impacts: contacts 3 cm deep at most.
             assert!(m.max_penetration_m < 0.03, "{what}: {m:?}");
-            // rapier's soft joints open 12-13 mm in the README's piles.
+            // rapier's soft joints open 12-13 mm in the bench's piles (the guide's Benchmarks).
             let joint_gap = if backend == BackendKind::Rigid {
                 0.015
             } else {

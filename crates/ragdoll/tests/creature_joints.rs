@@ -1,4 +1,4 @@
-//! Creature joints from the rest pose's geometry (issue 11 item 7): a quadruped's bent
+//! Creature joints from the rest pose's geometry: a quadruped's bent
 //! leg joints are hinges that flex the way the rest pose bends and stop near straight,
 //! whatever way it faces; a long chain shares one total bend among its links and a
 //! 20-link snake falls and settles without tearing.

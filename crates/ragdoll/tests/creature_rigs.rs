@@ -128,7 +128,7 @@ fn lands_whole(name: &str, bones: fn() -> Bones, seconds: f32) {
             let m = world.metrics();
             println!("{what}: {m:?}");
             assert!(!m.nan, "{what}");
-            // rapier's soft joints open up to 12-13 mm in the README's piles.
+            // rapier's soft joints open up to 12-13 mm in the bench's piles (the guide's Benchmarks).
             let joint_gap = if backend == BackendKind::Rigid {
                 0.015
             } else {

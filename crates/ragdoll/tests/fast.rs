@@ -1,4 +1,4 @@
-//! Physical facts the fast backend must reproduce (issue 12): free fall, a pendulum's
+//! Physical facts the fast backend must reproduce: free fall, a pendulum's
 //! period, joints that stay closed and limits held by the solver itself (read before the
 //! world's clamp), the load of a blast delivered as momentum, bit-identical reruns,
 //! ragdolls and piles that come to rest and sleep, and a drop that follows the rigid
@@ -467,8 +467,8 @@ fn two_passes_a_substep_hold_piles_tighter_than_one() {
 fn passes_added_in_impacts_hold_landings_together() {
     // The joints of a pile open widest as its arms land (a light hand struck by the
     // ground hands the blow on one joint per pass): with the default passes added in
-    // impacts, each of four piles of four keeps every joint within issue 12's 5 mm and
-    // the solver's limits within its 2°, tighter than without them, and gains no energy.
+    // impacts, each of four piles of four keeps every joint within 5 mm and
+    // the solver's limits within 2°, tighter than without them, and gains no energy.
     for k in 0..4 {
         let worst = |impact_passes: usize| {
             let settings = WorldSettings {

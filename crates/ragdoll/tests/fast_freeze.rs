@@ -1,4 +1,4 @@
-//! Joint freezing on the fast backend (issue 12's level of detail): joints that have
+//! Joint freezing on the fast backend (its level of detail): joints that have
 //! stopped moving freeze and their parts move as one body, which must change nothing a
 //! physical fact can tell (a free fall, momentum delivered, limits held) and must let go
 //! when a blow, a landing or a shot arrives.

@@ -393,7 +393,7 @@ fn built_in_humanoid_exports_a_skinned_body_mesh() {
     assert_eq!(back.meshes.len(), 1);
     let m = &back.meshes[0];
     assert_eq!(m.normals.len(), m.positions.len());
-    // Each shape bound rigidly to its own body's bone (issue 11): one joint, weight 1, so
+    // Each shape bound rigidly to its own body's bone: one joint, weight 1, so
     // no shape bends or shears with a neighbour.
     assert!(m.weights.iter().all(|w| *w == Vec4::X), "blended weights");
     // The vertices mostly on the head bone sit around it, above the neck.
@@ -512,7 +512,7 @@ fn a_gltf_without_a_skin_is_rigged_and_without_a_mesh_or_nodes_is_an_error() {
     let mut no_skin = doc.clone();
     no_skin.as_object_mut().unwrap().remove("skins");
     no_skin["nodes"][0].as_object_mut().unwrap().remove("skin");
-    // A mesh without a skin is rigged like an OBJ (issue 4): a spine of the default
+    // A mesh without a skin is rigged like an OBJ: a spine of the default
     // length, every vertex weighted.
     let rigged = import_json(&no_skin, "Unrigged.gltf").unwrap();
     assert!(matches!(rigged.source, Source::Mesh(_)));
@@ -587,7 +587,7 @@ fn broken_files_are_errors_not_panics() {
         eprintln!("{what}: {}", r.err().unwrap());
     }
     // Vertices weighted to joints the skin does not have are repaired, not refused
-    // (issue 11): the weight goes, and the warning says where.
+    //: the weight goes, and the warning says where.
     let mut d = doc.clone();
     d["skins"][0]["joints"] = json!([1]);
     let c = import_json(&d, "Broken.gltf").unwrap();
@@ -682,7 +682,7 @@ fn external_buffers_and_images_end_up_inside_the_glb() {
     };
     let start = out["bufferViews"][view]["byteOffset"].as_u64().unwrap() as usize;
     assert_eq!(src.buffers[0][start..start + PNG_1X1.len()], PNG_1X1);
-    // A missing image is a warning that names it (issue 11), and the bake goes on
+    // A missing image is a warning that names it, and the bake goes on
     // without it and the texture that showed it.
     std::fs::remove_file(dir.join("tex.png")).unwrap();
     let c = load(&path).unwrap();

@@ -1,5 +1,5 @@
 //! Hostile input against the importers and the skeleton: every crash, hang and runaway
-//! allocation found in issue 10, kept as a regression, with the inputs built here so the
+//! allocation found so far, kept as a regression, with the inputs built here so the
 //! tests need no data folder. Also the generators behind the scaling figures (deep chains,
 //! wide trees): they assert the result is right; timing them is done by hand.
 

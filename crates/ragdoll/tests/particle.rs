@@ -1,4 +1,4 @@
-//! Physical facts the particle backend must reproduce (issue 4): bone lengths kept, a
+//! Physical facts the particle backend must reproduce: bone lengths kept, a
 //! pendulum's period, limits held, blasts push away, runs repeat bit for bit, and a drop
 //! that follows the rigid backend's.
 

@@ -1,4 +1,4 @@
-//! Inputs as they come (issue 11, item 5): defects a tool can repair are repaired with a
+//! Inputs as they come: defects a tool can repair are repaired with a
 //! warning instead of refusing the file: bad skin weights, missing texture images; and
 //! compressed geometry we cannot read is refused in one sentence naming the extension.
 //! The inputs are built here, so the tests need no data folder.

@@ -1,4 +1,4 @@
-//! Rigging unrigged meshes (issue 4): the OBJ reader, the centre-line skeleton, mirrored
+//! Rigging unrigged meshes: the OBJ reader, the centre-line skeleton, mirrored
 //! branches and automatic skin weights.
 
 mod common;

@@ -1,4 +1,4 @@
-//! Bone heat skin weights (issue 11 item 6): weights that follow the body, not
+//! Bone heat skin weights: weights that follow the body, not
 //! straight-line distance, on synthetic tubes, split meshes, seams and meshes too large.
 
 mod common;

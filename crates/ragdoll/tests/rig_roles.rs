@@ -1,4 +1,4 @@
-//! Roles on the rigs people actually have (issue 11): for every humanoid file in
+//! Roles on the rigs people actually have: for every humanoid file in
 //! `../shared/data`, which joint must carry the pelvis, head, legs and arms, written from
 //! each file's joint list; the helper bones of real rigs (IK controls, poles, sockets) get
 //! no body; a humanoid bone table (VRM) is the strongest hint; and a foot the hierarchy

@@ -1,5 +1,5 @@
-//! Rigs in styles no test data file has (issue 11: "rigs in the styles above that the tests
-//! have never seen work too"): whole hierarchies as the tools that make them lay them out,
+//! Rigs in styles no test data file has (rigs in the styles of the
+//! test data that the tests have never seen must work too): whole hierarchies as the tools that make them lay them out,
 //! with their twist and roll bones in line or beside the limb, clavicles, several spine and
 //! neck joints, fingers, toes, eyes, IK targets and weapon sockets, in T- and A-poses: Daz
 //! Genesis 8, Character Creator 3/4, 3ds Max Biped (its thighs hang from the spine), Valve's

@@ -1,5 +1,5 @@
-//! Characters made of rigid mesh parts under a node hierarchy, without a skin (issue 11
-//! item 5): the hierarchy is the skeleton and each part rides on one body. The files are
+//! Characters made of rigid mesh parts under a node hierarchy, without a skin: the
+//! hierarchy is the skeleton and each part rides on one body. The files are
 //! made here: a box robot with humanoid names, a four-link arm, VRM 0.x and 1.0 bare
 //! hierarchies, and a single unskinned mesh that still goes to the automatic rig.
 //!

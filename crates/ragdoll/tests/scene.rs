@@ -844,15 +844,14 @@ fn the_same_scene_gives_identical_files_twice() {
     }
 }
 
-/// The README's annotated scene stays in step with the parser (less the lines that name
-/// files, which do not exist here, and the keys that apply to a character file only, the
-/// clip keys among them; `height` applies to the built-in humanoid too).
+/// The guide's annotated scene (its scene file reference) stays in step with the parser
+/// (less the lines that name files, which do not exist here, and the keys that apply to a
+/// character file only, the clip keys among them; `height` applies to the built-in
+/// humanoid too).
 #[test]
-fn the_readme_example_scene_parses() {
-    let readme = std::fs::read_to_string(examples_dir().join("../README.md")).unwrap();
-    let section = &readme[readme
-        .find("## Scene files")
-        .expect("a Scene files section")..];
+fn the_scene_reference_parses() {
+    let page = examples_dir().join("../docs/src/reference/scene.md");
+    let section = std::fs::read_to_string(&page).unwrap();
     let start = section.find("```toml\n").expect("a toml block") + 8;
     let block = &section[start..start + section[start..].find("```").unwrap()];
     let text: String = block

@@ -434,7 +434,7 @@ fn rig() -> Vec<Case> {
         help("rig", base),
         case("rig", "--joints", base, &["--joints", "7"], Some(seven_joints), &["--joints", "0"], "--joints"),
         case("rig", "--head", base, &["--head", "-1,0.7,0"], Some(head_at_minus_x), &["--head", "v99999"], "--head"),
-        // The flag that panicked inside clap (issue 10).
+        // The flag that panicked inside clap.
         case("rig", "--spine", base, &["--spine", "v0/v40"], Some(rig_written), &["--spine", "v0"], "--spine"),
         case("rig", "--branch", base, &["--branch", leg], Some(mirrored_leg), &["--branch", "leg"], "--branch"),
         case("rig", "--no-mirror", base, &["--branch", leg, "--no-mirror"], Some(single_leg), &["--no-mirror"], "--branch"),

@@ -354,7 +354,7 @@ mod tests {
 
     #[test]
     fn memory_is_bounded_by_the_box_count_not_their_size() {
-        // The reproducer of issue 10: one 1 km capsule among a ragdoll's parts made the
+        // A regression: one 1 km capsule among a ragdoll's parts made the
         // old grid file it under a billion 2 m cells.
         let mut boxes: Vec<(Vec3, Vec3)> = (0..15)
             .map(|k| {

@@ -26,7 +26,7 @@ pub const MAX_CROWD_SPREAD: f32 = 0.5;
 /// Most files one crowd may draw from.
 pub const MAX_CROWD_FILES: usize = 64;
 
-/// Default spacing between neighbours, metres (issue 12's crowd: 2 m).
+/// Default spacing between neighbours, metres (2 m).
 const DEFAULT_SPACING_M: f32 = 2.0;
 
 /// Darts thrown per scattered character before it takes the best one seen: enough that a

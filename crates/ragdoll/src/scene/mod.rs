@@ -2,8 +2,8 @@
 //! [`World`] and baked to one glTF holding every character, a BVH per character and a JSON
 //! report: a scene is a timeline of events.
 //!
-//! The format (every key is optional unless marked; the README's "Scene files" section and
-//! `examples/` show it with comments):
+//! The format (every key is optional unless marked; the guide's scene file reference,
+//! `docs/src/reference/scene.md`, and `examples/` show it with comments):
 //!
 //! ```toml
 //! duration_s = 3.0                  # simulated seconds
@@ -48,7 +48,7 @@
 //! ```
 //!
 //! plus `[[projectile]]`, `[[push]]`, `[[field]]` and `[[pin]]` tables, and the rest of a
-//! crowd's keys (placement and seeded variation; see the README) (see
+//! crowd's keys (placement and seeded variation; see the guide's Crowds page) (see
 //! [`Scene::from_toml`]). Unknown keys and bad values are errors that name the file, the
 //! line and the key. Every value is held to the bounds the library holds it to (positions
 //! within [`crate::world::MAX_COORDINATE_M`], times within [`crate::world::MAX_SECONDS`],

@@ -1,6 +1,6 @@
 //! What a simulation leaves behind: every skeleton joint's world transform for every output
 //! frame, ready for the exporters (which know nothing of backends), and the quality metrics
-//! of the README's report section.
+//! of the report (the guide's report reference).
 
 use serde::{Deserialize, Serialize};
 

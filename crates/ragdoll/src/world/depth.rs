@@ -5,7 +5,7 @@
 //! ([`crate::track::Metrics::max_penetration_m`]), which mixes impacts with rest and
 //! trusts the solver's narrow phase; a sleeping island reports none at all. This reading
 //! asks the geometry alone, in whatever poses the bodies are in, so it can be taken
-//! after a pile has settled (issue 12's 1 cm at rest, apart from its 3 cm in impacts) and
+//! after a pile has settled (the target: 1 cm at rest, 3 cm in impacts) and
 //! compared across backends.
 
 use rapier3d::parry::math::Pose;

@@ -1,5 +1,5 @@
 //! Recording and measuring: output frames from the bodies' states, the rigid backend's
-//! limit projection, and the quality metrics (README, The report).
+//! limit projection, and the quality metrics (the guide's report reference).
 
 use glam::Vec3;
 

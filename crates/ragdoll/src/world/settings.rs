@@ -87,7 +87,7 @@ pub struct WorldSettings {
     pub joint_damping: f32,
     /// Whether the fast backend freezes joints that have stopped moving (default true):
     /// the bodies they link move as one until a blow arrives, and cost as one (its level
-    /// of detail below sleep; see the README's Backends). The other backends ignore it.
+    /// of detail below sleep; see the guide's Backends page). The other backends ignore it.
     pub freeze_joints: bool,
 }
 

@@ -325,7 +325,7 @@ fn the_strongest_accepted_events_simulate_on_both_backends() {
         run_finite(world, 0.4, &format!("the strongest gravity on {backend:?}"));
     }
     // The largest charge, on the character, on rigid (the particle backend's broad phase
-    // is sized by the fastest body: see the report of issue 10).
+    // is sized by the fastest body).
     let (mut world, _) = world_with(&character, &spec, BackendKind::Rigid);
     world
         .add_blast(Blast::new(

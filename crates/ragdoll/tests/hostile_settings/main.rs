@@ -1,4 +1,4 @@
-//! Hostile settings (issue 10): every value a user can give through a spec, a scene or an
+//! Hostile settings: every value a user can give through a spec, a scene or an
 //! event is checked when it is read. Each absurd value is refused with its place in the
 //! message; each bound accepts its edge and refuses just past it; and the edges are
 //! honest: a ragdoll at the largest accepted sizes, or hit by the strongest accepted
