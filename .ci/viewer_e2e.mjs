@@ -17,7 +17,7 @@
 //      connection: the server survives all of it; a request naming another host (DNS
 //      rebinding) is refused.
 import { spawn } from 'node:child_process';
-import { existsSync, mkdtempSync, mkdirSync, readFileSync, writeFileSync } from 'node:fs';
+import { existsSync, mkdtempSync, mkdirSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
 import { request as httpRequest } from 'node:http';
 import { tmpdir } from 'node:os';
 import { join } from 'node:path';
@@ -58,6 +58,7 @@ async function finish() {
   if (browser) await browser.close().catch(() => {});
   if (exited === null) server.kill('SIGTERM');
   writeFileSync(join(shots, 'server.log'), stderr);
+  rmSync(saveDir, { recursive: true, force: true });
   console.log(`screenshots and server log in ${shots}`);
   console.log(`viewer e2e: ${passed} passed, ${failed} failed`);
   process.exit(failed === 0 ? 0 : 1);
