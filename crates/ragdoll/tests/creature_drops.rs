@@ -236,6 +236,50 @@ fn creature_hubs_reach_around_their_limbs_and_outweigh_a_fifth_of_them() {
     }
 }
 
+/// A spider's femur climbs from the body to the knee and its shin turns down to the
+/// ground: the knee hinges in the plane of that bend, flexing further the way it bends,
+/// whatever way the spider faces; the hip, hanging from the branching thorax, stays a cone.
+#[test]
+fn a_spiders_knees_hinge_the_way_they_bend() {
+    use ragdoll::spec::JointKind;
+    for yaw_deg in [0.0f32, 90.0, 200.0] {
+        let c = spider().turned(yaw_deg.to_radians());
+        let spec = build_spec(&c, &BuildOptions::default()).unwrap();
+        let rest = c.skeleton.rest_world();
+        let at = |name: &str| {
+            let k = c.skeleton.joints().iter().position(|j| j.name == name);
+            rest[k.unwrap_or_else(|| panic!("no joint {name}"))]
+        };
+        for leg in ["leg0l", "leg2r", "leg3l"] {
+            let knee_name = format!("{leg}_0");
+            let knee = spec.joints.iter().find(|j| j.child == knee_name).unwrap();
+            let JointKind::Hinge { min_deg, max_deg } = knee.kind else {
+                panic!("{yaw_deg}°: {knee_name} is {:?}", knee.kind);
+            };
+            assert!(
+                min_deg < 0.0 && max_deg > 20.0,
+                "{knee_name}: {min_deg}..{max_deg}"
+            );
+            // Turning the shin by a positive angle about the hinge bends the knee further.
+            let (hip, k, foot) = (at(leg), at(&knee_name), at(&format!("{leg}_1")));
+            let femur = (k.translation - hip.translation).normalize();
+            let shin = (foot.translation - k.translation).normalize();
+            let axis = k.rotation * glam::Quat::from_array(knee.frame) * Vec3::X;
+            let bend = |deg: f32| {
+                let turned = glam::Quat::from_axis_angle(axis, deg.to_radians()) * shin;
+                femur.angle_between(turned).to_degrees()
+            };
+            assert!(bend(10.0) > bend(0.0) + 9.0, "{yaw_deg}° {knee_name}");
+            let hip_joint = spec.joints.iter().find(|j| j.child == leg).unwrap();
+            assert!(
+                matches!(hip_joint.kind, JointKind::SwingTwist { .. }),
+                "{leg}: {:?}",
+                hip_joint.kind
+            );
+        }
+    }
+}
+
 #[test]
 fn creatures_land_whole_and_come_to_rest() {
     for c in creatures() {

@@ -100,14 +100,18 @@ impl Builder<'_> {
     /// joint of a leg (its bone and its parent both in a limb that reaches down to the
     /// ground, bent at rest) is a hinge in the plane of that bend, flexing further the way
     /// the rest pose bends and barely past straight the other way, as a dog's stifle,
-    /// elbow and hock do; links of a long unbranched chain (a spine, tail, snake or fish)
+    /// elbow and hock and a spider's knee do; links of a long unbranched chain (a spine, tail, snake or fish)
     /// share one total bend, so twenty links curl no further than three; anything else
     /// is a modest swing-twist cone.
     fn creature_joint(&self, child: &Plan, parent: &Plan) -> (Quat, JointKind) {
         let (d, dp) = (child.dir(), parent.dir());
         let down = -CREATURE_LIMB_DOWN_DEG.to_radians().sin();
         let bend = dp.angle_between(d).to_degrees();
-        let limb = dp.y <= down
+        // A leg hangs from its root (a dog's), or rises to a knee and turns down from it
+        // (a spider's femur climbs above the body): then the parent bone is the limb's own,
+        // unbranched, not the trunk a hip hangs from.
+        let descends = dp.y <= down || (d.y <= down && self.rig.children[parent.joint].len() == 1);
+        let limb = descends
             && self.joints.first() != Some(&parent.joint)
             && (CREATURE_MIN_HINGE_BEND_DEG..=180.0 - CREATURE_MIN_HINGE_BEND_DEG).contains(&bend)
             && self.reach_down(child.joint) <= self.rig.ground + CREATURE_GROUND_BAND_H * self.h;
