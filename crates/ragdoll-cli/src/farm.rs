@@ -189,16 +189,20 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
     Ok(())
 }
 
-/// Loads the first and the last variant's scenes (characters read, ragdolls built), so a
-/// value the scene refuses (the far end of a range, a missing character file) is found
-/// before a farm spends a task on it. Not every variant: each load reads its character
-/// files again, and a wedge may have 100,000.
+/// Variants loaded when planning, at most.
+const MAX_CHECKED_VARIANTS: usize = 64;
+
+/// Loads variants holding every value of every key between them (at most
+/// [`MAX_CHECKED_VARIANTS`], evenly spread, the first and last always: characters read,
+/// ragdolls built), so a value the scene refuses (the far end of a range, one bad entry
+/// of a list) is found before a farm spends a task on it. Not every variant: each load
+/// reads its character files again, and a wedge may have 100,000.
 fn check_loads(wedge: &Wedge) -> Result<()> {
     let dir = match wedge.path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
-    for i in [0, wedge.len() - 1] {
+    for i in wedge.covering_variants(MAX_CHECKED_VARIANTS) {
         let v = wedge.variant(i);
         let text = wedge.scene_text(&v, dir)?;
         ragdoll::scene::Scene::from_toml(&text, &dir.join(format!("{}.toml", v.name)))

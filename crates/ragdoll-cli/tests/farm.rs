@@ -510,6 +510,17 @@ fn misuse_is_one_clear_line() {
         "{err}"
     );
     assert!(err.contains("tnt_kg"), "{err}");
+    // A bad value in the middle of a list is found too, not only at its ends.
+    std::fs::write(
+        d.join("mid.toml"),
+        SHOT.replace("values = [0.5, 2.0]", "values = [0.5, -2.0, 2.0]"),
+    )
+    .unwrap();
+    let err = fails(d, &["plan", "mid.toml", "--tasks", "1", "-o", "job"]);
+    assert!(
+        err.contains("variant 3_tnt_kg=-2_at=0.5,0.3,0.5 would not run"),
+        "{err}"
+    );
     let err = fails(d, &["plan", "shot.toml", "--tasks", "0", "-o", "job"]);
     assert!(err.contains("--tasks: must be at least 1"), "{err}");
     assert!(!d.join("job").exists());

@@ -275,6 +275,33 @@ impl Wedge {
         }
     }
 
+    /// Variants that between them hold every value of every key, at most `cap` of them
+    /// (evenly spread, the first and the last always among them), in order: what a tool
+    /// loads to find a value the scene refuses without loading every combination. In a
+    /// cross wedge variant `j` of the diagonal takes each key's `j`-th value (its last
+    /// once a shorter key runs out), so the longest key's count of variants covers all.
+    pub fn covering_variants(&self, cap: usize) -> Vec<usize> {
+        let longest = self.keys.iter().map(|k| k.values.len()).max().unwrap_or(1);
+        let diagonal = |j: usize| match self.mode {
+            WedgeMode::Zip => j,
+            WedgeMode::Cross => self.keys.iter().fold(0, |index, k| {
+                index * k.values.len() + j.min(k.values.len() - 1)
+            }),
+        };
+        let picks = cap.clamp(2, longest.max(2)).min(longest);
+        let mut out: Vec<usize> = (0..picks)
+            .map(|i| {
+                diagonal(if picks > 1 {
+                    i * (longest - 1) / (picks - 1)
+                } else {
+                    0
+                })
+            })
+            .collect();
+        out.dedup();
+        out
+    }
+
     /// Every variant, in order.
     pub fn variants(&self) -> impl Iterator<Item = Variant> + '_ {
         (0..self.count).map(|i| self.variant(i))

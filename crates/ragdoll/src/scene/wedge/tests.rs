@@ -233,3 +233,46 @@ fn job_files_store_relative_paths_with_forward_slashes() {
     assert_eq!(portable_path(Path::new("a.glb")), "a.glb");
     assert_eq!(portable_path(Path::new("/abs/a.glb")), "/abs/a.glb");
 }
+
+#[test]
+fn covering_variants_hold_every_value_of_every_key() {
+    let vary = r#"
+[[wedge.vary]]
+key = "blast[0].tnt_kg"
+values = [1, 2, 3, 4]
+[[wedge.vary]]
+key = "blast[0].time_s"
+values = [0.1, 0.2]
+[[wedge.vary]]
+key = "crowd[0].seed"
+values = [5, 6, 7]
+"#;
+    let w = wedge(vary).unwrap().unwrap();
+    let cover = w.covering_variants(64);
+    assert_eq!(cover.first(), Some(&0));
+    assert_eq!(cover.last(), Some(&(w.len() - 1)));
+    for (k, key) in w.keys.iter().enumerate() {
+        for value in &key.values {
+            assert!(
+                cover.iter().any(|&i| &w.variant(i).values[k].1 == value),
+                "{} = {value} in none of {cover:?}",
+                key.key
+            );
+        }
+    }
+    assert!(cover.len() <= 4, "{cover:?}");
+    // Capped: evenly spread, the ends kept.
+    let many = wedge(
+        "[[wedge.vary]]\nkey = \"blast[0].tnt_kg\"\nrange = { from = 1, to = 1000, step = 1 }\n",
+    )
+    .unwrap()
+    .unwrap();
+    let few = many.covering_variants(10);
+    assert_eq!(few.len(), 10);
+    assert_eq!((few[0], few[9]), (0, 999));
+    assert!(few.windows(2).all(|p| p[1] - p[0] >= 100), "{few:?}");
+    let zipped = wedge(&format!("[wedge]\nmode = \"zip\"\n{}", "[[wedge.vary]]\nkey = \"blast[0].tnt_kg\"\nvalues = [1, 2]\n[[wedge.vary]]\nkey = \"blast[0].time_s\"\nvalues = [0.1, 0.2]\n"))
+        .unwrap()
+        .unwrap();
+    assert_eq!(zipped.covering_variants(64), vec![0, 1]);
+}
