@@ -10,25 +10,17 @@ use std::time::Instant;
 use anyhow::{Result, bail};
 use clap::Args;
 use cpu_time::ProcessTime;
-use glam::{Quat, Vec3};
-use ragdoll::math::Transform;
 use ragdoll::skeleton;
 use ragdoll::spec::{self, BuildOptions};
 use ragdoll::track::Metrics;
 use ragdoll::world::{
-    BackendKind, DEFAULT_FAST_IMPACT_PASSES, MAX_FAST_ITERATIONS, World, WorldSettings,
+    BackendKind, DEFAULT_FAST_IMPACT_PASSES, MAX_FAST_ITERATIONS, Motors, World, WorldSettings,
 };
 use rayon::prelude::*;
 use serde_json::json;
 
+use crate::bench_piles::{MAX_PILE_HEIGHT, PILE_HEIGHT, Piles, posed, rest_after_s};
 use crate::progress::Progress;
-
-/// Ragdolls stacked in one pile.
-const PILE_HEIGHT: usize = 4;
-/// Distance between pile centres, metres: far enough that piles never touch.
-const PILE_SPACING_M: f32 = 4.0;
-/// Extra drop height per level of a pile, metres.
-const LEVEL_HEIGHT_M: f32 = 0.6;
 
 /// Most ragdolls in one run. Memory is about 90 KB per humanoid on the rigid backend and
 /// 30 KB on the particle one (peak resident size over N, measured at N = 1024 and 4096),
@@ -92,6 +84,14 @@ pub struct BenchArgs {
         value_name = "N"
     )]
     impact_passes: usize,
+    /// Ragdolls in one pile (1 to 64; default 4): 10 with 160 ragdolls makes sixteen
+    /// piles of ten, the size of the ragdoll scene engines publish their speed on.
+    #[arg(long, allow_negative_numbers = true, default_value_t = PILE_HEIGHT, value_name = "H")]
+    pile_height: usize,
+    /// Drive every joint toward the standing pose with motors of this strength (0 to 1),
+    /// as a game's ragdolls hold a pose while they fall.
+    #[arg(long, allow_negative_numbers = true, value_name = "STRENGTH")]
+    motors: Option<f32>,
     /// Measure the farm commands instead, on a wedge of this many variants: `plan`, a
     /// task's overhead beyond its simulation, and `merge` with and without its contact
     /// sheet (see `docs/src/farm.md`).
@@ -164,12 +164,119 @@ struct Row {
     /// much at rest the piles are).
     end_overlap_m: f32,
     end_fastest_mps: f32,
+    /// Seconds until every joint of every ragdoll moves slower than 0.1 m/s for the
+    /// rest of the run (read from the recorded frames after the timing); `None` when
+    /// something still moves at the end.
+    rest_after_s: Option<f32>,
 }
 
 pub fn run(a: &BenchArgs) -> Result<()> {
     if let Some(variants) = a.farm {
         return crate::bench_farm::run(variants, a.json);
     }
+    let threads = check_args(a)?;
+    let piles = Piles {
+        height: a.pile_height,
+        motors: a.motors,
+    };
+    let character = posed(skeleton::humanoid(), piles.motors.is_some());
+    let spec = spec::build_spec(&character, &BuildOptions::default())?;
+    let backend = a.backend.backend;
+    if a.compare && backend == BackendKind::Rigid {
+        bail!(
+            "--compare runs the rigid backend beside another one: choose that one with --backend"
+        );
+    }
+    let mut runs = Vec::new();
+    let progress = Progress::new(0, "bench");
+    for &n in &a.ragdolls {
+        for &t in &threads {
+            let settings = WorldSettings {
+                backend,
+                freeze_joints: !a.no_freeze,
+                fast_iterations: a.fast_iterations,
+                fast_impact_passes: a.impact_passes,
+                ..Default::default()
+            };
+            let row = run_pile(
+                &character,
+                &spec,
+                &settings,
+                piles,
+                (n, t, a.steps),
+                &progress,
+            )?;
+            let base = if a.compare {
+                let rigid = WorldSettings {
+                    backend: BackendKind::Rigid,
+                    ..settings
+                };
+                Some(run_pile(
+                    &character,
+                    &spec,
+                    &rigid,
+                    piles,
+                    (n, t, a.steps),
+                    &progress,
+                )?)
+            } else {
+                None
+            };
+            let ratio = base.as_ref().and_then(|b| row.timing.cpu_ratio(&b.timing));
+            let plain = if a.reference {
+                Some(crate::bench_reference::run_plain_pile(
+                    piles, n, t, a.steps, &progress,
+                )?)
+            } else {
+                None
+            };
+            if !a.json {
+                progress.suspend(|| {
+                    print_row(&row, backend.as_str(), a.steps);
+                    if let Some(b) = &base {
+                        print_row(b, BackendKind::Rigid.as_str(), a.steps);
+                        match ratio {
+                            Some(r) => outln!(
+                                "      {} / rigid: {r:.2}× the ragdoll-steps per CPU-second",
+                                backend.as_str()
+                            ),
+                            None => outln!("      {} / rigid: CPU time unknown", backend.as_str()),
+                        }
+                    }
+                    if let Some(p) = &plain {
+                        crate::bench_reference::print_beside(p, &row.timing, backend, a.steps);
+                    }
+                });
+            }
+            let mut run = run_json(&row, backend, a.steps);
+            run["freeze_joints"] = json!(settings.freeze_joints);
+            run["fast_iterations"] = json!(settings.fast_iterations);
+            run["fast_impact_passes"] = json!(settings.fast_impact_passes);
+            run["pile_height"] = json!(piles.height);
+            run["motors"] = json!(piles.motors);
+            if let Some(b) = &base {
+                run["rigid"] = run_json(b, BackendKind::Rigid, a.steps);
+                run["cpu_ratio_to_rigid"] = json!(ratio);
+            }
+            if let Some(p) = &plain {
+                run["plain_rapier"] = p.json(a.steps);
+                run["cpu_ratio_to_plain_rapier"] = json!(row.timing.cpu_ratio(&p.timing));
+            }
+            runs.push(run);
+        }
+    }
+    progress.finish();
+    if a.json {
+        outln!(
+            "{}",
+            serde_json::to_string_pretty(&json!({ "runs": runs }))?
+        );
+    }
+    Ok(())
+}
+
+/// Refuses flags out of range before any work; returns the thread counts to run.
+fn check_args(a: &BenchArgs) -> Result<Vec<usize>> {
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let mut threads = a.threads.clone();
     if threads.is_empty() {
@@ -197,86 +304,21 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             a.impact_passes
         );
     }
-    let character = skeleton::humanoid();
-    let spec = spec::build_spec(&character, &BuildOptions::default())?;
-    let backend = a.backend.backend;
-    if a.compare && backend == BackendKind::Rigid {
+    if !(1..=MAX_PILE_HEIGHT).contains(&a.pile_height) {
         bail!(
-            "--compare runs the rigid backend beside another one: choose that one with --backend"
+            "--pile-height: must be between 1 and {MAX_PILE_HEIGHT}, not {}",
+            a.pile_height
         );
     }
-    let mut runs = Vec::new();
-    let progress = Progress::new(0, "bench");
-    for &n in &a.ragdolls {
-        for &t in &threads {
-            let settings = WorldSettings {
-                backend,
-                freeze_joints: !a.no_freeze,
-                fast_iterations: a.fast_iterations,
-                fast_impact_passes: a.impact_passes,
-                ..Default::default()
-            };
-            let row = run_pile(&character, &spec, &settings, n, t, a.steps, &progress)?;
-            let base = if a.compare {
-                let rigid = WorldSettings {
-                    backend: BackendKind::Rigid,
-                    ..settings
-                };
-                Some(run_pile(
-                    &character, &spec, &rigid, n, t, a.steps, &progress,
-                )?)
-            } else {
-                None
-            };
-            let ratio = base.as_ref().and_then(|b| row.timing.cpu_ratio(&b.timing));
-            let plain = if a.reference {
-                Some(crate::bench_reference::run_plain_pile(
-                    n, t, a.steps, &progress,
-                )?)
-            } else {
-                None
-            };
-            if !a.json {
-                progress.suspend(|| {
-                    print_row(&row, backend.as_str(), a.steps);
-                    if let Some(b) = &base {
-                        print_row(b, BackendKind::Rigid.as_str(), a.steps);
-                        match ratio {
-                            Some(r) => outln!(
-                                "      {} / rigid: {r:.2}× the ragdoll-steps per CPU-second",
-                                backend.as_str()
-                            ),
-                            None => outln!("      {} / rigid: CPU time unknown", backend.as_str()),
-                        }
-                    }
-                    if let Some(p) = &plain {
-                        crate::bench_reference::print_beside(p, &row.timing, backend, a.steps);
-                    }
-                });
-            }
-            let mut run = run_json(&row, backend, a.steps);
-            run["freeze_joints"] = json!(settings.freeze_joints);
-            run["fast_iterations"] = json!(settings.fast_iterations);
-            run["fast_impact_passes"] = json!(settings.fast_impact_passes);
-            if let Some(b) = &base {
-                run["rigid"] = run_json(b, BackendKind::Rigid, a.steps);
-                run["cpu_ratio_to_rigid"] = json!(ratio);
-            }
-            if let Some(p) = &plain {
-                run["plain_rapier"] = p.json(a.steps);
-                run["cpu_ratio_to_plain_rapier"] = json!(row.timing.cpu_ratio(&p.timing));
-            }
-            runs.push(run);
-        }
+    if let Some(m) = a.motors
+        && !(0.0..=1.0).contains(&m)
+    {
+        bail!("--motors: the strength must be between 0 and 1, not {m}");
     }
-    progress.finish();
-    if a.json {
-        outln!(
-            "{}",
-            serde_json::to_string_pretty(&json!({ "runs": runs }))?
-        );
+    if a.motors.is_some() && a.reference {
+        bail!("--motors: the plain rapier workload of --reference has no motors; run them apart");
     }
-    Ok(())
+    Ok(threads)
 }
 
 /// Refuses sizes that cannot finish in reasonable time or memory, before any work: each
@@ -324,6 +366,7 @@ fn run_json(r: &Row, backend: BackendKind, steps: usize) -> serde_json::Value {
         "metrics": r.metrics,
         "end_overlap_m": r.end_overlap_m,
         "end_fastest_body_mps": r.end_fastest_mps,
+        "rest_after_s": r.rest_after_s,
     });
     merge(&mut run, r.timing.json(steps));
     run
@@ -343,7 +386,7 @@ fn stable(m: &Metrics) -> bool {
 fn print_row(r: &Row, backend: &str, steps: usize) {
     let m = &r.metrics;
     outln!(
-        "{}  stable={}  limit {:.1}° (solver {:.1}°)  penetration {:.1} mm (at the end {:.1} mm, fastest body {:.2} m/s)  separation {:.1} mm  energy gain {:.2} % (most in a frame)",
+        "{}  stable={}  limit {:.1}° (solver {:.1}°)  penetration {:.1} mm (at the end {:.1} mm, fastest body {:.2} m/s)  separation {:.1} mm  energy gain {:.2} % (most in a frame)  {}",
         r.timing.text(backend, steps),
         stable(m),
         m.max_limit_violation_deg,
@@ -353,36 +396,11 @@ fn print_row(r: &Row, backend: &str, steps: usize) {
         r.end_fastest_mps,
         m.max_joint_separation_m * 1000.0,
         m.energy_drift * 100.0,
+        match r.rest_after_s {
+            Some(t) => format!("at rest after {t:.2} s"),
+            None => "still moving at the end".into(),
+        },
     );
-}
-
-/// Where ragdoll `k` of `n` starts: pile `k / PILE_HEIGHT` on a square grid, one level up
-/// per ragdoll in the pile, each level turned a further 70° so limbs cross.
-pub(crate) fn placement(k: usize, n: usize) -> Transform {
-    let piles = n.div_ceil(PILE_HEIGHT);
-    let side = (piles as f64).sqrt().ceil() as usize;
-    let pile = k / PILE_HEIGHT;
-    let level = k % PILE_HEIGHT;
-    let x = (pile % side) as f32 * PILE_SPACING_M;
-    let z = (pile / side) as f32 * PILE_SPACING_M;
-    // Lie the humanoid down (its head toward +X) so a pile forms instead of a row of falls.
-    let lie = Quat::from_rotation_z(-std::f32::consts::FRAC_PI_2);
-    let yaw = Quat::from_rotation_y((70.0 * level as f32).to_radians());
-    Transform::new(
-        Vec3::new(x, 0.3 + LEVEL_HEIGHT_M * level as f32, z),
-        yaw * lie,
-    )
-}
-
-/// The ragdolls (indices into the `n` placements) each of `threads` worlds holds:
-/// contiguous shares of whole piles, so no pile is split between worlds.
-pub(crate) fn world_shares(n: usize, threads: usize) -> Vec<std::ops::Range<usize>> {
-    let piles = n.div_ceil(PILE_HEIGHT);
-    let per_world = piles.div_ceil(threads.clamp(1, piles.max(1))) * PILE_HEIGHT;
-    (0..n)
-        .step_by(per_world.max(1))
-        .map(|k| k..(k + per_world).min(n))
-        .collect()
 }
 
 /// Steps every world `steps` times, each on a thread of a pool of `threads`, and times it:
@@ -425,18 +443,21 @@ fn run_pile(
     character: &skeleton::Character,
     spec: &spec::RagdollSpec,
     settings: &WorldSettings,
-    n: usize,
-    threads: usize,
-    steps: usize,
+    piles: Piles,
+    (n, threads, steps): (usize, usize, usize),
     progress: &Progress,
 ) -> Result<Row> {
     progress.stage(n as u64, &format!("N={n} threads={threads}: building"));
     let mut worlds = Vec::new();
-    for share in world_shares(n, threads) {
+    for share in piles.world_shares(n, threads) {
         let mut world = World::new(settings)?;
         let mut ids = Vec::new();
         for i in share {
-            ids.push(world.add_ragdoll(character, spec, placement(i, n))?);
+            let id = world.add_ragdoll(character, spec, piles.placement(i, n))?;
+            if let Some(strength) = piles.motors {
+                world.set_motors(id, Motors::constant(strength))?;
+            }
+            ids.push(id);
             progress.inc(1);
         }
         worlds.push((world, ids));
@@ -465,10 +486,15 @@ fn run_pile(
         metrics.max_bone_stretch = metrics.max_bone_stretch.max(m.max_bone_stretch);
         metrics.nan |= m.nan;
     }
+    let rest_after_s = worlds
+        .iter()
+        .flat_map(|(w, ids)| ids.iter().map(move |&id| rest_after_s(w.track(id))))
+        .try_fold(0.0f32, |latest, t| t.map(|t| latest.max(t)));
     Ok(Row {
         timing,
         metrics,
         end_overlap_m,
         end_fastest_mps,
+        rest_after_s,
     })
 }

@@ -409,6 +409,7 @@ impl PlainRow {
 
 /// Builds and steps `n` reference ragdolls in the bench's piles, on `threads` threads.
 pub fn run_plain_pile(
+    piles: crate::bench_piles::Piles,
     n: usize,
     threads: usize,
     steps: usize,
@@ -420,10 +421,10 @@ pub fn run_plain_pile(
     );
     let parts = parts();
     let mut worlds = Vec::new();
-    for share in bench::world_shares(n, threads) {
+    for share in piles.world_shares(n, threads) {
         let mut w = PlainWorld::new();
         for k in share {
-            w.add_ragdoll(&parts, &bench::placement(k, n));
+            w.add_ragdoll(&parts, &piles.placement(k, n));
             progress.inc(1);
         }
         worlds.push(w);
@@ -567,7 +568,10 @@ mod tests {
         let mut w = PlainWorld::new();
         let n = 8;
         for k in 0..n {
-            w.add_ragdoll(&parts(), &bench::placement(k, n));
+            w.add_ragdoll(
+                &parts(),
+                &crate::bench_piles::Piles::default().placement(k, n),
+            );
         }
         w.world.detect_collisions(&(), &());
         let r = w.readings();

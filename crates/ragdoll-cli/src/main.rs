@@ -38,6 +38,7 @@ macro_rules! out {
 
 mod bench;
 mod bench_farm;
+mod bench_piles;
 mod bench_reference;
 mod character;
 mod checks;

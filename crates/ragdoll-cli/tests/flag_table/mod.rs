@@ -214,6 +214,14 @@ fn bench_no_impact_passes(_: &Path, o: &Output) {
     let v: serde_json::Value = serde_json::from_str(&out(o)).unwrap();
     assert_eq!(v["runs"][0]["fast_impact_passes"], 0);
 }
+fn bench_pile_of_two(_: &Path, o: &Output) {
+    let v: serde_json::Value = serde_json::from_str(&out(o)).unwrap();
+    assert_eq!(v["runs"][0]["pile_height"], 2);
+}
+fn bench_motors(_: &Path, o: &Output) {
+    let v: serde_json::Value = serde_json::from_str(&out(o)).unwrap();
+    assert_eq!(v["runs"][0]["motors"], 0.5);
+}
 fn farm_bench(_: &Path, o: &Output) {
     let v: serde_json::Value = serde_json::from_str(&out(o)).unwrap();
     assert_eq!(v["variants"], 2);
@@ -458,6 +466,8 @@ fn bench() -> Vec<Case> {
         case("bench", "--no-freeze", &[&base[..], &["--backend", "fast", "--json"]].concat(), &["--no-freeze"], Some(bench_no_freeze), &["--no-freeze=yes"], "--no-freeze"),
         case("bench", "--fast-iterations", &[&base[..], &["--backend", "fast", "--json"]].concat(), &["--fast-iterations", "2"], Some(bench_two_passes), &["--fast-iterations", "0"], "--fast-iterations"),
         case("bench", "--impact-passes", &[&base[..], &["--backend", "fast", "--json"]].concat(), &["--impact-passes", "0"], Some(bench_no_impact_passes), &["--impact-passes", "9"], "--impact-passes"),
+        case("bench", "--pile-height", &[&base[..], &["--json"]].concat(), &["--pile-height", "2"], Some(bench_pile_of_two), &["--pile-height", "0"], "--pile-height"),
+        case("bench", "--motors", &[&base[..], &["--backend", "fast", "--json"]].concat(), &["--motors", "0.5"], Some(bench_motors), &["--motors", "2"], "--motors"),
         case("bench", "--farm", &["bench", "--json"], &["--farm", "2"], Some(farm_bench), &["--farm", "0"], "--farm"),
         case("bench", "--compare", &[&base[..], &["--backend", "particle"]].concat(), &["--compare"], Some(bench_compare), &["--compare=yes"], "--compare"),
         case("bench", "--reference", &[&base[..], &["--backend", "fast"]].concat(), &["--reference"], Some(bench_reference), &["--reference=yes"], "--reference"),
