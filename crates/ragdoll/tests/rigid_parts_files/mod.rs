@@ -313,6 +313,75 @@ pub fn robot() -> Vec<u8> {
     d.glb(&[armature], json!({}))
 }
 
+/// The standing height of [`blocky`], metres.
+pub const BLOCKY_HEIGHT_M: f32 = 1.75;
+
+/// Kenney's blocky character parts: (node, parent node, joint relative to the parent, box
+/// size, box centre in the node's space), facing +Z with its own left toward +X. Each
+/// limb is one box hanging from its joint: no elbow, no knee.
+pub const BLOCKY: [Part; 6] = [
+    (
+        "torso",
+        None,
+        [0.0, 0.8, 0.0],
+        [0.48, 0.6, 0.3],
+        [0.0, 0.3, 0.0],
+    ),
+    (
+        "head",
+        Some("torso"),
+        [0.0, 0.6, 0.0],
+        [0.4, 0.35, 0.35],
+        [0.0, 0.175, 0.0],
+    ),
+    (
+        "arm-left",
+        Some("torso"),
+        [0.32, 0.55, 0.0],
+        [0.16, 0.6, 0.18],
+        [0.0, -0.27, 0.0],
+    ),
+    (
+        "arm-right",
+        Some("torso"),
+        [-0.32, 0.55, 0.0],
+        [0.16, 0.6, 0.18],
+        [0.0, -0.27, 0.0],
+    ),
+    (
+        "leg-left",
+        Some("torso"),
+        [0.12, 0.0, 0.0],
+        [0.2, 0.8, 0.24],
+        [0.0, -0.4, 0.0],
+    ),
+    (
+        "leg-right",
+        Some("torso"),
+        [-0.12, 0.0, 0.0],
+        [0.2, 0.8, 0.24],
+        [0.0, -0.4, 0.0],
+    ),
+];
+
+/// A blocky game character [`BLOCKY_HEIGHT_M`] tall in Kenney's layout (a `root` node
+/// over the parts), turned `facing_deg` about +Y: a quarter turn swaps each box's width
+/// and depth, so the boxes stay boxes.
+pub fn blocky(facing_deg: f32) -> Vec<u8> {
+    let turn = glam::Quat::from_rotation_y(facing_deg.to_radians());
+    let mut d = Doc::default();
+    let root = d.node("root", Vec3::ZERO, None);
+    let mut index = HashMap::new();
+    for (name, parent, at, size, centre) in BLOCKY {
+        let size = (turn * Vec3::from(size)).abs();
+        let mesh = d.cuboid(name, size, turn * Vec3::from(centre));
+        let n = d.node(name, turn * Vec3::from(at), Some(mesh));
+        d.child(parent.map_or(root, |p| index[p]), n);
+        index.insert(name, n);
+    }
+    d.glb(&[root], json!({}))
+}
+
 /// A bare humanoid hierarchy (no skin, no mesh) in centimetres-free metres: hips, spine,
 /// chest, neck, head, and two arms and legs, under a `Root` node; with `meshes`, the hips
 /// and head carry a box each.

@@ -79,14 +79,20 @@ impl Builder<'_> {
         let mut mass = std::collections::HashMap::<Role, f32>::new();
         let mut give = |r: Role, m: f32| *mass.entry(r).or_insert(0.0) += m;
 
+        // A trunk of one part (a blocky game character's) is all pelvis.
+        let chest = if has(Chest) || !has(Pelvis) {
+            Chest
+        } else {
+            Pelvis
+        };
         give(Pelvis, kg(fr.trunk_lower));
-        give(Chest, kg(fr.trunk_upper));
+        give(chest, kg(fr.trunk_upper));
         if has(Spine) {
             give(Spine, kg(fr.trunk_middle));
         } else {
             // The abdomen lies between the pelvis and chest bodies: half to each.
             give(Pelvis, 0.5 * kg(fr.trunk_middle));
-            give(Chest, 0.5 * kg(fr.trunk_middle));
+            give(chest, 0.5 * kg(fr.trunk_middle));
         }
         let head_neck = kg(fr.head_neck);
         match (has(Neck), has(Head)) {
@@ -96,13 +102,16 @@ impl Builder<'_> {
             }
             (true, false) => give(Neck, head_neck),
             (false, true) => give(Head, head_neck),
-            (false, false) => give(Chest, head_neck),
+            (false, false) => give(chest, head_neck),
         }
         for side in [
             [UpperArmL, ForearmL, HandL, ThighL, ShinL, FootL],
             [UpperArmR, ForearmR, HandR, ThighR, ShinR, FootR],
         ] {
             let [ua, fa, hd, th, sh, ft] = side;
+            // A limb of one part (no forearm, no shin) carries the whole limb's share.
+            let fa = if has(fa) || !has(ua) { fa } else { ua };
+            let sh = if has(sh) || !has(th) { sh } else { th };
             give(ua, kg(fr.upper_arm));
             give(fa, kg(fr.forearm));
             give(if has(hd) { hd } else { fa }, kg(fr.hand));

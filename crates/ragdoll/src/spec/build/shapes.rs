@@ -67,6 +67,10 @@ const CHEST_LENGTH_H: f32 = 0.15;
 const CHAIN_RADIUS_OF_LENGTH: f32 = 0.15;
 /// ...but at least this fraction of the skeleton's extent, so stubby links stay solid.
 const CHAIN_MIN_RADIUS_EXTENT: f32 = 0.01;
+/// Shoulder to fingertip and hip to sole, for an arm or leg of one part without skin to
+/// measure.
+const WHOLE_ARM_LENGTH_H: f32 = 0.44;
+const WHOLE_LEG_LENGTH_H: f32 = 0.48;
 /// Length of a link whose bone has none (all joints in one place): fraction of extent.
 const DEGENERATE_LENGTH_EXTENT: f32 = 0.05;
 
@@ -142,7 +146,17 @@ impl Builder<'_> {
                 } else {
                     ForearmR
                 };
-                (rj(fore).unwrap_or(start), UPPER_ARM_RADIUS_H)
+                // An arm of one part ends where its skin does, the way it hangs.
+                let end = rj(fore).unwrap_or_else(|| {
+                    self.extremity(
+                        j,
+                        group,
+                        hang_dir(start, group),
+                        WHOLE_ARM_LENGTH_H * h,
+                        true,
+                    )
+                });
+                (end, UPPER_ARM_RADIUS_H)
             }
             ForearmL | ForearmR => {
                 let (upper, hand) = if role == ForearmL {
@@ -164,7 +178,16 @@ impl Builder<'_> {
             }
             ThighL | ThighR => {
                 let shin = if role == ThighL { ShinL } else { ShinR };
-                (rj(shin).unwrap_or(start), THIGH_RADIUS_H)
+                let end = rj(shin).unwrap_or_else(|| {
+                    self.extremity(
+                        j,
+                        group,
+                        hang_dir(start, group),
+                        WHOLE_LEG_LENGTH_H * h,
+                        true,
+                    )
+                });
+                (end, THIGH_RADIUS_H)
             }
             ShinL | ShinR => {
                 let foot = if role == ShinL { FootL } else { FootR };
@@ -606,4 +629,13 @@ fn principal_segment(points: &[Vec3]) -> (Vec3, Vec3) {
     let lo = percentile(t.clone(), AXIS_PERCENTILES[0]);
     let hi = percentile(t, AXIS_PERCENTILES[1]);
     (c + axis * lo, c + axis * hi)
+}
+
+/// The way a limb of one part hangs from its joint: toward its skin's centre, else down.
+fn hang_dir(start: Vec3, group: &[Vec3]) -> Vec3 {
+    if group.is_empty() {
+        return -Vec3::Y;
+    }
+    let centre = group.iter().sum::<Vec3>() / group.len() as f32;
+    (centre - start).normalize_or(-Vec3::Y)
 }

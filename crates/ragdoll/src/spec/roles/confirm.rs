@@ -346,7 +346,10 @@ pub(super) fn confirm(rig: &Rig, c: &Claims) -> Result<Humanoid, String> {
             ));
         }
     }
-    let side_joints = |s: usize| [legs[s].upper, legs[s].lower, arms[s].upper, arms[s].lower];
+    let side_joints = |s: usize| {
+        let (l, a) = (&legs[s], &arms[s]);
+        [l.upper, l.lower_or_upper(), a.upper, a.lower_or_upper()]
+    };
     let mut forward = forward_from_sides(rig, &side_joints(0), &side_joints(1))
         .ok_or("the left and right limbs do not stand apart")?;
     // The names (or the table) give the sides; the facing is the body's where its feet or
@@ -401,9 +404,10 @@ fn confirm_limbs(rig: &Rig, c: &Claims) -> Result<([Limb; 2], [Limb; 2]), String
         legs.push(limb(rig, thigh, shin, foot));
         arms.push(limb(rig, upper, fore, hand));
     }
-    let limb_joints = [legs[0].upper, legs[0].lower, legs[1].upper, legs[1].lower]
-        .into_iter()
-        .chain([arms[0].upper, arms[0].lower, arms[1].upper, arms[1].lower]);
+    let limb_joints = legs
+        .iter()
+        .chain(&arms)
+        .flat_map(|l| std::iter::once(l.upper).chain(l.lower));
     let mut seen = Vec::new();
     for j in limb_joints {
         if seen.contains(&j) {
@@ -422,7 +426,7 @@ fn confirm_limbs(rig: &Rig, c: &Claims) -> Result<([Limb; 2], [Limb; 2]), String
     }
     // At least one leg stands: the other may be raised (a dance, a kick).
     let lowest = |l: &Limb| {
-        let (lo, _, _) = rig.subtree_stats(l.lower);
+        let (lo, _, _) = rig.subtree_stats(l.lower_or_upper());
         l.end.map_or(lo, |e| lo.min(rig.pos[e].y))
     };
     if legs.iter().map(lowest).fold(f32::MAX, f32::min)
@@ -443,7 +447,7 @@ pub(super) fn limb(rig: &Rig, upper: usize, lower: usize, end: Option<usize>) ->
     Limb {
         root: upper,
         upper,
-        lower,
+        lower: Some(lower),
         end,
         length: rig.pos[upper].distance(rig.pos[lower])
             + end_pos.map_or(0.0, |e: Vec3| e.distance(rig.pos[lower])),

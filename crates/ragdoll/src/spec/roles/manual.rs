@@ -401,7 +401,7 @@ fn limbs(rig: &Rig, c: &Claims, pose: &str) -> std::result::Result<([Limb; 2], [
     for s in 0..2 {
         legs.push(limb(c.legs[s], LEGS[s])?);
         arms.push(limb(c.arms[s], ARMS[s])?);
-        let (thigh, shin) = (legs[s].upper, legs[s].lower);
+        let (thigh, shin) = (legs[s].upper, legs[s].lower_or_upper());
         if rig.pos[shin].y >= rig.pos[thigh].y {
             return Err((
                 Some(LEGS[s][1]),
@@ -428,7 +428,7 @@ fn facing(
     pose: &str,
 ) -> std::result::Result<Vec3, Blame> {
     let across = |a: &[Limb; 2]| {
-        let mid = |l: &Limb| rig.pos[l.upper] + rig.pos[l.lower];
+        let mid = |l: &Limb| rig.pos[l.upper] + rig.pos[l.lower_or_upper()];
         horizontal((mid(&a[0]) - mid(&a[1])) * 0.5)
     };
     let (legs_across, arms_across) = (across(legs), across(arms));
@@ -447,7 +447,10 @@ fn facing(
             ),
         ));
     }
-    let sides = |s: usize| [legs[s].upper, legs[s].lower, arms[s].upper, arms[s].lower];
+    let sides = |s: usize| {
+        let (l, a) = (&legs[s], &arms[s]);
+        [l.upper, l.lower_or_upper(), a.upper, a.lower_or_upper()]
+    };
     Ok(forward_from_sides(rig, &sides(0), &sides(1))
         .unwrap_or_else(|| legs_across.normalize_or(Vec3::X).cross(Vec3::Y)))
 }

@@ -28,7 +28,9 @@
 //!    pelvis, the sides apart).
 //! 3. **Structure** (`structure.rs`): where names say nothing (CesiumMan's joints have
 //!    none) or fail the check, the skeleton's shape alone: two legs to the ground and a
-//!    rising spine from one joint, two mirror-image arms off the spine.
+//!    rising spine from one joint, two mirror-image arms off the spine. A blocky game
+//!    character whose legs and arms are one rigid part each has no knee or elbow to find;
+//!    its limbs are read from the skin each part carries (`blocky.rs`).
 //! 4. **Side** (`side.rs`): which way the character faces, which knees and elbows hinge
 //!    by: the body's own cues (feet, else knees) where they are clear. Names or a table
 //!    give the sides; where the body faces the other way than they imply, the names were
@@ -42,6 +44,7 @@
 //! humanoid found leaning, since its joints' cones are placed from the vertical.
 //! Anything that is not a humanoid becomes [`Role::Chain`] links (`chain.rs`).
 
+mod blocky;
 mod chain;
 mod confirm;
 mod manual;
@@ -149,7 +152,17 @@ impl Roles {
             .iter()
             .filter(|r| self.joint(**r).is_none())
             .map(|&r| {
+                // A limb of one part: its upper role found, its lower one not.
+                let whole = |upper: Role, lower: Role| {
+                    self.joint(upper).is_some() && self.joint(lower).is_none()
+                };
                 let why = match r {
+                    Role::Chest | Role::Spine if whole(Role::Pelvis, Role::Chest) => "the trunk is one part; the pelvis body is the whole trunk",
+                    Role::Neck if whole(Role::Pelvis, Role::Chest) => "no joint between the trunk and the head; the head pivots on the trunk",
+                    Role::ShinL | Role::FootL if whole(Role::ThighL, Role::ShinL) => "the leg is one part; the thigh body is the whole leg",
+                    Role::ShinR | Role::FootR if whole(Role::ThighR, Role::ShinR) => "the leg is one part; the thigh body is the whole leg",
+                    Role::ForearmL | Role::HandL if whole(Role::UpperArmL, Role::ForearmL) => "the arm is one part; the upper arm body is the whole arm",
+                    Role::ForearmR | Role::HandR if whole(Role::UpperArmR, Role::ForearmR) => "the arm is one part; the upper arm body is the whole arm",
                     Role::Spine => "no joint between the pelvis and the chest; the chest body reaches down to the pelvis",
                     Role::Neck => "no joint between the chest and the head; the head pivots on the chest",
                     Role::Head => "nothing above the chest is named or shaped as a head",
@@ -242,6 +255,14 @@ fn recognise_as_is(character: &Character, helpers: &[bool], turn: Option<Quat>) 
                 turn,
             );
             return with_table_doubt(roles, table_doubt);
+        }
+    }
+    for &(rig, pose) in &rigs {
+        if let Some(h) = blocky::find_blocky(rig) {
+            let how = format!(
+                "from its parts' shape in the {pose} (a trunk carrying a head and two legs and two arms of one part each)"
+            );
+            return with_table_doubt(humanoid_roles(rig, &h, how, turn), table_doubt);
         }
     }
     let promised = looks_humanoid(&hints);

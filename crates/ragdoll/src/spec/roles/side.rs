@@ -42,11 +42,15 @@ pub(super) fn feet_cue(rig: &Rig, legs: &[&Limb; 2], across: Vec3) -> Option<f32
 pub(super) fn knee_cue(rig: &Rig, legs: &[&Limb; 2], across: Vec3) -> Option<f32> {
     let mut sum = 0.0;
     for leg in legs {
+        // A leg of one part has no knee to tell by.
+        let Some(knee_joint) = leg.lower else {
+            continue;
+        };
         let hip = rig.pos[leg.upper];
-        let knee = rig.pos[leg.lower];
+        let knee = rig.pos[knee_joint];
         let ankle = match leg.end {
             Some(f) => rig.pos[f],
-            None => rig.chain_bone_end(leg.lower)?,
+            None => rig.chain_bone_end(knee_joint)?,
         };
         let axis = ankle - hip;
         if axis.length_squared() < 1e-12 {

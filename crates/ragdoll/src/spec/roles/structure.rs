@@ -18,7 +18,9 @@ pub(super) struct Limb {
     /// First joint of the limb's subtree (child of the trunk joint).
     pub root: usize,
     pub upper: usize,
-    pub lower: usize,
+    /// `None` for a limb of one rigid part (a blocky game character's leg), which has no
+    /// knee or elbow to bend at.
+    pub lower: Option<usize>,
     pub end: Option<usize>,
     /// Sum of the known segment lengths of the chain.
     pub length: f32,
@@ -70,10 +72,16 @@ impl Limb {
         Some(Limb {
             root,
             upper: chain[k],
-            lower: chain[k + 1],
+            lower: Some(chain[k + 1]),
             end: chain.get(k + 2).copied(),
             length: seg.iter().flatten().sum(),
         })
+    }
+
+    /// The joint ending the upper segment where there is one, else the upper joint: the
+    /// limb's joints that say where it lies.
+    pub fn lower_or_upper(&self) -> usize {
+        self.lower.unwrap_or(self.upper)
     }
 
     fn points(&self, rig: &Rig) -> Vec<Vec3> {
@@ -107,7 +115,9 @@ pub(super) struct Humanoid {
 
 impl Humanoid {
     pub fn assignments(&self) -> Vec<(usize, Role)> {
-        let mut out = vec![(self.pelvis, Role::Pelvis), (self.chest, Role::Chest)];
+        let mut out = vec![(self.pelvis, Role::Pelvis)];
+        // A trunk of one part is the pelvis, whose body carries the chest's share too.
+        out.extend((self.chest != self.pelvis).then_some((self.chest, Role::Chest)));
         out.extend(self.spine.map(|j| (j, Role::Spine)));
         out.extend(self.neck.map(|j| (j, Role::Neck)));
         out.extend(self.head.map(|j| (j, Role::Head)));
@@ -132,10 +142,10 @@ impl Humanoid {
         for (s, r) in sides.iter().enumerate() {
             let (leg, arm) = (&self.legs[s], &self.arms[s]);
             out.push((leg.upper, r[0]));
-            out.push((leg.lower, r[1]));
+            out.extend(leg.lower.map(|j| (j, r[1])));
             out.extend(leg.end.map(|j| (j, r[2])));
             out.push((arm.upper, r[3]));
-            out.push((arm.lower, r[4]));
+            out.extend(arm.lower.map(|j| (j, r[4])));
             out.extend(arm.end.map(|j| (j, r[5])));
         }
         out
@@ -343,7 +353,7 @@ fn neck_and_head(rig: &Rig, above: &[usize]) -> (Option<usize>, Option<usize>) {
 
 /// Facing, and the legs and arms put in (left, right) order. `lateral` points from leg b
 /// to leg a; forward is ± lateral × up.
-fn facing(
+pub(super) fn facing(
     rig: &Rig,
     lateral: Vec3,
     [leg_a, leg_b]: [Limb; 2],
