@@ -7,32 +7,14 @@
 
 mod rigid_parts_files;
 
-use std::path::PathBuf;
-
 use glam::Vec3;
 use ragdoll::backend::BackendKind;
-use ragdoll::import::{self, ImportOptions};
 use ragdoll::math::Transform;
-use ragdoll::skeleton::Character;
 use ragdoll::spec::{self, BuildOptions, JointKind, Role, build_spec, humanoid_mass_kg};
 use ragdoll::world::{World, WorldSettings};
-use rigid_parts_files::{BLOCKY_HEIGHT_M, blocky};
+use rigid_parts_files::{BLOCKY_HEIGHT_M, blocky, load_as};
 
 const FACINGS: [f32; 4] = [0.0, 90.0, 180.0, 270.0];
-
-fn load_as(name: &str, bytes: &[u8]) -> Character {
-    use std::sync::atomic::{AtomicUsize, Ordering};
-    static N: AtomicUsize = AtomicUsize::new(0);
-    let k = N.fetch_add(1, Ordering::Relaxed);
-    let dir: PathBuf =
-        std::env::temp_dir().join(format!("ragdoll-blocky-{}-{k}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(name);
-    std::fs::write(&path, bytes).unwrap();
-    let c = import::load(&path, &ImportOptions::default()).unwrap();
-    let _ = std::fs::remove_dir_all(&dir);
-    c
-}
 
 #[test]
 fn a_blocky_character_is_a_humanoid_of_whole_limbs() {

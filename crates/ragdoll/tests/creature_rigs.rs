@@ -11,37 +11,19 @@
 
 mod rigid_parts_files;
 
-use std::path::PathBuf;
-
 use glam::Vec3;
 use ragdoll::backend::BackendKind;
-use ragdoll::import::{self, ImportOptions};
 use ragdoll::math::Transform;
-use ragdoll::skeleton::Character;
 use ragdoll::spec::JointKind;
 use ragdoll::spec::{BuildOptions, RagdollSpec, build_spec};
 use ragdoll::world::{World, WorldSettings};
-use rigid_parts_files::{Bones, bones_glb, horse, spider};
+use rigid_parts_files::{Bones, bones_glb, horse, load_as, spider};
 
 const FACINGS: [f32; 4] = [0.0, 90.0, 180.0, 270.0];
 
 /// Passive joint damping per second of a relaxed human knee (the leg-drop pendulum test
 /// the `--joint-damping` help cites).
 const RELAXED_JOINT_DAMPING: f32 = 0.8;
-
-fn load_as(name: &str, bytes: &[u8]) -> Character {
-    use std::sync::atomic::{AtomicUsize, Ordering};
-    static N: AtomicUsize = AtomicUsize::new(0);
-    let k = N.fetch_add(1, Ordering::Relaxed);
-    let dir: PathBuf =
-        std::env::temp_dir().join(format!("ragdoll-creature-{}-{k}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(name);
-    std::fs::write(&path, bytes).unwrap();
-    let c = import::load(&path, &ImportOptions::default()).unwrap();
-    let _ = std::fs::remove_dir_all(&dir);
-    c
-}
 
 /// The parent body's bone of each joint's body, by bone name.
 fn parent_of<'a>(spec: &'a RagdollSpec, bone: &str) -> Option<&'a str> {

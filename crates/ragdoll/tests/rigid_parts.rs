@@ -11,14 +11,14 @@ use std::path::PathBuf;
 
 use glam::{Mat4, Quat, Vec3};
 use ragdoll::import::{self, ImportOptions};
-use ragdoll::skeleton::{Character, Source};
+use ragdoll::skeleton::Source;
 use ragdoll::spec::{self, Role};
 use ragdoll::world::{World, WorldSettings};
 use serde_json::{Value, json};
 
 mod rigid_parts_files;
 
-use rigid_parts_files::{Doc, ROBOT, bare, glb, robot};
+use rigid_parts_files::{Doc, ROBOT, bare, glb, load_as, robot};
 
 /// A fresh folder of this test process.
 fn scratch() -> PathBuf {
@@ -28,15 +28,6 @@ fn scratch() -> PathBuf {
     let dir = std::env::temp_dir().join(format!("ragdoll-rigid-{}-{k}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     dir
-}
-
-fn load_as(name: &str, bytes: &[u8]) -> Character {
-    let dir = scratch();
-    let path = dir.join(name);
-    std::fs::write(&path, bytes).unwrap();
-    let c = import::load(&path, &ImportOptions::default()).unwrap();
-    let _ = std::fs::remove_dir_all(&dir);
-    c
 }
 
 /// Each node's world matrix at every key of the baked file's `ragdoll` animation, and each

@@ -5,28 +5,14 @@
 //! nothing (a prop) is not read. Each file is built here, turned four ways.
 
 use glam::{Vec3, Vec4};
-use ragdoll::import::{self, ImportOptions};
 use ragdoll::skeleton::Character;
 use ragdoll::spec::{self, Role};
 
 mod rigid_parts_files;
 
-use rigid_parts_files::{ROBOT, SkinStyle, skinned_robot};
+use rigid_parts_files::{ROBOT, SkinStyle, load_as, skinned_robot};
 
 const FACINGS: [f32; 4] = [0.0, 90.0, 180.0, 270.0];
-
-fn load_as(name: &str, bytes: &[u8]) -> Character {
-    use std::sync::atomic::{AtomicUsize, Ordering};
-    static N: AtomicUsize = AtomicUsize::new(0);
-    let k = N.fetch_add(1, Ordering::Relaxed);
-    let dir = std::env::temp_dir().join(format!("ragdoll-skins-{}-{k}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(name);
-    std::fs::write(&path, bytes).unwrap();
-    let c = import::load(&path, &ImportOptions::default()).unwrap();
-    let _ = std::fs::remove_dir_all(&dir);
-    c
-}
 
 fn sorted(mut v: Vec<String>) -> Vec<String> {
     v.sort();

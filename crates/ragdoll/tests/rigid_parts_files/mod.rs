@@ -493,3 +493,19 @@ pub fn bare(extension: &str, meshes: bool) -> Vec<u8> {
     };
     d.glb(&[root], table)
 }
+
+/// Imports `bytes` as a file called `name` (its extension picks the reader), from a
+/// folder of its own that is removed afterwards: the importer reads files, and tests run
+/// in parallel.
+pub fn load_as(name: &str, bytes: &[u8]) -> ragdoll::skeleton::Character {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    static N: AtomicUsize = AtomicUsize::new(0);
+    let k = N.fetch_add(1, Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!("ragdoll-parts-{}-{k}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(name);
+    std::fs::write(&path, bytes).unwrap();
+    let c = ragdoll::import::load(&path, &Default::default()).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    c
+}
