@@ -65,8 +65,9 @@ pub(super) struct Collide {
     pub wait: Vec<f32>,
     /// Per pair: the fastest the two may close on each other in this step, m/s.
     pub closing: Vec<f32>,
-    /// Per ragdoll: the fastest any point of it moves at the step's start, m/s.
-    pub ragdoll_speed: Vec<f32>,
+    /// Per ragdoll: the fastest any point of it moves at the step's start, m/s, and the
+    /// farthest one may go in the step, metres.
+    pub ragdoll_speed: Vec<(f32, f32)>,
     /// The step's length, and the seconds into it that the present substep ends at.
     pub dt: f32,
     pub elapsed: f32,

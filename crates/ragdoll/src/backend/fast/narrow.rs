@@ -158,7 +158,12 @@ impl FastBackend {
 
     /// How far a point `lever` from body `o`'s centre may move in `dt`, with the margin.
     fn travel_of(&self, o: usize, lever: f32, dt: f32) -> f32 {
-        (self.vel[o].length() + self.angvel[o].length() * lever) * dt + BROAD_MARGIN_M
+        // A turn moves a point along a chord, never more than the diameter of its circle:
+        // a blast spins a hand at hundreds of rad/s for the step its joints take to share
+        // the blow out, and a box grown by its lever times that turn (several radians)
+        // met every shape metres around.
+        let turned = (self.angvel[o].length() * dt).min(2.0);
+        self.vel[o].length() * dt + turned * lever + BROAD_MARGIN_M
     }
 
     /// Keeps the candidate pairs that may come within [`TOUCH_M`] in the coming step: the
@@ -188,11 +193,11 @@ impl FastBackend {
         );
         wait.clear();
         closing.clear();
-        self.measure_ragdoll_speeds();
+        self.measure_ragdoll_speeds(dt);
         pairs.retain(|&(a, b)| {
             let (a, b) = (a as usize, b as usize);
-            let speed = self.closing_speed(a, b);
-            let within = TOUCH_M + speed * dt + CLOSING_MARGIN_M;
+            let (speed, travel) = self.closing_speed(a, b);
+            let within = TOUCH_M + travel + CLOSING_MARGIN_M;
             let Some(found) = self.pair_contact_within(a, b, within) else {
                 return false;
             };
@@ -213,30 +218,34 @@ impl FastBackend {
     }
 
     /// How fast shapes `a` and `b` may close on each other at their ragdolls' present
-    /// velocities, m/s: each as fast as the fastest point of its ragdoll
-    /// (`Collide::ragdoll_speed`), whatever its own body's velocity says, since a joint
-    /// drags a body along with the one a blast strikes within the step.
-    fn closing_speed(&self, a: usize, b: usize) -> f32 {
-        let speed = |c: usize| {
+    /// velocities, m/s, and how far in the step, metres: each as fast and as far as the
+    /// fastest point of its ragdoll (`Collide::ragdoll_speed`), whatever its own body's
+    /// velocity says, since a joint drags a body along with the one a blast strikes
+    /// within the step.
+    fn closing_speed(&self, a: usize, b: usize) -> (f32, f32) {
+        let of = |c: usize| {
             let r = self.ragdoll_of[self.owner[c] as usize];
             self.collide.ragdoll_speed[r]
         };
-        speed(a) + speed(b)
+        let ((sa, ta), (sb, tb)) = (of(a), of(b));
+        (sa + sb, ta + tb)
     }
 
     /// Fills `Collide::ragdoll_speed`: per ragdoll, the fastest any point of its shapes
-    /// moves at its bodies' present velocities, m/s.
-    fn measure_ragdoll_speeds(&mut self) {
+    /// moves at its bodies' present velocities, m/s, and the farthest one goes in the step
+    /// of `dt`, metres (a turn by a chord, as in the broad phase's boxes).
+    fn measure_ragdoll_speeds(&mut self, dt: f32) {
         let mut speeds = std::mem::take(&mut self.collide.ragdoll_speed);
         speeds.clear();
-        speeds.resize(self.ragdolls.len(), 0.0);
+        speeds.resize(self.ragdolls.len(), (0.0, 0.0));
         for c in 0..self.shape.len() {
             let i = self.owner[c] as usize;
             let lever =
                 reach(&self.shape[c]) + self.attach[c].map_or(0.0, |t| t.translation.length());
-            let v = self.vel[i].length() + self.angvel[i].length() * lever;
-            let s = &mut speeds[self.ragdoll_of[i]];
-            *s = s.max(v);
+            let (v, w) = (self.vel[i].length(), self.angvel[i].length());
+            let (speed, travel) = &mut speeds[self.ragdoll_of[i]];
+            *speed = speed.max(v + w * lever);
+            *travel = travel.max(v * dt + (w * dt).min(2.0) * lever);
         }
         self.collide.ragdoll_speed = speeds;
     }
@@ -398,6 +407,31 @@ mod tests {
             Vec3::new(f(4), f(5), f(6)) * spread,
             Quat::from_axis_angle(axis, 3.0 * f(7)),
         )
+    }
+
+    /// A blast spins a hand at hundreds of rad/s for the step its joints take to share
+    /// the blow out: its points go round their circles, never farther than across them,
+    /// and its box must not meet every shape metres around.
+    #[test]
+    fn a_spinning_body_reaches_no_farther_than_across_its_circle() {
+        let dt = 1.0 / 60.0;
+        let mut b = box_and_capsule(
+            Transform::IDENTITY,
+            Transform::from_translation(Vec3::new(1.0, 0.0, 0.0)),
+        );
+        b.angvel[1] = Vec3::new(0.0, 0.0, 400.0);
+        let lever = reach(&b.shape[1]);
+        let bound = b.travel_of(1, lever, dt);
+        let end = Vec3::new(0.0, lever, 0.0);
+        for k in 0..=1000 {
+            let t = dt * k as f32 / 1000.0;
+            let moved = (Quat::from_scaled_axis(b.angvel[1] * t) * end - end).length();
+            assert!(moved <= bound + 1.0e-5, "moved {moved} m, bound {bound} m");
+        }
+        assert!(bound <= 2.0 * lever + BROAD_MARGIN_M + 1.0e-6, "{bound}");
+        // The box 1 m away is out of the capsule's reach (0.55 m apart).
+        b.find_pairs(dt);
+        assert!(b.collide.pairs.is_empty(), "{:?}", b.collide.pairs);
     }
 
     #[test]
