@@ -279,7 +279,7 @@ impl World {
         }
     }
 
-    /// Records the starting frame, once: from then on no ragdoll can be added.
+    /// Records the starting frame, once.
     fn begin(&mut self) {
         if self.frames_recorded == 0 {
             self.backend.body_states(&mut self.states);

@@ -67,11 +67,23 @@ impl Solid {
     /// Every shape of the bodies of `spec` at `poses` (body frames, spec order): each
     /// body's own, then its extra shapes.
     pub(super) fn of_spec(spec: &crate::spec::RagdollSpec, poses: &[Transform]) -> Vec<Solid> {
-        let mut solids = Vec::with_capacity(spec.bodies.len());
-        for (i, (b, p)) in spec.bodies.iter().zip(poses).enumerate() {
-            solids.push(Solid::new(p, &b.shape, i, false));
-            for (shape, at) in b.extra_offsets() {
-                solids.push(Solid::new(&p.mul(&at), &shape, i, true));
+        let extras: Vec<_> = spec.bodies.iter().map(|b| b.extra_offsets()).collect();
+        let shapes: Vec<Shape> = spec.bodies.iter().map(|b| b.shape).collect();
+        Solid::of_bodies(&shapes, &extras, poses)
+    }
+
+    /// Every shape of bodies of `shapes` with `extras` (each in its body's frame) at
+    /// `poses`: each body's own, then its extra shapes.
+    pub(super) fn of_bodies(
+        shapes: &[Shape],
+        extras: &[Vec<(Shape, Transform)>],
+        poses: &[Transform],
+    ) -> Vec<Solid> {
+        let mut solids = Vec::with_capacity(shapes.len());
+        for (i, ((shape, extra), p)) in shapes.iter().zip(extras).zip(poses).enumerate() {
+            solids.push(Solid::new(p, shape, i, false));
+            for (shape, at) in extra {
+                solids.push(Solid::new(&p.mul(at), shape, i, true));
             }
         }
         solids

@@ -5,11 +5,12 @@
 
 use glam::Vec3;
 
+use super::overlap::Solid;
 use super::playback::{self, Activation};
 use super::{Instance, RagdollId, Rider, StartPose, World, start};
 use crate::backend::tree::JointTree;
 use crate::backend::{Backend, BodyDesc, JointDesc, SkinPointDesc};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::math::Transform;
 use crate::skeleton::Character;
 use crate::spec::{RagdollSpec, Resolved, ResolvedJoint, start_pose};
@@ -19,10 +20,13 @@ impl World {
     /// Adds a ragdoll built from `spec`, placed by `placement` (a rigid transform applied
     /// to the whole character), lifted so that no body starts below the ground.
     ///
-    /// Must be called before the first step. Fails when one of its bodies would start
-    /// inside a body of a ragdoll already added (one body's axis inside the other; see
-    /// `overlap.rs`), or inside more than 32 bodies of its own; pairs of its own bodies
-    /// that start so are kept from colliding.
+    /// May be called between any two steps: a ragdoll added once the world has stepped
+    /// starts at rest where it is placed, physics drives it from the next step, and its
+    /// track holds that start pose for the frames recorded before it came (so every track
+    /// of a world has one frame per output frame). Fails when one of its bodies would start
+    /// inside a body of a ragdoll already there (one body's axis inside the other, where
+    /// the others are now; see `overlap.rs`), or inside more than 32 bodies of its own;
+    /// pairs of its own bodies that start so are kept from colliding.
     pub fn add_ragdoll(
         &mut self,
         character: &Character,
@@ -30,11 +34,9 @@ impl World {
         placement: Transform,
     ) -> Result<RagdollId> {
         spec.validate()?;
-        if self.frames_recorded > 0 {
-            return Err(Error::Setting {
-                setting: "ragdoll".into(),
-                message: "ragdolls must be added before the world starts stepping".into(),
-            });
+        let late = self.frames_recorded > 0;
+        if late {
+            self.index_present_bodies();
         }
         let skeleton = &character.skeleton;
         // 1. Bodies and joint frames from the rest pose; the start pose from the clip.
@@ -92,7 +94,15 @@ impl World {
             .collect();
         exempt_pairs.sort_unstable();
         exempt_pairs.dedup();
-        self.start_index.insert(&solids);
+        if late {
+            // Built for this one check: the others will have moved by the next.
+            self.start_index = super::overlap::StartIndex::default();
+            // Energy came in with it; the drift is measured from the next frame on.
+            self.start_energy = None;
+            self.last_frame_energy = None;
+        } else {
+            self.start_index.insert(&solids);
+        }
         let playback = playback_of(character, &resolved, placement, lift);
         let joints = resolved.joints;
         let links: Vec<(usize, usize)> = joints.iter().map(|j| (j.parent, j.child)).collect();
@@ -108,7 +118,7 @@ impl World {
             playback,
             activation: Activation::Immediately,
             active: true,
-            activated_at: Some(0.0),
+            activated_at: Some(self.time),
             motors: None,
             name: character.name.clone(),
             body_names: spec.bodies.iter().map(|b| b.name.clone()).collect(),
@@ -122,12 +132,27 @@ impl World {
             riders,
             track: Track {
                 fps: self.settings.fps,
-                frames: Vec::new(),
+                frames: vec![start; self.frames_recorded],
             },
         });
         // The bodies' states are readable (body_poses, joint_errors) before the first step.
         self.backend.body_states(&mut self.states);
         Ok(RagdollId(self.instances.len() - 1))
+    }
+
+    /// Files every ragdoll's bodies where they are now, for the start check of a ragdoll
+    /// added after the world has stepped.
+    fn index_present_bodies(&mut self) {
+        let mut index = super::overlap::StartIndex::default();
+        for inst in &self.instances {
+            let poses: Vec<Transform> = self.states
+                [inst.first_body..inst.first_body + inst.masses.len()]
+                .iter()
+                .map(|s| s.pose)
+                .collect();
+            index.insert(&Solid::of_bodies(&inst.shapes, &inst.extras, &poses));
+        }
+        self.start_index = index;
     }
 
     /// How far up a ragdoll whose bodies start at `body_start` must move so that none
