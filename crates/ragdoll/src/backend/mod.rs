@@ -178,6 +178,15 @@ pub trait Backend: Send {
         let _ = (first_body, points);
         false
     }
+    /// Takes the ragdoll whose first body is `first_body` out of the simulation: its
+    /// bodies stop where they are, nothing meets them (contacts, rays) and they carry no
+    /// kinetic energy; their indices stay valid (and their states readable) so that the
+    /// other ragdolls' do not change. Returns whether the backend can; by default it
+    /// cannot, and the world then refuses to remove a ragdoll.
+    fn remove_ragdoll(&mut self, first_body: usize) -> bool {
+        let _ = first_body;
+        false
+    }
     /// Whether the backend keeps joints inside their limits on positions itself (the
     /// world's limit projection is then skipped).
     fn enforces_limits(&self) -> bool {
@@ -428,6 +437,7 @@ impl Backend for AnyBackend {
     forward! {
         mut fn add_ragdoll(bodies: &[BodyDesc], joints: &[JointDesc], disabled_pairs: &[(usize, usize)]) -> usize;
         mut fn add_skin_points(first_body: usize, points: &[SkinPointDesc]) -> bool;
+        mut fn remove_ragdoll(first_body: usize) -> bool;
         ref fn enforces_limits() -> bool;
         mut fn step(dt: f32);
         ref fn went_non_finite() -> bool;

@@ -246,6 +246,24 @@ impl Backend for RigidBackend {
         self.add_ragdoll_impl(bodies, joints, disabled_pairs)
     }
 
+    /// rapier's own way: the bodies are disabled (out of the solver and of collision
+    /// detection, their colliders with them), their handles kept.
+    fn remove_ragdoll(&mut self, first_body: usize) -> bool {
+        let Some(&ragdoll) = self.filter.ragdoll_of.get(first_body) else {
+            return false;
+        };
+        for (i, &h) in self.bodies.iter().enumerate().skip(first_body) {
+            if self.filter.ragdoll_of[i] != ragdoll {
+                break;
+            }
+            let rb = &mut self.world.bodies[h];
+            rb.set_linvel(Vec3::ZERO, false);
+            rb.set_angvel(Vec3::ZERO, false);
+            rb.set_enabled(false);
+        }
+        true
+    }
+
     fn step(&mut self, dt: f32) {
         {
             self.world.integration_parameters.dt = dt;
@@ -324,7 +342,8 @@ impl Backend for RigidBackend {
     }
 
     fn cast_ray(&self, origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(usize, f32)> {
-        let not_ground = |_: ColliderHandle, c: &Collider| c.user_data != GROUND_KEY;
+        let not_ground =
+            |_: ColliderHandle, c: &Collider| c.user_data != GROUND_KEY && c.is_enabled();
         let filter = QueryFilter::default().predicate(&not_ground);
         let ray = Ray::new(origin, dir);
         let (collider, toi) = self.world.cast_ray(&ray, max_dist, true, filter)?;

@@ -274,7 +274,7 @@ impl super::World {
                 .resize_with(self.instances.len(), Default::default);
             active.com_velocity.resize(self.instances.len(), None);
             for (c, inst) in self.instances.iter().enumerate() {
-                if !inst.active {
+                if !inst.active || inst.removed {
                     // A clip still playing is not pushed; it may be handed over to physics
                     // on this very blast (`Activation::OnBlast`), before the loads.
                     continue;

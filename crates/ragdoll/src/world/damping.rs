@@ -31,7 +31,7 @@ impl World {
         let c = self.settings.joint_damping;
         let share = c * h / (1.0 + c * h);
         for inst in &self.instances {
-            if !inst.active || inst.motors.is_some() {
+            if !inst.active || inst.removed || inst.motors.is_some() {
                 continue;
             }
             let base = inst.first_body;

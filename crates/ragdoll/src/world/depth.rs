@@ -40,6 +40,9 @@ impl World {
         let mut solids = Vec::new();
         let mut owner = Vec::new();
         for (r, inst) in self.instances.iter().enumerate() {
+            if inst.removed {
+                continue;
+            }
             for (b, shape) in inst.shapes.iter().enumerate() {
                 let pose = self.states[inst.first_body + b].pose;
                 let extras = inst.extras[b]

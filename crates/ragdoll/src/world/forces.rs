@@ -350,7 +350,7 @@ impl super::World {
     /// The force fields other than gravity (radial, drag, wind) on every body of every
     /// active ragdoll, at its centre.
     fn apply_fields(&mut self, t0: f64, t1: f64) {
-        for inst in self.instances.iter().filter(|i| i.active) {
+        for inst in self.instances.iter().filter(|i| i.active && !i.removed) {
             for (k, shape) in inst.shapes.iter().enumerate() {
                 let state = self.states[inst.first_body + k];
                 let mut impulse = Vec3::ZERO;

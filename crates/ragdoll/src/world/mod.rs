@@ -18,6 +18,7 @@ mod overlap;
 mod playback;
 mod projectile;
 mod record;
+mod remove;
 mod settings;
 mod spawn;
 mod start;
@@ -113,6 +114,9 @@ struct Instance {
     active: bool,
     /// When physics took over, seconds.
     activated_at: Option<f64>,
+    /// Taken out of the world (`remove.rs`): its bodies meet nothing and its track holds
+    /// its last pose.
+    removed: bool,
     /// Joint motors tracking the clip (powered mode), if any.
     motors: Option<motors::MotorState>,
     /// Each skeleton joint's parent joint where physics holds the bone between them: both
@@ -388,6 +392,7 @@ impl World {
 
     /// Hands the impulses the events gave since the last call to the backend, in one call.
     fn flush_impulses(&mut self) {
+        self.drop_impulses_on_removed();
         if !self.impulses.is_empty() {
             self.backend.apply_impulses(&self.impulses);
             self.impulses.clear();

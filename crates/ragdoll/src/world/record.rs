@@ -113,6 +113,7 @@ impl super::World {
             .map(|inst| {
                 let s = &states[inst.first_body..inst.first_body + inst.masses.len()];
                 inst.active
+                    && !inst.removed
                     && inst.joints.iter().any(|j| {
                         // As the loop below: only a violation known to be small is
                         // skipped.
@@ -243,11 +244,16 @@ impl super::World {
             && motors_done
             && self.instances.iter().all(|i| i.active)
             && self.blasts.iter().all(|b| {
-                let reached_all = b.parts.len() == self.instances.len()
-                    && b.parts
+                // Removed ragdolls are passed by.
+                let present = || {
+                    b.parts
                         .iter()
-                        .all(|parts| parts.iter().all(|r| r.arrival_s.is_some()));
-                reached_all && b.parts.iter().flatten().all(|r| r.passed_s <= self.time)
+                        .zip(&self.instances)
+                        .filter(|(_, i)| !i.removed)
+                        .flat_map(|(parts, _)| parts)
+                };
+                b.parts.len() == self.instances.len()
+                    && present().all(|r| r.arrival_s.is_some() && r.passed_s <= self.time)
             })
     }
 
@@ -261,7 +267,7 @@ impl super::World {
         let g = self.settings.gravity;
         let ground = self.settings.ground.unwrap_or(0.0);
         let mut potential = 0.0f64;
-        for inst in &self.instances {
+        for inst in self.instances.iter().filter(|i| !i.removed) {
             for (i, &m) in inst.masses.iter().enumerate() {
                 let p = self.states[inst.first_body + i].pose.translation - Vec3::Y * ground;
                 potential += -(m as f64) * g.dot(p) as f64;
@@ -307,7 +313,7 @@ fn worst_joint_of(
     states: &[BodyState],
     measure: &impl Fn(&ResolvedJoint, &Transform, &Transform) -> f32,
 ) -> f32 {
-    if !inst.active {
+    if !inst.active || inst.removed {
         return 0.0;
     }
     let states = &states[inst.first_body..inst.first_body + inst.masses.len()];

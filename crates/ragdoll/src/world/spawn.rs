@@ -119,6 +119,7 @@ impl World {
             activation: Activation::Immediately,
             active: true,
             activated_at: Some(self.time),
+            removed: false,
             motors: None,
             name: character.name.clone(),
             body_names: spec.bodies.iter().map(|b| b.name.clone()).collect(),
@@ -141,10 +142,14 @@ impl World {
     }
 
     /// Files every ragdoll's bodies where they are now, for the start check of a ragdoll
-    /// added after the world has stepped.
-    fn index_present_bodies(&mut self) {
+    /// added after the world has stepped (a removed one's as none: its place is free).
+    pub(super) fn index_present_bodies(&mut self) {
         let mut index = super::overlap::StartIndex::default();
         for inst in &self.instances {
+            if inst.removed {
+                index.insert(&[]);
+                continue;
+            }
             let poses: Vec<Transform> = self.states
                 [inst.first_body..inst.first_body + inst.masses.len()]
                 .iter()

@@ -104,6 +104,9 @@ impl FastBackend {
     /// Adds a velocity change from outside the solver (an event's impulse) to body `i`,
     /// to the velocities the world sees too, so it reads the blow at once.
     pub(super) fn kick(&mut self, i: usize, dv: Vec3, dw: Vec3) {
+        if self.ragdolls[self.ragdoll_of[i]].removed {
+            return;
+        }
         self.wake_body(i);
         self.thaw_on_kick(i, dv, dw);
         self.vel[i] += dv;
@@ -121,6 +124,9 @@ impl FastBackend {
 
     /// Wakes ragdoll `r`, with every joint thawed: what woke it may move any of them.
     pub(super) fn wake(&mut self, r: usize) {
+        if self.ragdolls[r].removed {
+            return;
+        }
         if self.ragdolls[r].asleep {
             self.thaw(r);
         }

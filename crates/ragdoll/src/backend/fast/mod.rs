@@ -156,6 +156,9 @@ struct Ragdoll {
     /// The fastest one of its parts may strike the ground or another body in the coming
     /// step, m/s (`impact.rs`).
     closing_mps: f32,
+    /// Taken out of the simulation ([`Backend::remove_ragdoll`]): asleep for good, met by
+    /// nothing.
+    removed: bool,
 }
 
 /// The ragdoll's whole mass over its lightest body's, up to which the world's substeps
@@ -384,8 +387,31 @@ impl Backend for FastBackend {
             frozen: 0,
             jolted: false,
             closing_mps: 0.0,
+            removed: false,
         });
         first
+    }
+
+    fn remove_ragdoll(&mut self, first_body: usize) -> bool {
+        let Some(&r) = self.ragdoll_of.get(first_body) else {
+            return false;
+        };
+        for i in self.ragdolls[r].bodies.clone() {
+            self.vel[i] = Vec3::ZERO;
+            self.angvel[i] = Vec3::ZERO;
+            self.seen_vel[i] = Vec3::ZERO;
+            self.seen_angvel[i] = Vec3::ZERO;
+            self.kinematic[i] = None;
+        }
+        for p in &mut self.pins {
+            if self.ragdoll_of[p.body] == r {
+                p.active = false;
+            }
+        }
+        let rd = &mut self.ragdolls[r];
+        rd.asleep = true;
+        rd.removed = true;
+        true
     }
 
     fn add_skin_points(&mut self, first_body: usize, points: &[SkinPointDesc]) -> bool {

@@ -128,6 +128,9 @@ impl FastBackend {
             if ri == rj && a.max(b) >= bodies {
                 return;
             }
+            if ragdolls[ri].removed || ragdolls[rj].removed {
+                return;
+            }
             let (si, sj) = (ragdolls[ri].asleep, ragdolls[rj].asleep);
             if si && sj {
                 return;
@@ -332,6 +335,9 @@ impl FastBackend {
         max_dist: f32,
     ) -> Option<(usize, f32)> {
         let hits = (0..self.world_shapes()).map(|k| {
+            if self.ragdolls[self.ragdoll_of[self.body_of_shape(k)]].removed {
+                return None;
+            }
             let shape = self.world_shape(k).0;
             let (pos, rot) = self.world_shape_pose(k);
             let length = match shape {

@@ -521,6 +521,7 @@ impl ParticleBackend {
             pos: pose.translation,
             rot_prev: pose.rotation,
             kinematic: false,
+            removed: false,
         });
         let count = all.len();
         let mut be = vec![vec![0.0f32; count]; 3];

@@ -91,7 +91,8 @@ impl ParticleBackend {
         let mut pairs = std::mem::take(&mut self.pairs);
         grid.broad.find(&grid.boxes, |a, b| {
             let both_kinematic = self.bodies[a].kinematic && self.bodies[b].kinematic;
-            if !both_kinematic && self.may_collide(a, b) {
+            let removed = self.bodies[a].removed || self.bodies[b].removed;
+            if !both_kinematic && !removed && self.may_collide(a, b) {
                 pairs.push((a as u32, b as u32));
             }
         });
@@ -412,6 +413,9 @@ impl ParticleBackend {
         max_dist: f32,
     ) -> Option<(usize, f32)> {
         let hits = self.bodies.iter().enumerate().map(|(b, body)| {
+            if body.removed {
+                return None;
+            }
             let ends = match body.shape {
                 Shape::Capsule { .. } => self.capsule_world(b),
                 Shape::Box { .. } => (body.pos, body.pos),

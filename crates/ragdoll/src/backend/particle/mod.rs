@@ -123,6 +123,9 @@ struct Body {
     /// Rotation at the start of the last step (for the angular velocity).
     rot_prev: Quat,
     kinematic: bool,
+    /// Taken out of the simulation ([`Backend::remove_ragdoll`]): held still, met by
+    /// nothing.
+    removed: bool,
 }
 
 /// A distance between two particles.
@@ -307,6 +310,33 @@ impl Backend for ParticleBackend {
             }
         }
         first
+    }
+
+    /// Its bodies are held still as kinematic ones (their particles then carry no
+    /// energy) and meet nothing.
+    fn remove_ragdoll(&mut self, first_body: usize) -> bool {
+        let Some(ragdoll) = self.bodies.get(first_body).map(|b| b.ragdoll) else {
+            return false;
+        };
+        for b in first_body..self.bodies.len() {
+            if self.bodies[b].ragdoll != ragdoll {
+                break;
+            }
+            self.set_kinematic(b, true);
+            for k in self.body_parts(b) {
+                let p = self.parts[k] as usize;
+                self.v[p] = Vec3::ZERO;
+                (self.kin_from[p], self.kin_to[p]) = (self.x[p], self.x[p]);
+            }
+            self.bodies[b].removed = true;
+        }
+        for p in &mut self.pins {
+            if self.bodies.get(p.body as usize).is_some_and(|b| b.removed) {
+                p.active = false;
+            }
+        }
+        self.pairs_left = 0;
+        true
     }
 
     fn enforces_limits(&self) -> bool {
