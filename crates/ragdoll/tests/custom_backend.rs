@@ -282,3 +282,21 @@ fn each_steps_impulses_arrive_in_one_call_and_add_up_to_the_events() {
         "{momentum} vs shot {shot}"
     );
 }
+
+#[test]
+fn an_engine_that_cannot_remove_ragdolls_is_refused_in_a_sentence() {
+    // The trait's default: the engine says it cannot, and the world keeps the ragdoll.
+    let (mut world, log) = world_with(&WorldSettings::default());
+    let character = ragdoll::skeleton::humanoid();
+    let spec = build_spec(&character, &BuildOptions::default()).unwrap();
+    let id = world
+        .add_ragdoll(&character, &spec, Transform::IDENTITY)
+        .unwrap();
+    world.run(0.1);
+    let err = world.remove_ragdoll(id).unwrap_err().to_string();
+    assert!(err.contains("cannot remove ragdolls"), "{err}");
+    let steps = log.lock().unwrap().steps;
+    world.run(0.1);
+    assert!(log.lock().unwrap().steps > steps, "the world steps on");
+    assert_eq!(world.track(id).frames.len(), 7);
+}
