@@ -2,7 +2,8 @@
 //!
 //! The API is the library's, shaped for Python: `load()` / `Character.from_arrays()` for
 //! characters, `build_ragdoll()` for editable specs, `World` for characters and events,
-//! and `Result` for numpy arrays, the report and the files. It calls the library directly
+//! `Result` for numpy arrays, the report and the files, and `Simulation` for a world
+//! stepped a piece at a time with ragdolls added and removed between steps. It calls the library directly
 //! (no command-line tool in between), releases the interpreter's lock while it simulates,
 //! and turns every library error into an exception whose class says its kind and whose
 //! attributes carry the file, line, place and key; a Rust panic becomes one
@@ -13,6 +14,7 @@ use pyo3::prelude::*;
 mod arrays;
 mod character;
 mod errors;
+mod live;
 mod spec;
 mod world;
 
@@ -38,5 +40,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<spec::JointView>()?;
     m.add_class::<world::World>()?;
     m.add_class::<world::RunResult>()?;
+    m.add_class::<live::Simulation>()?;
     Ok(())
 }

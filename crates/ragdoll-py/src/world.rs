@@ -85,8 +85,31 @@ fn set(s: &mut WorldSettings, key: &str, v: &Bound<'_, PyAny>) -> PyResult<()> {
     Ok(())
 }
 
+/// The world's settings from a backend name and keyword settings (see [`World`]).
+pub(crate) fn world_settings(
+    backend: &str,
+    settings: Option<&Bound<'_, PyDict>>,
+) -> PyResult<WorldSettings> {
+    let mut s = WorldSettings {
+        backend: BackendKind::from_name(backend).ok_or_else(|| {
+            bound(
+                "backend",
+                format!("must be \"rigid\", \"fast\" or \"particle\", not {backend:?}"),
+            )
+        })?,
+        ..WorldSettings::default()
+    };
+    if let Some(kw) = settings {
+        for (k, v) in kw.iter() {
+            set(&mut s, &k.extract::<String>()?, &v)?;
+        }
+    }
+    s.validate().map_err(to_py)?;
+    Ok(s)
+}
+
 /// A point of the world, within the bounds the world holds every coordinate to.
-fn point(v: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec3> {
+pub(crate) fn point(v: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec3> {
     let p = arrays::vec3(v, what)?;
     if p.abs().max_element() > MAX_COORDINATE_M {
         return Err(bound(
@@ -149,21 +172,7 @@ impl World {
     #[new]
     #[pyo3(signature = (backend="rigid", **settings))]
     fn new(backend: &str, settings: Option<&Bound<'_, PyDict>>) -> PyResult<World> {
-        let mut s = WorldSettings {
-            backend: BackendKind::from_name(backend).ok_or_else(|| {
-                bound(
-                    "backend",
-                    format!("must be \"rigid\", \"fast\" or \"particle\", not {backend:?}"),
-                )
-            })?,
-            ..WorldSettings::default()
-        };
-        if let Some(kw) = settings {
-            for (k, v) in kw.iter() {
-                set(&mut s, &k.extract::<String>()?, &v)?;
-            }
-        }
-        s.validate().map_err(to_py)?;
+        let s = world_settings(backend, settings)?;
         let scene = Scene::new(PathBuf::new(), DEFAULT_SECONDS, s);
         Ok(World {
             scene: Arc::new(scene),

@@ -267,6 +267,11 @@ impl World {
             .collect()
     }
 
+    /// The settings the world was made with.
+    pub fn settings(&self) -> &WorldSettings {
+        &self.settings
+    }
+
     /// Simulated time so far, seconds.
     pub fn time(&self) -> f64 {
         self.time

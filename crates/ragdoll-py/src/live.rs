@@ -1,0 +1,191 @@
+//! `Simulation`: a world stepped from Python a piece at a time, as a game or a tool
+//! steps one: ragdolls added and removed between any two steps, bodies read as they are.
+//! `World` builds a scene and runs it from the start; this one keeps going.
+
+use std::sync::{Mutex, MutexGuard};
+
+use glam::{Quat, Vec3};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use ragdoll::math::Transform;
+use ragdoll::scene::MAX_CHARACTERS;
+use ragdoll::spec::RagdollSpec;
+use ragdoll::world::{RagdollId, World};
+
+use crate::arrays::{self, ROW};
+use crate::character::Character;
+use crate::errors::{bound, guard, to_py};
+use crate::spec::Spec;
+use crate::world::{point, world_settings};
+
+/// A physics world stepped a piece at a time: `step(seconds)` goes on from where the last
+/// step left it, and ragdolls can be added (`add`) and removed (`remove`) between any two
+/// steps. A ragdoll added late starts at rest where it is placed; a removed one stops
+/// where it is and nothing meets it any more. Every ragdoll's track has one frame per
+/// output frame (a late one holds its start pose before it came, a removed one its last).
+///
+/// `backend` and the keyword settings are `World`'s.
+#[pyclass(module = "ragdoll_sim")]
+pub struct Simulation {
+    /// Behind a lock because Python may share the object between threads; the lock is
+    /// held for one call (a step releases the interpreter's lock, not this one).
+    world: Mutex<World>,
+    /// Each ragdoll's id, character and spec, in the order added (handles index them).
+    ragdolls: Vec<(RagdollId, ragdoll::skeleton::Character, RagdollSpec)>,
+    joints: usize,
+}
+
+impl Simulation {
+    fn world(&self) -> PyResult<MutexGuard<'_, World>> {
+        self.world.lock().map_err(|_| {
+            bound(
+                "simulation",
+                "an earlier call failed inside the engine (an InternalError); this simulation cannot go on",
+            )
+        })
+    }
+
+    fn id(&self, handle: usize) -> PyResult<RagdollId> {
+        if let Some((id, ..)) = self.ragdolls.get(handle) {
+            Ok(*id)
+        } else {
+            Err(bound(
+                "handle",
+                format!(
+                    "{handle} is not a ragdoll of this simulation, which holds {}",
+                    self.ragdolls.len()
+                ),
+            ))
+        }
+    }
+}
+
+#[pymethods]
+impl Simulation {
+    #[new]
+    #[pyo3(signature = (backend="rigid", **settings))]
+    fn new(backend: &str, settings: Option<&Bound<'_, PyDict>>) -> PyResult<Simulation> {
+        let s = world_settings(backend, settings)?;
+        let world = World::new(&s).map_err(to_py)?;
+        Ok(Simulation {
+            world: Mutex::new(world),
+            ragdolls: Vec::new(),
+            joints: 0,
+        })
+    }
+
+    /// Adds `character` as a ragdoll (built from it unless `spec` is given), its feet at
+    /// `at`, turned `facing_deg` about the vertical; returns its handle.
+    #[pyo3(signature = (character, spec=None, *, at=None, facing_deg=0.0))]
+    fn add(
+        &mut self,
+        py: Python<'_>,
+        character: &Character,
+        spec: Option<&Spec>,
+        at: Option<&Bound<'_, PyAny>>,
+        facing_deg: f32,
+    ) -> PyResult<usize> {
+        if self.ragdolls.len() >= MAX_CHARACTERS {
+            return Err(bound(
+                "character",
+                format!("a simulation holds at most {MAX_CHARACTERS} ragdolls"),
+            ));
+        }
+        let position = match at {
+            Some(p) => point(p, "at")?,
+            None => Vec3::ZERO,
+        };
+        if !(facing_deg.is_finite() && facing_deg.abs() <= 360.0) {
+            return Err(bound(
+                "facing_deg",
+                format!("must be within ±360, not {facing_deg}"),
+            ));
+        }
+        let c = character.inner.clone();
+        let spec = match spec {
+            Some(s) => s.inner.clone(),
+            None => py.detach(|| {
+                guard(|| ragdoll::spec::build_spec(&c, &Default::default()).map_err(to_py))
+            })?,
+        };
+        let placement = Transform::new(position, Quat::from_rotation_y(facing_deg.to_radians()));
+        let id = {
+            let mut world = self.world()?;
+            guard(|| world.add_ragdoll(&c, &spec, placement).map_err(to_py))?
+        };
+        self.joints += c.skeleton.len();
+        self.ragdolls.push((id, c, spec));
+        Ok(self.ragdolls.len() - 1)
+    }
+
+    /// Takes ragdoll `handle` out from the next step: it stops where it is and nothing
+    /// meets it any more.
+    fn remove(&mut self, handle: usize) -> PyResult<()> {
+        let id = self.id(handle)?;
+        let mut world = self.world()?;
+        guard(|| world.remove_ragdoll(id).map_err(to_py))
+    }
+
+    /// Simulates `seconds` more. The interpreter's lock is released while it steps.
+    fn step(&mut self, py: Python<'_>, seconds: f32) -> PyResult<()> {
+        if !(seconds.is_finite() && seconds >= 0.0) {
+            return Err(bound(
+                "seconds",
+                format!("must be zero or more, not {seconds}"),
+            ));
+        }
+        // Every frame is kept: the whole run is held to the bounds a run is.
+        let mut world = self.world()?;
+        let total = world.time() as f32 + seconds;
+        world
+            .settings()
+            .validate_run(total, self.joints)
+            .map_err(to_py)?;
+        let world = &mut *world;
+        py.detach(|| {
+            guard(|| {
+                world.run(seconds);
+                Ok(())
+            })
+        })
+    }
+
+    /// Simulated time so far, seconds.
+    #[getter]
+    fn time(&self) -> PyResult<f64> {
+        Ok(self.world()?.time())
+    }
+
+    /// Ragdoll `handle`'s bodies now, one row each in its spec's order: translation,
+    /// rotation (x, y, z, w) and scale, world space: an array (bodies, 10).
+    fn body_poses<'py>(&self, py: Python<'py>, handle: usize) -> PyResult<Bound<'py, PyAny>> {
+        let id = self.id(handle)?;
+        let poses = self.world()?.body_poses(id);
+        let mut data = Vec::with_capacity(poses.len() * ROW);
+        for p in &poses {
+            arrays::push_row(&mut data, p);
+        }
+        Ok(arrays::array(py, &[poses.len(), ROW], data)?.into_any())
+    }
+
+    /// Ragdoll `handle`'s skeleton at every output frame so far, in its character's own
+    /// joint order, world space: an array (frames, joints, 10).
+    fn transforms<'py>(&self, py: Python<'py>, handle: usize) -> PyResult<Bound<'py, PyAny>> {
+        let id = self.id(handle)?;
+        let world = self.world()?;
+        let track = world.track(id);
+        let n = self.ragdolls[handle].1.skeleton.len();
+        let mut data = Vec::with_capacity(track.frames.len() * n * ROW);
+        for frame in &track.frames {
+            for t in frame {
+                arrays::push_row(&mut data, t);
+            }
+        }
+        Ok(arrays::array(py, &[track.frames.len(), n, ROW], data)?.into_any())
+    }
+
+    /// How many ragdolls were added (removed ones included: handles stay valid).
+    fn __len__(&self) -> usize {
+        self.ragdolls.len()
+    }
+}

@@ -1,0 +1,68 @@
+"""A simulation stepped a piece at a time, with ragdolls added and removed between steps:
+physical facts through Python."""
+
+import numpy as np
+import pytest
+
+import ragdoll_sim as rd
+
+G = 9.80665
+
+
+def centre_of_mass(sim, handle, spec):
+    poses = sim.body_poses(handle)
+    masses = np.array([b.mass_kg for b in spec.bodies])
+    return (poses[:, 0:3] * masses[:, None]).sum(axis=0) / masses.sum()
+
+
+@pytest.mark.parametrize("backend", ["rigid", "fast", "particle"])
+def test_a_ragdoll_added_between_steps_falls_freely(backend):
+    sim = rd.Simulation(backend, ground=None)
+    spec = rd.build_ragdoll(rd.humanoid())
+    first = sim.add(rd.humanoid(), spec)
+    sim.step(0.5)
+    assert sim.time == pytest.approx(0.5)
+    late = sim.add(rd.humanoid(), spec, at=(4.0, 0.0, 0.0))
+    start = centre_of_mass(sim, late, spec)
+    sim.step(0.5)
+    drop = start[1] - centre_of_mass(sim, late, spec)[1]
+    assert drop == pytest.approx(0.5 * G * 0.5**2, abs=0.02)
+    # Both tracks have a frame per output frame: 1 s at 30 fps and the first.
+    assert sim.transforms(first).shape == (31, len(rd.humanoid().joint_names), 10)
+    assert sim.transforms(late).shape == sim.transforms(first).shape
+    assert len(sim) == 2
+
+
+@pytest.mark.parametrize("backend", ["rigid", "fast", "particle"])
+def test_a_removed_ragdoll_stops_where_it_is(backend):
+    # Two fall freely; one is removed after 0.3 s: it stops there, its track holds that
+    # pose, and the other falls on as free bodies do.
+    spec = rd.build_ragdoll(rd.humanoid())
+    sim = rd.Simulation(backend, ground=None)
+    gone = sim.add(rd.humanoid(), spec)
+    stays = sim.add(rd.humanoid(), spec, at=(3.0, 0.0, 0.0))
+    sim.step(0.3)
+    sim.remove(gone)
+    held = sim.body_poses(gone)
+    start = centre_of_mass(sim, stays, spec)
+    velocity = G * 0.3
+    sim.step(0.3)
+    assert np.abs(sim.body_poses(gone)[:, 0:3] - held[:, 0:3]).max() < 1e-4
+    track = sim.transforms(gone)
+    assert np.abs(track[-1, :, 0:3] - track[9, :, 0:3]).max() < 1e-4
+    drop = start[1] - centre_of_mass(sim, stays, spec)[1]
+    assert drop == pytest.approx(velocity * 0.3 + 0.5 * G * 0.3**2, abs=0.03)
+
+
+def test_bad_calls_raise_in_a_sentence():
+    sim = rd.Simulation("fast")
+    h = sim.add(rd.humanoid())
+    with pytest.raises(rd.BoundError, match="is not a ragdoll of this simulation"):
+        sim.body_poses(h + 1)
+    with pytest.raises(rd.BoundError, match="zero or more"):
+        sim.step(-1.0)
+    sim.remove(h)
+    with pytest.raises(rd.RagdollError, match="removed already"):
+        sim.remove(h)
+    with pytest.raises(rd.BoundError, match="seconds"):
+        sim.step(1.0e9)
