@@ -7,8 +7,9 @@ use std::sync::{Mutex, MutexGuard};
 use glam::{Quat, Vec3};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use ragdoll::events::Blast;
 use ragdoll::math::Transform;
-use ragdoll::scene::MAX_CHARACTERS;
+use ragdoll::scene::{MAX_CHARACTERS, MAX_EVENTS};
 use ragdoll::spec::RagdollSpec;
 use ragdoll::world::{RagdollId, World};
 
@@ -33,6 +34,7 @@ pub struct Simulation {
     /// Each ragdoll's id, character and spec, in the order added (handles index them).
     ragdolls: Vec<(RagdollId, ragdoll::skeleton::Character, RagdollSpec)>,
     joints: usize,
+    events: usize,
 }
 
 impl Simulation {
@@ -71,6 +73,7 @@ impl Simulation {
             world: Mutex::new(world),
             ragdolls: Vec::new(),
             joints: 0,
+            events: 0,
         })
     }
 
@@ -124,6 +127,41 @@ impl Simulation {
         let id = self.id(handle)?;
         let mut world = self.world()?;
         guard(|| world.remove_ragdoll(id).map_err(to_py))
+    }
+
+    /// A charge of `tnt_kg` at `at` going off at `time_s` (seconds from the start; by
+    /// default now), on the ground below `at` unless `air`; `scale` multiplies its loads.
+    /// It acts on every ragdoll there is when its front reaches it, late ones included.
+    #[pyo3(signature = (tnt_kg, at, *, time_s=None, air=false, scale=1.0))]
+    fn add_blast(
+        &mut self,
+        tnt_kg: f32,
+        at: &Bound<'_, PyAny>,
+        time_s: Option<f32>,
+        air: bool,
+        scale: f32,
+    ) -> PyResult<()> {
+        if self.events >= MAX_EVENTS {
+            return Err(bound(
+                "event",
+                format!("a simulation holds at most {MAX_EVENTS} events"),
+            ));
+        }
+        let mut world = self.world()?;
+        let mut position = point(at, "at")?;
+        if !air && let Some(g) = world.settings().ground {
+            position.y = g;
+        }
+        let blast = Blast {
+            tnt_kg,
+            position,
+            time_s: time_s.unwrap_or(world.time() as f32),
+            scale,
+        };
+        guard(|| world.add_blast(blast).map_err(to_py))?;
+        drop(world);
+        self.events += 1;
+        Ok(())
     }
 
     /// Simulates `seconds` more. The interpreter's lock is released while it steps.
