@@ -12,7 +12,7 @@ use ragdoll::backend::BackendKind;
 use ragdoll::math::Transform;
 use ragdoll::spec::{self, BuildOptions, JointKind, Role, build_spec, humanoid_mass_kg};
 use ragdoll::world::{World, WorldSettings};
-use rigid_parts_files::{BLOCKY_HEIGHT_M, blocky, load_as};
+use rigid_parts_files::{BLOCKY_HEIGHT_M, blocky, blocky_turned, load_as};
 
 const FACINGS: [f32; 4] = [0.0, 90.0, 180.0, 270.0];
 
@@ -57,6 +57,49 @@ fn a_blocky_character_is_a_humanoid_of_whole_limbs() {
             let said = role == Role::Neck || why.contains("one part");
             assert!(said, "{what}: {role:?} missing: {why}");
         }
+    }
+}
+
+/// Lying in its file (a Z-up export, face up or face down, or on either side), it is
+/// stood up and recognised as standing: the same parts take the same roles.
+#[test]
+fn a_blocky_character_lying_down_is_stood_up_and_recognised() {
+    use glam::Quat;
+    use std::f32::consts::FRAC_PI_2;
+    let lying = [
+        ("face up", Quat::from_rotation_x(FRAC_PI_2)),
+        ("face down", Quat::from_rotation_x(-FRAC_PI_2)),
+        ("on its left side", Quat::from_rotation_z(FRAC_PI_2)),
+        ("on its right side", Quat::from_rotation_z(-FRAC_PI_2)),
+    ];
+    for (what, turn) in lying {
+        let c = load_as("blocky.glb", &blocky_turned(turn));
+        let roles = spec::recognise_roles(&c);
+        assert!(roles.humanoid, "{what}: {}", roles.why);
+        assert!(roles.upright.is_some(), "{what}: stood up");
+        let name = |role: Role| {
+            let j = roles
+                .joint(role)
+                .unwrap_or_else(|| panic!("{what}: no {role:?}"));
+            c.skeleton.joints()[j].name.clone()
+        };
+        for (role, part) in [
+            (Role::Head, "head"),
+            (Role::ThighL, "leg-left"),
+            (Role::ThighR, "leg-right"),
+            (Role::UpperArmL, "arm-left"),
+            (Role::UpperArmR, "arm-right"),
+        ] {
+            assert_eq!(name(role), part, "{what}: {role:?}");
+        }
+        // Its ragdoll weighs what a person of its height does, as standing.
+        let spec = build_spec(&c, &BuildOptions::default()).unwrap();
+        let expected = humanoid_mass_kg(BLOCKY_HEIGHT_M);
+        assert!(
+            (spec.total_mass_kg() - expected).abs() < 0.02 * expected,
+            "{what}: {} kg, a person of its height {expected} kg",
+            spec.total_mass_kg()
+        );
     }
 }
 

@@ -368,7 +368,12 @@ pub const BLOCKY: [Part; 6] = [
 /// over the parts), turned `facing_deg` about +Y: a quarter turn swaps each box's width
 /// and depth, so the boxes stay boxes.
 pub fn blocky(facing_deg: f32) -> Vec<u8> {
-    let turn = glam::Quat::from_rotation_y(facing_deg.to_radians());
+    blocky_turned(glam::Quat::from_rotation_y(facing_deg.to_radians()))
+}
+
+/// [`blocky`] turned by `turn`, a rotation by quarter turns (lying down: a Z-up export, or
+/// one on its side), so the boxes stay boxes along the axes.
+pub fn blocky_turned(turn: glam::Quat) -> Vec<u8> {
     let mut d = Doc::default();
     let root = d.node("root", Vec3::ZERO, None);
     let mut index = HashMap::new();

@@ -109,9 +109,20 @@ fn standing_shapes(rig: &Rig, pose: &str, ups: &[Vec3]) -> Vec<(Vec3, Roles)> {
 fn shape_stood_up(rig: &Rig, pose: &str, up: Vec3) -> Option<Roles> {
     let q = Quat::from_rotation_arc(up, Vec3::Y);
     let turned = rig.turned(q);
-    let h = structure::find_humanoid(&turned)?;
+    // A skeleton's shape, or a blocky character's parts (one part a limb).
+    let (h, shape) = match structure::find_humanoid(&turned) {
+        Some(h) => (
+            h,
+            "the skeleton's shape in the {pose} (two legs to the ground, a spine, two arms)",
+        ),
+        None => (
+            super::blocky::find_blocky(&turned)?,
+            "its parts' shape in the {pose} (a trunk carrying a head and two legs and two arms of one part each)",
+        ),
+    };
     let how = format!(
-        "from the skeleton's shape in the {pose} (two legs to the ground, a spine, two arms), checked with the character stood up (its {pose} lies with the head toward {})",
+        "from {}, checked with the character stood up (its {pose} lies with the head toward {})",
+        shape.replace("{pose}", pose),
         direction_words(up)
     );
     Some(humanoid_roles(&turned, &h, how, Some(q)))
