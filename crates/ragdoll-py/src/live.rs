@@ -7,7 +7,7 @@ use std::sync::{Mutex, MutexGuard};
 use glam::{Quat, Vec3};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use ragdoll::events::Blast;
+use ragdoll::events::{Blast, Projectile, Push};
 use ragdoll::math::Transform;
 use ragdoll::scene::{MAX_CHARACTERS, MAX_EVENTS};
 use ragdoll::spec::RagdollSpec;
@@ -45,6 +45,16 @@ impl Simulation {
                 "an earlier call failed inside the engine (an InternalError); this simulation cannot go on",
             )
         })
+    }
+
+    fn room_for_event(&self) -> PyResult<()> {
+        if self.events >= MAX_EVENTS {
+            return Err(bound(
+                "event",
+                format!("a simulation holds at most {MAX_EVENTS} events"),
+            ));
+        }
+        Ok(())
     }
 
     fn id(&self, handle: usize) -> PyResult<RagdollId> {
@@ -141,12 +151,7 @@ impl Simulation {
         air: bool,
         scale: f32,
     ) -> PyResult<()> {
-        if self.events >= MAX_EVENTS {
-            return Err(bound(
-                "event",
-                format!("a simulation holds at most {MAX_EVENTS} events"),
-            ));
-        }
+        self.room_for_event()?;
         let mut world = self.world()?;
         let mut position = point(at, "at")?;
         if !air && let Some(g) = world.settings().ground {
@@ -162,6 +167,78 @@ impl Simulation {
         drop(world);
         self.events += 1;
         Ok(())
+    }
+
+    /// A projectile from `origin`, flying along `direction` or toward `target`, giving its
+    /// momentum (`mass_kg` at `speed_mps`) to the first body part it meets at `time_s`
+    /// (seconds from the start; by default now).
+    #[pyo3(signature = (origin, *, direction=None, target=None, mass_kg=0.008,
+        speed_mps=360.0, time_s=None))]
+    fn add_projectile(
+        &mut self,
+        origin: &Bound<'_, PyAny>,
+        direction: Option<&Bound<'_, PyAny>>,
+        target: Option<&Bound<'_, PyAny>>,
+        mass_kg: f32,
+        speed_mps: f32,
+        time_s: Option<f32>,
+    ) -> PyResult<()> {
+        self.room_for_event()?;
+        let origin = point(origin, "origin")?;
+        let direction = match (direction, target) {
+            (Some(d), None) => arrays::vec3(d, "direction")?,
+            (None, Some(t)) => point(t, "target")? - origin,
+            _ => return Err(bound("direction", "give either direction or target")),
+        };
+        let mut world = self.world()?;
+        let shot = Projectile {
+            origin,
+            direction,
+            mass_kg,
+            speed_mps,
+            time_s: time_s.unwrap_or(world.time() as f32),
+        };
+        guard(|| world.add_projectile(shot).map_err(to_py))?;
+        drop(world);
+        self.events += 1;
+        Ok(())
+    }
+
+    /// An impulse of `impulse_ns` (N·s, world) on ragdoll `handle`'s body part `target` (a
+    /// body of its spec or a joint of its skeleton) at `time_s` (by default now).
+    #[pyo3(signature = (handle, target, impulse_ns, *, time_s=None))]
+    fn add_push(
+        &mut self,
+        handle: usize,
+        target: &str,
+        impulse_ns: &Bound<'_, PyAny>,
+        time_s: Option<f32>,
+    ) -> PyResult<()> {
+        self.room_for_event()?;
+        let id = self.id(handle)?;
+        let impulse_ns = arrays::vec3(impulse_ns, "impulse_ns")?;
+        let mut world = self.world()?;
+        let push = Push::Impulse {
+            target: target.to_string(),
+            impulse_ns,
+            time_s: time_s.unwrap_or(world.time() as f32),
+        };
+        guard(|| world.add_push(id, push).map_err(to_py))?;
+        drop(world);
+        self.events += 1;
+        Ok(())
+    }
+
+    /// Ragdoll `handle`'s bodies' velocities now, one row each in its spec's order:
+    /// linear (m/s) then angular (rad/s), world space: an array (bodies, 6).
+    fn body_velocities<'py>(&self, py: Python<'py>, handle: usize) -> PyResult<Bound<'py, PyAny>> {
+        let id = self.id(handle)?;
+        let velocities = self.world()?.body_velocities(id);
+        let data: Vec<f64> = velocities
+            .iter()
+            .flat_map(|(v, w)| [v.x, v.y, v.z, w.x, w.y, w.z].map(f64::from))
+            .collect();
+        Ok(arrays::array(py, &[velocities.len(), 6], data)?.into_any())
     }
 
     /// Simulates `seconds` more. The interpreter's lock is released while it steps.
