@@ -4,7 +4,7 @@
 
 use std::sync::{Mutex, MutexGuard};
 
-use glam::{Quat, Vec3};
+use glam::Quat;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use ragdoll::events::{Blast, Projectile, Push};
@@ -17,7 +17,7 @@ use crate::arrays::{self, ROW};
 use crate::character::Character;
 use crate::errors::{bound, guard, to_py};
 use crate::spec::Spec;
-use crate::world::{point, world_settings};
+use crate::world::{placement, point, shot_direction, world_settings};
 
 /// A physics world stepped a piece at a time: `step(seconds)` goes on from where the last
 /// step left it, and ragdolls can be added (`add`) and removed (`remove`) between any two
@@ -104,16 +104,7 @@ impl Simulation {
                 format!("a simulation holds at most {MAX_CHARACTERS} ragdolls"),
             ));
         }
-        let position = match at {
-            Some(p) => point(p, "at")?,
-            None => Vec3::ZERO,
-        };
-        if !(facing_deg.is_finite() && facing_deg.abs() <= 360.0) {
-            return Err(bound(
-                "facing_deg",
-                format!("must be within ±360, not {facing_deg}"),
-            ));
-        }
+        let position = placement(at, facing_deg)?;
         let c = character.inner.clone();
         let spec = match spec {
             Some(s) => s.inner.clone(),
@@ -185,11 +176,7 @@ impl Simulation {
     ) -> PyResult<()> {
         self.room_for_event()?;
         let origin = point(origin, "origin")?;
-        let direction = match (direction, target) {
-            (Some(d), None) => arrays::vec3(d, "direction")?,
-            (None, Some(t)) => point(t, "target")? - origin,
-            _ => return Err(bound("direction", "give either direction or target")),
-        };
+        let direction = shot_direction(origin, direction, target)?;
         let mut world = self.world()?;
         let shot = Projectile {
             origin,

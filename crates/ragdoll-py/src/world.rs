@@ -108,6 +108,34 @@ pub(crate) fn world_settings(
     Ok(s)
 }
 
+/// Where a character's feet go (`at`, the origin when not given), with its facing checked.
+pub(crate) fn placement(at: Option<&Bound<'_, PyAny>>, facing_deg: f32) -> PyResult<Vec3> {
+    let position = match at {
+        Some(p) => point(p, "at")?,
+        None => Vec3::ZERO,
+    };
+    if !(facing_deg.is_finite() && facing_deg.abs() <= 360.0) {
+        return Err(bound(
+            "facing_deg",
+            format!("must be within ±360, not {facing_deg}"),
+        ));
+    }
+    Ok(position)
+}
+
+/// A shot's direction of flight: `direction`, or from `origin` toward `target`.
+pub(crate) fn shot_direction(
+    origin: Vec3,
+    direction: Option<&Bound<'_, PyAny>>,
+    target: Option<&Bound<'_, PyAny>>,
+) -> PyResult<Vec3> {
+    match (direction, target) {
+        (Some(d), None) => arrays::vec3(d, "direction"),
+        (None, Some(t)) => Ok(point(t, "target")? - origin),
+        _ => Err(bound("direction", "give either direction or target")),
+    }
+}
+
 /// A point of the world, within the bounds the world holds every coordinate to.
 pub(crate) fn point(v: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec3> {
     let p = arrays::vec3(v, what)?;
@@ -227,16 +255,7 @@ impl World {
                 format!("a world holds at most {MAX_CHARACTERS} characters"),
             ));
         }
-        let position = match at {
-            Some(p) => point(p, "at")?,
-            None => Vec3::ZERO,
-        };
-        if !(facing_deg.is_finite() && facing_deg.abs() <= 360.0) {
-            return Err(bound(
-                "facing_deg",
-                format!("must be within ±360, not {facing_deg}"),
-            ));
-        }
+        let position = placement(at, facing_deg)?;
         let activation = match activate {
             Some(a) => activation(a)?,
             None => Activation::Immediately,
@@ -365,11 +384,7 @@ impl World {
         interval_s: f32,
     ) -> PyResult<()> {
         let origin = point(origin, "origin")?;
-        let direction = match (direction, target) {
-            (Some(d), None) => arrays::vec3(d, "direction")?,
-            (None, Some(t)) => point(t, "target")? - origin,
-            _ => return Err(bound("direction", "give either direction or target")),
-        };
+        let direction = shot_direction(origin, direction, target)?;
         if !(1..=MAX_BURST).contains(&count) {
             return Err(bound(
                 "count",
