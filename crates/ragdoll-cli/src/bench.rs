@@ -191,11 +191,13 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     let progress = Progress::new(0, "bench");
     for &n in &a.ragdolls {
         for &t in &threads {
+            let mut engine = crate::commands::engine(backend, !a.no_freeze);
+            if let Some(f) = engine.fast_mut() {
+                f.iterations = a.fast_iterations;
+                f.impact_passes = a.impact_passes;
+            }
             let settings = WorldSettings {
-                backend,
-                freeze_joints: !a.no_freeze,
-                fast_iterations: a.fast_iterations,
-                fast_impact_passes: a.impact_passes,
+                backend: engine,
                 ..Default::default()
             };
             let row = run_pile(
@@ -208,7 +210,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             )?;
             let base = if a.compare {
                 let rigid = WorldSettings {
-                    backend: BackendKind::Rigid,
+                    backend: BackendKind::Rigid.into(),
                     ..settings
                 };
                 Some(run_pile(
@@ -249,9 +251,10 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                 });
             }
             let mut run = run_json(&row, backend, a.steps);
-            run["freeze_joints"] = json!(settings.freeze_joints);
-            run["fast_iterations"] = json!(settings.fast_iterations);
-            run["fast_impact_passes"] = json!(settings.fast_impact_passes);
+            let fast = settings.backend.fast();
+            run["freeze_joints"] = json!(fast.is_some_and(|f| f.freeze_joints));
+            run["fast_iterations"] = json!(fast.map(|f| f.iterations));
+            run["fast_impact_passes"] = json!(fast.map(|f| f.impact_passes));
             run["pile_height"] = json!(piles.height);
             run["motors"] = json!(piles.motors);
             if let Some(b) = &base {

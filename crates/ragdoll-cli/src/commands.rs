@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Result, bail};
-use ragdoll::backend::BackendKind;
+use ragdoll::backend::{BackendConfig, BackendKind, FastConfig};
 use ragdoll::events::{Blast, Projectile};
 use ragdoll::export;
 use ragdoll::report::Report;
@@ -23,16 +23,27 @@ use crate::{
     preview_cmd,
 };
 
+/// The engine `kind` at its defaults, with the fast engine's joint freezing as the flags
+/// say (the other engines do not freeze).
+pub(crate) fn engine(kind: BackendKind, freeze_joints: bool) -> BackendConfig {
+    match kind {
+        BackendKind::Fast => BackendConfig::Fast(FastConfig {
+            freeze_joints,
+            ..Default::default()
+        }),
+        other => other.into(),
+    }
+}
+
 fn world_settings(a: &RunArgs, rest_pose: bool) -> Result<WorldSettings> {
     let max = ragdoll::world::MAX_SECONDS;
     if !(a.seconds.is_finite() && a.seconds >= 0.0 && a.seconds <= max) {
         bail!("--seconds: must be between 0 and {max}, not {}", a.seconds);
     }
     let settings = WorldSettings {
-        backend: a.backend.backend,
+        backend: engine(a.backend.backend, !a.no_freeze),
         fps: a.fps,
         joint_damping: a.joint_damping,
-        freeze_joints: !a.no_freeze,
         start: if rest_pose {
             StartPose::Rest
         } else {
@@ -202,7 +213,12 @@ fn simulate_character(
     let world_projectiles = world.projectile_reports();
     let active_joints = world.active_joints_per_frame().map(<[u32]>::to_vec);
     let track = world.into_track();
-    check_finite(&character.name, metrics.nan, &track, settings.backend)?;
+    check_finite(
+        &character.name,
+        metrics.nan,
+        &track,
+        settings.backend.kind(),
+    )?;
     let mut report = Report::new(
         input,
         ragdoll::import::standing_height(character),
@@ -212,7 +228,7 @@ fn simulate_character(
         run.seconds,
         started.elapsed().as_secs_f64(),
     );
-    report.backend = settings.backend.as_str().into();
+    report.backend = settings.backend.kind().as_str().into();
     report.blasts = blast_reports;
     report.projectiles = world_projectiles;
     report.active_joints_per_frame = active_joints;

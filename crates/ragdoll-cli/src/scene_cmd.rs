@@ -170,14 +170,19 @@ fn apply_flags(a: &SimulateArgs, matches: &ArgMatches, scene: &mut Scene) -> Res
             ),
         }
     }
-    if given(matches, "backend") {
-        scene.settings.backend = a.sim.run.backend.backend;
+    if a.sim.run.no_freeze {
+        scene.fast.freeze_joints = false;
+    }
+    if given(matches, "backend") || a.sim.run.no_freeze {
+        let kind = if given(matches, "backend") {
+            a.sim.run.backend.backend
+        } else {
+            scene.settings.backend.kind()
+        };
+        scene.set_backend(kind);
     }
     if given(matches, "joint_damping") {
         scene.settings.joint_damping = a.sim.run.joint_damping;
-    }
-    if a.sim.run.no_freeze {
-        scene.settings.freeze_joints = false;
     }
     // A flag can make the scene's settings disagree (`--backend particle` with the file's
     // `joint_damping`): said before anything runs, naming the setting.
@@ -195,7 +200,7 @@ fn apply_flags(a: &SimulateArgs, matches: &ArgMatches, scene: &mut Scene) -> Res
 fn check_tracks(a: &SimulateArgs, scene: &Scene, result: &SceneResult) -> Result<()> {
     let in_scene = |e: anyhow::Error| e.context(a.file.display().to_string());
     for (c, track) in scene.characters.iter().zip(&result.tracks) {
-        check_finite(&c.name, false, track, scene.settings.backend).map_err(in_scene)?;
+        check_finite(&c.name, false, track, scene.settings.backend.kind()).map_err(in_scene)?;
     }
     let no_track = ragdoll::track::Track {
         fps: scene.settings.fps,
@@ -205,7 +210,7 @@ fn check_tracks(a: &SimulateArgs, scene: &Scene, result: &SceneResult) -> Result
         "a character",
         result.report.metrics.nan,
         &no_track,
-        scene.settings.backend,
+        scene.settings.backend.kind(),
     )
     .map_err(in_scene)
 }

@@ -15,7 +15,9 @@ use ragdoll::math::Transform;
 use ragdoll::scene::{
     Event, MAX_BURST, MAX_CHARACTERS, MAX_EVENTS, Scene, SceneCharacter, SceneResult,
 };
-use ragdoll::world::{Activation, BackendKind, MAX_COORDINATE_M, Motors, StartPose, WorldSettings};
+use ragdoll::world::{
+    Activation, BackendConfig, BackendKind, MAX_COORDINATE_M, Motors, StartPose, WorldSettings,
+};
 
 use crate::arrays::{self, ROW};
 use crate::character::Character;
@@ -36,10 +38,11 @@ const LOOK_UP: Duration = Duration::from_millis(20);
 /// `backend` is `"rigid"` (rapier, the reference), `"fast"` (our solver built for
 /// crowds) or `"particle"`; the other keyword arguments are the world's settings:
 /// `gravity` (3 numbers, m/s²), `ground` (height in metres, or None for none),
-/// `start_pose` (`"first_frame"` or `"rest"`), `dt`, `substeps`, `iterations`,
-/// `collision_substeps`, `project_limits`, `particle_substeps`, `particle_iterations`,
-/// `fast_substeps`, `fast_iterations`, `fast_impact_passes`, `joint_damping` and
-/// `freeze_joints`.
+/// `start_pose` (`"first_frame"` or `"rest"`), `dt`, `project_limits` and
+/// `joint_damping`, and the chosen backend's own: `substeps`, `iterations` and
+/// `collision_substeps` (rigid), `collision_substeps`, `particle_substeps` and
+/// `particle_iterations` (particle), `fast_substeps`, `fast_iterations`,
+/// `fast_impact_passes` and `freeze_joints` (fast). Another backend's setting is refused.
 #[pyclass(module = "ragdoll_sim")]
 pub struct World {
     scene: Arc<Scene>,
@@ -69,18 +72,48 @@ fn set(s: &mut WorldSettings, key: &str, v: &Bound<'_, PyAny>) -> PyResult<()> {
             }
         }
         "dt" => s.dt = v.extract()?,
-        "substeps" => s.substeps = v.extract()?,
-        "iterations" => s.iterations = v.extract()?,
-        "collision_substeps" => s.collision_substeps = v.extract()?,
         "project_limits" => s.project_limits = v.extract()?,
-        "particle_substeps" => s.particle_substeps = v.extract()?,
-        "particle_iterations" => s.particle_iterations = v.extract()?,
-        "fast_substeps" => s.fast_substeps = v.extract()?,
-        "fast_iterations" => s.fast_iterations = v.extract()?,
-        "fast_impact_passes" => s.fast_impact_passes = v.extract()?,
         "joint_damping" => s.joint_damping = v.extract()?,
-        "freeze_joints" => s.freeze_joints = v.extract()?,
-        other => return Err(bound(other, "is not a world setting")),
+        other => return set_engine(&mut s.backend, other, v),
+    }
+    Ok(())
+}
+
+/// Applies one keyword setting of the engine; a setting of another engine is refused, as
+/// it would change nothing.
+fn set_engine(c: &mut BackendConfig, key: &str, v: &Bound<'_, PyAny>) -> PyResult<()> {
+    match (c, key) {
+        (BackendConfig::Rigid(c), "substeps") => c.substeps = v.extract()?,
+        (BackendConfig::Rigid(c), "iterations") => c.iterations = v.extract()?,
+        (BackendConfig::Rigid(c), "collision_substeps") => c.collision_substeps = v.extract()?,
+        (BackendConfig::Particle(c), "collision_substeps") => c.collision_substeps = v.extract()?,
+        (BackendConfig::Particle(c), "particle_substeps") => c.substeps = v.extract()?,
+        (BackendConfig::Particle(c), "particle_iterations") => c.iterations = v.extract()?,
+        (BackendConfig::Fast(c), "fast_substeps") => c.substeps = v.extract()?,
+        (BackendConfig::Fast(c), "fast_iterations") => c.iterations = v.extract()?,
+        (BackendConfig::Fast(c), "fast_impact_passes") => c.impact_passes = v.extract()?,
+        (BackendConfig::Fast(c), "freeze_joints") => c.freeze_joints = v.extract()?,
+        (c, key) => {
+            let owner = match key {
+                "substeps" | "iterations" => Some("rigid"),
+                "collision_substeps" => Some("rigid and particle"),
+                "particle_substeps" | "particle_iterations" => Some("particle"),
+                "fast_substeps" | "fast_iterations" | "fast_impact_passes" | "freeze_joints" => {
+                    Some("fast")
+                }
+                _ => None,
+            };
+            return Err(match owner {
+                Some(owner) => bound(
+                    key,
+                    format!(
+                        "is a setting of the {owner} backend only; this world's is \"{}\"",
+                        c.kind().as_str()
+                    ),
+                ),
+                None => bound(key, "is not a world setting"),
+            });
+        }
     }
     Ok(())
 }
@@ -91,12 +124,14 @@ pub(crate) fn world_settings(
     settings: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<WorldSettings> {
     let mut s = WorldSettings {
-        backend: BackendKind::from_name(backend).ok_or_else(|| {
-            bound(
-                "backend",
-                format!("must be \"rigid\", \"fast\" or \"particle\", not {backend:?}"),
-            )
-        })?,
+        backend: BackendKind::from_name(backend)
+            .ok_or_else(|| {
+                bound(
+                    "backend",
+                    format!("must be \"rigid\", \"fast\" or \"particle\", not {backend:?}"),
+                )
+            })?
+            .into(),
         ..WorldSettings::default()
     };
     if let Some(kw) = settings {
@@ -584,7 +619,7 @@ impl World {
     /// The backend's name.
     #[getter]
     fn backend(&self) -> &'static str {
-        self.scene.settings.backend.as_str()
+        self.scene.settings.backend.kind().as_str()
     }
 
     /// Simulates `seconds` from the start and records `fps` frames a second (by default
@@ -668,7 +703,7 @@ impl World {
     fn __repr__(&self) -> String {
         format!(
             "<World {}: {} characters, {} events>",
-            self.scene.settings.backend.as_str(),
+            self.scene.settings.backend.kind().as_str(),
             self.scene.characters.len(),
             events(&self.scene)
         )

@@ -145,6 +145,14 @@ def test_errors_are_exceptions_with_their_place(tmp_path):
     with pytest.raises(rd.BoundError) as e:
         rd.World("rigid", substeps=0)
     assert e.value.key == "substeps"
+    # Each engine reads its own settings: another engine's would change nothing.
+    with pytest.raises(rd.BoundError) as e:
+        rd.World("rigid", fast_iterations=2)
+    assert e.value.key == "fast_iterations" and "fast backend" in str(e.value)
+    rd.World("fast", fast_iterations=2, freeze_joints=False)
+    with pytest.raises(rd.BoundError) as e:
+        rd.World("fast", fast_iterations=9)
+    assert e.value.key == "fast_iterations"
     names, parents, rest = humanoid_arrays()
     with pytest.raises(rd.SkeletonError) as e:
         rd.Character.from_arrays(names, [5] + parents[1:], rest)

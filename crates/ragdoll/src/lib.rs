@@ -36,9 +36,9 @@
 //!
 //! # Note
 //!
-//! Three backends ([`world::BackendKind`]): rigid (rapier3d, the default and the
-//! reference), fast (our own rigid-body solver for ragdolls and crowds) and particle (our
-//! XPBD particle ragdoll); see [`backend`]. Preview pictures are drawn by the separate
+//! Three backends, each configured by one variant of [`backend::BackendConfig`]: rigid
+//! (rapier3d, the default and the reference), fast (our own rigid-body solver for
+//! ragdolls and crowds) and particle (our XPBD particle ragdoll); see [`backend`]. Preview pictures are drawn by the separate
 //! `ragdoll-preview` crate, the interactive viewer is `ragdoll-view`. Powered mode
 //! (`world::Motors`) tracks mocap within 5° with the root on the clip.
 //!

@@ -40,7 +40,7 @@ fn a_ragdoll_added_mid_run_falls_as_one_added_at_the_start() {
     for backend in BackendKind::ALL {
         let settings = WorldSettings {
             ground: None,
-            backend,
+            backend: backend.into(),
             ..Default::default()
         };
         let mut world = World::new(&settings).unwrap();
@@ -91,7 +91,7 @@ fn a_ragdoll_added_mid_run_falls_as_one_added_at_the_start() {
 fn a_late_ragdolls_track_holds_its_start_pose_until_it_came() {
     let (character, spec) = humanoid_and_spec();
     let settings = WorldSettings {
-        backend: BackendKind::Fast,
+        backend: BackendKind::Fast.into(),
         ..Default::default()
     };
     let mut world = World::new(&settings).unwrap();
@@ -126,7 +126,7 @@ fn a_late_ragdoll_is_checked_against_where_the_others_are_now() {
     let (character, spec) = humanoid_and_spec();
     let settings = WorldSettings {
         ground: None,
-        backend: BackendKind::Fast,
+        backend: BackendKind::Fast.into(),
         ..Default::default()
     };
     let mut world = World::new(&settings).unwrap();
@@ -156,7 +156,7 @@ fn a_late_ragdolls_energy_is_not_drift() {
     let (character, spec) = humanoid_and_spec();
     for backend in [BackendKind::Rigid, BackendKind::Fast] {
         let settings = WorldSettings {
-            backend,
+            backend: backend.into(),
             ..Default::default()
         };
         let mut world = World::new(&settings).unwrap();

@@ -155,7 +155,7 @@ fn a_dropped_blocky_character_lands_whole() {
         for backend in [BackendKind::Rigid, BackendKind::Fast] {
             let what = format!("blocky facing {facing}° on {backend:?}");
             let settings = WorldSettings {
-                backend,
+                backend: backend.into(),
                 ..Default::default()
             };
             let mut world = World::new(&settings).unwrap();

@@ -17,7 +17,7 @@ fn free_space(backend: BackendKind) -> WorldSettings {
     WorldSettings {
         gravity: Vec3::ZERO,
         ground: None,
-        backend,
+        backend: backend.into(),
         ..Default::default()
     }
 }
@@ -53,7 +53,7 @@ fn a_one_kilometre_body_keeps_the_particle_broad_phase_small() {
         length_m: 0.1,
     };
     let settings = WorldSettings {
-        backend: BackendKind::Particle,
+        backend: BackendKind::Particle.into(),
         ..Default::default()
     };
     let (mut world, _) = World::with_ragdoll(&character, &spec, &settings).unwrap();
@@ -77,7 +77,7 @@ fn ten_thousand_tonnes_of_tnt_keep_the_particle_broad_phase_small() {
     let character = humanoid();
     let spec = humanoid_spec();
     let settings = WorldSettings {
-        backend: BackendKind::Particle,
+        backend: BackendKind::Particle.into(),
         ..Default::default()
     };
     let (mut world, _) = World::with_ragdoll(&character, &spec, &settings).unwrap();
@@ -103,7 +103,7 @@ fn characters_placed_inside_each_other_are_refused_naming_both() {
         let character = humanoid();
         let spec = humanoid_spec();
         let settings = WorldSettings {
-            backend,
+            backend: backend.into(),
             ..Default::default()
         };
         let mut world = World::new(&settings).unwrap();
@@ -327,7 +327,7 @@ fn positions_beyond_ten_kilometres_are_refused() {
     let spec = humanoid_spec();
     let far = Vec3::new(1.0e6, 0.0, 0.0);
     let settings = WorldSettings {
-        backend: BackendKind::Particle,
+        backend: BackendKind::Particle.into(),
         ..Default::default()
     };
     let mut world = World::new(&settings).unwrap();
@@ -401,7 +401,7 @@ fn a_hard_pin_a_kilometre_away_hauls_the_particle_ragdoll_without_blowing_it_up(
     let character = humanoid();
     let spec = humanoid_spec();
     let settings = WorldSettings {
-        backend: BackendKind::Particle,
+        backend: BackendKind::Particle.into(),
         ..Default::default()
     };
     let (mut world, id) = World::with_ragdoll(&character, &spec, &settings).unwrap();
@@ -452,7 +452,7 @@ fn the_lightest_humanoid_allowed_collapses_without_going_non_finite() {
     let spec = build_spec(&character, &options).unwrap();
     for backend in BackendKind::ALL {
         let settings = WorldSettings {
-            backend,
+            backend: backend.into(),
             ..Default::default()
         };
         let (mut world, id) = World::with_ragdoll(&character, &spec, &settings).unwrap();

@@ -321,7 +321,7 @@ fn creatures_land_whole_and_come_to_rest() {
 /// at the end, m/s.
 fn drop(c: &Character, spec: &RagdollSpec, backend: BackendKind) -> (Metrics, f32) {
     let settings = WorldSettings {
-        backend,
+        backend: backend.into(),
         ..Default::default()
     };
     let mut world = World::new(&settings).unwrap();

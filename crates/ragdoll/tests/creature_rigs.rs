@@ -98,7 +98,7 @@ fn lands_whole(name: &str, bones: fn() -> Bones, seconds: f32) {
                 RELAXED_JOINT_DAMPING
             };
             let settings = WorldSettings {
-                backend,
+                backend: backend.into(),
                 joint_damping,
                 ..Default::default()
             };

@@ -32,7 +32,7 @@ fn plate(size: [f32; 3], at: [f32; 3]) -> ExtraShape {
 
 fn settings(backend: BackendKind) -> WorldSettings {
     WorldSettings {
-        backend,
+        backend: backend.into(),
         ..Default::default()
     }
 }

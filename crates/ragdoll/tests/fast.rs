@@ -12,11 +12,13 @@ use ragdoll::events::blast::{blast_at, part_impulse};
 use ragdoll::events::{Blast, Projectile};
 use ragdoll::math::Transform;
 use ragdoll::spec::{BuildOptions, RagdollSpec, build_spec};
-use ragdoll::world::{BackendKind, RagdollId, STANDARD_GRAVITY, World, WorldSettings};
+use ragdoll::world::{
+    BackendConfig, BackendKind, FastConfig, RagdollId, STANDARD_GRAVITY, World, WorldSettings,
+};
 
 fn fast() -> WorldSettings {
     WorldSettings {
-        backend: BackendKind::Fast,
+        backend: BackendKind::Fast.into(),
         ..Default::default()
     }
 }
@@ -447,8 +449,11 @@ fn two_passes_a_substep_hold_piles_tighter_than_one() {
     for k in 0..4 {
         let worst = |iterations: usize| {
             let settings = WorldSettings {
-                fast_iterations: iterations,
-                fast_impact_passes: 0,
+                backend: BackendConfig::Fast(FastConfig {
+                    iterations,
+                    impact_passes: 0,
+                    ..Default::default()
+                }),
                 ..fast()
             };
             pile_of_four(&settings, 0.7 + 0.17 * k as f32)
@@ -472,12 +477,15 @@ fn passes_added_in_impacts_hold_landings_together() {
     for k in 0..4 {
         let worst = |impact_passes: usize| {
             let settings = WorldSettings {
-                fast_impact_passes: impact_passes,
+                backend: BackendConfig::Fast(FastConfig {
+                    impact_passes,
+                    ..Default::default()
+                }),
                 ..fast()
             };
             pile_of_four(&settings, 0.5 + 0.29 * k as f32)
         };
-        let (none, added) = (worst(0), worst(WorldSettings::default().fast_impact_passes));
+        let (none, added) = (worst(0), worst(FastConfig::default().impact_passes));
         assert!(!added.nan && added.energy_drift < 0.005, "{added:?}");
         assert!(
             added.max_joint_separation_m <= 0.005 && added.max_limit_violation_solver_deg <= 2.0,

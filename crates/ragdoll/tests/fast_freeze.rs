@@ -7,12 +7,16 @@ use glam::{Quat, Vec3};
 use ragdoll::events::Projectile;
 use ragdoll::math::Transform;
 use ragdoll::spec::{BuildOptions, RagdollSpec, build_spec};
-use ragdoll::world::{BackendKind, RagdollId, STANDARD_GRAVITY, World, WorldSettings};
+use ragdoll::world::{
+    BackendConfig, FastConfig, RagdollId, STANDARD_GRAVITY, World, WorldSettings,
+};
 
 fn fast(freeze_joints: bool) -> WorldSettings {
     WorldSettings {
-        backend: BackendKind::Fast,
-        freeze_joints,
+        backend: BackendConfig::Fast(FastConfig {
+            freeze_joints,
+            ..Default::default()
+        }),
         ..Default::default()
     }
 }

@@ -278,7 +278,7 @@ fn a_hard_pin_drags_a_long_chain_along_its_path() {
     let spec = build_spec(&dragon, &BuildOptions::default()).unwrap();
     for backend in [BackendKind::Rigid, BackendKind::Fast] {
         let settings = WorldSettings {
-            backend,
+            backend: backend.into(),
             ..Default::default()
         };
         let (mut world, id) = World::with_ragdoll(&dragon, &spec, &settings).unwrap();

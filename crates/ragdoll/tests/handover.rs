@@ -6,7 +6,9 @@ mod common;
 use glam::Vec3;
 use ragdoll::import::{ImportOptions, load};
 use ragdoll::spec::{BuildOptions, build_spec};
-use ragdoll::world::{Activation, STANDARD_GRAVITY, World, WorldSettings};
+use ragdoll::world::{
+    Activation, BackendConfig, RigidConfig, STANDARD_GRAVITY, World, WorldSettings,
+};
 
 /// The clip's own body velocities at time `t` (central differences over `h`), from forward
 /// kinematics of the clip and the spec's body frames, independently of the world.
@@ -73,7 +75,10 @@ fn hand_over_keeps_the_clips_momentum_and_positions() {
     let settings = WorldSettings {
         ground: None,
         dt: 1.0 / 960.0,
-        collision_substeps: 1,
+        backend: BackendConfig::Rigid(RigidConfig {
+            collision_substeps: 1,
+            ..Default::default()
+        }),
         ..Default::default()
     };
     let (mut world, id) = World::with_ragdoll(&character, &spec, &settings).unwrap();

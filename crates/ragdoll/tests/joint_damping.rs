@@ -73,7 +73,7 @@ fn swing_decay_rate(backend: BackendKind, damping: f32) -> f32 {
     let dir = Vec3::new(release.sin(), -release.cos(), 0.0);
     let (character, spec) = pendulum(dir);
     let settings = WorldSettings {
-        backend,
+        backend: backend.into(),
         ground: None,
         joint_damping: damping,
         ..Default::default()
@@ -141,7 +141,7 @@ fn a_swinging_limb_decays_at_the_damping_rate_and_swings_on_without_it() {
 #[test]
 fn the_particle_backend_refuses_joint_damping() {
     let settings = WorldSettings {
-        backend: BackendKind::Particle,
+        backend: BackendKind::Particle.into(),
         joint_damping: 1.5,
         ..Default::default()
     };

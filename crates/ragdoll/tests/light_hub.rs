@@ -101,7 +101,7 @@ fn a_light_hub_with_many_arms_holds_still_in_zero_gravity() {
         let (character, spec) = star(arms, hub_kg);
         for &backend in backends {
             let settings = WorldSettings {
-                backend,
+                backend: backend.into(),
                 gravity: Vec3::ZERO,
                 ground: None,
                 ..Default::default()

@@ -13,7 +13,7 @@ use ragdoll::world::{BackendKind, STANDARD_GRAVITY, World, WorldSettings};
 
 fn particle() -> WorldSettings {
     WorldSettings {
-        backend: BackendKind::Particle,
+        backend: BackendKind::Particle.into(),
         ..Default::default()
     }
 }
@@ -195,7 +195,7 @@ fn a_box_dropped_on_an_edge_comes_to_rest_on_a_face() {
     };
     for backend in [BackendKind::Rigid, BackendKind::Fast, BackendKind::Particle] {
         let mut world = World::new(&WorldSettings {
-            backend,
+            backend: backend.into(),
             ..Default::default()
         })
         .unwrap();

@@ -31,7 +31,7 @@ fn never_gains_energy(backend: BackendKind) {
     let character = humanoid();
     let spec = fattened(&build_spec(&character, &BuildOptions::default()).unwrap());
     let settings = WorldSettings {
-        backend,
+        backend: backend.into(),
         ..Default::default()
     };
     let (mut world, id) = World::with_ragdoll(&character, &spec, &settings).unwrap();

@@ -37,7 +37,7 @@ fn a_removed_ragdoll_is_met_by_nothing() {
     let shove = Vec3::new(-4.0 * mass, 0.0, 0.0);
     for backend in BackendKind::ALL {
         let settings = WorldSettings {
-            backend,
+            backend: backend.into(),
             gravity: Vec3::ZERO,
             ground: None,
             ..Default::default()
@@ -110,7 +110,7 @@ fn a_removed_ragdolls_track_holds_its_last_pose() {
     let (character, spec) = humanoid_and_spec();
     for backend in BackendKind::ALL {
         let settings = WorldSettings {
-            backend,
+            backend: backend.into(),
             ..Default::default()
         };
         let mut world = World::new(&settings).unwrap();

@@ -534,7 +534,7 @@ fn falls_to_rest(
 ) {
     {
         let settings = WorldSettings {
-            backend,
+            backend: backend.into(),
             ..Default::default()
         };
         let (mut world, id) = World::with_ragdoll(c, spec, &settings).unwrap();

@@ -13,6 +13,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use ragdoll::error::Error;
 use ragdoll::import::character_height;
 use ragdoll::scene::Scene;
+use ragdoll::world::{BackendConfig, BackendKind, FastConfig};
 use scene_keys_files::person;
 
 /// A scratch folder, removed when dropped.
@@ -297,28 +298,37 @@ fn joint_damping_is_a_world_setting_refused_where_it_cannot_apply() {
     }
 }
 
-/// `freeze_joints` reaches the world's settings (on unless the file turns it off); a value
-/// that is not a boolean is refused at its key's line.
+/// The fast engine's settings of a scene, where its backend is the fast one.
+fn fast_engine(scene: &Scene) -> FastConfig {
+    *scene.settings.backend.fast().expect("the fast backend")
+}
+
+/// `freeze_joints` reaches the fast engine's settings (on unless the file turns it off); a
+/// value that is not a boolean is refused at its key's line.
 #[test]
-fn freeze_joints_is_a_world_setting() {
-    assert!(load("[[character]]\n").settings.freeze_joints);
+fn freeze_joints_is_a_setting_of_the_fast_engine() {
+    assert!(fast_engine(&load("backend = \"fast\"\n[[character]]\n")).freeze_joints);
     assert!(
-        !load("freeze_joints = false\n[[character]]\n")
-            .settings
-            .freeze_joints
+        !fast_engine(&load(
+            "backend = \"fast\"\nfreeze_joints = false\n[[character]]\n"
+        ))
+        .freeze_joints
     );
     let (line, m) = failure("fps = 30\nfreeze_joints = \"no\"\n[[character]]\n", "");
     assert_eq!(line, 2, "{m}");
     assert!(m.contains("freeze_joints"), "{m}");
 }
 
-/// `fast_iterations` reaches the world's settings (1 unless given); 0 or more than the
-/// most passes a substep takes is refused at its key's line.
+/// `fast_iterations` reaches the fast engine's settings (1 unless given); 0 or more than
+/// the most passes a substep takes is refused at its key's line, whatever the backend.
 #[test]
-fn fast_iterations_is_a_world_setting_refused_out_of_range() {
-    assert_eq!(load("[[character]]\n").settings.fast_iterations, 1);
+fn fast_iterations_is_a_setting_of_the_fast_engine_refused_out_of_range() {
+    assert_eq!(
+        fast_engine(&load("backend = \"fast\"\n[[character]]\n")).iterations,
+        1
+    );
     let s = load("backend = \"fast\"\nfast_iterations = 2\n[[character]]\n");
-    assert_eq!(s.settings.fast_iterations, 2);
+    assert_eq!(fast_engine(&s).iterations, 2);
     for bad in ["0", "9"] {
         let (line, m) = failure(
             &format!("fps = 30\nfast_iterations = {bad}\n[[character]]\n"),
@@ -332,16 +342,29 @@ fn fast_iterations_is_a_world_setting_refused_out_of_range() {
     }
 }
 
+/// The fast engine's keys in a scene on another backend change nothing there, and are
+/// kept for a switch to the fast engine (a `--backend fast` flag, the viewer's menu).
+#[test]
+fn fast_keys_wait_for_the_fast_engine() {
+    let mut s = load("fast_iterations = 3\nfreeze_joints = false\n[[character]]\n");
+    assert_eq!(s.settings.backend, BackendConfig::Rigid(Default::default()));
+    s.set_backend(BackendKind::Fast);
+    let f = fast_engine(&s);
+    assert!(f.iterations == 3 && !f.freeze_joints, "{f:?}");
+    s.set_backend(BackendKind::Particle);
+    assert_eq!(s.settings.backend, BackendKind::Particle.into());
+}
+
 /// `fast_impact_passes` reaches the world's settings (the default unless given; 0 turns
 /// them off); more than the most passes a substep takes is refused at its key's line.
 #[test]
 fn fast_impact_passes_is_a_world_setting_refused_out_of_range() {
     assert_eq!(
-        load("[[character]]\n").settings.fast_impact_passes,
+        fast_engine(&load("backend = \"fast\"\n[[character]]\n")).impact_passes,
         ragdoll::world::DEFAULT_FAST_IMPACT_PASSES
     );
     let s = load("backend = \"fast\"\nfast_impact_passes = 0\n[[character]]\n");
-    assert_eq!(s.settings.fast_impact_passes, 0);
+    assert_eq!(fast_engine(&s).impact_passes, 0);
     let (line, m) = failure("fps = 30\nfast_impact_passes = 9\n[[character]]\n", "");
     assert_eq!(line, 2, "{m}");
     assert!(

@@ -9,7 +9,7 @@ use ragdoll::math::Transform;
 use ragdoll::skeleton;
 use ragdoll::spec::{BuildOptions, build_spec};
 use ragdoll::track::Metrics;
-use ragdoll::world::{BackendKind, World, WorldSettings};
+use ragdoll::world::{BackendConfig, BackendKind, World, WorldSettings};
 
 /// Four humanoids dropped lying down onto each other, each a further 70° round (the
 /// bench's pile): limbs land across torsos, which bends joints past their stops.
@@ -37,9 +37,12 @@ fn the_solver_reading_is_taken_before_the_clamp_on_both_backends() {
         // Fast with its passes added in impacts holds this pile within 0.6°, under what
         // the clamp allows, so the clamp would have nothing to turn back: without them it
         // leaves 1.7°, and the two readings can be told apart.
+        let mut engine = BackendConfig::from(backend);
+        if let Some(f) = engine.fast_mut() {
+            f.impact_passes = 0;
+        }
         let m = pile(&WorldSettings {
-            backend,
-            fast_impact_passes: 0,
+            backend: engine,
             ..Default::default()
         });
         // The clamp only turns joints back toward their limits.
@@ -67,7 +70,7 @@ fn the_solver_reading_is_taken_before_the_clamp_on_both_backends() {
 #[test]
 fn without_the_clamp_both_readings_are_the_same() {
     let m = pile(&WorldSettings {
-        backend: BackendKind::Rigid,
+        backend: BackendKind::Rigid.into(),
         project_limits: false,
         ..Default::default()
     });
@@ -90,7 +93,7 @@ fn a_link_the_ragdoll_does_not_hold_is_no_bone_stretch() {
     let spec = build_spec(&c, &BuildOptions::default()).unwrap();
     for backend in BackendKind::ALL {
         let settings = WorldSettings {
-            backend,
+            backend: backend.into(),
             ..Default::default()
         };
         let (mut world, id) = World::with_ragdoll(&c, &spec, &settings).unwrap();

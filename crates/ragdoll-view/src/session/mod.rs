@@ -116,7 +116,7 @@ pub(crate) fn viewer_settings(settings: &WorldSettings) -> WorldSettings {
 }
 
 fn backend_of(settings: &WorldSettings) -> BackendChoice {
-    settings.backend
+    settings.backend.kind()
 }
 
 impl Session {
@@ -291,7 +291,8 @@ impl Session {
             return;
         }
         let mut settings = self.scene.settings.clone();
-        settings.backend = kind;
+        // Another engine starts at its defaults: the file's settings were for its own.
+        settings.backend = kind.into();
         let old = std::mem::replace(&mut self.scene.settings, settings);
         let old_backend = std::mem::replace(&mut self.backend, kind);
         let at = self.cursor;

@@ -1,10 +1,13 @@
 //! Physics backends behind one interface, so the world, the events, the metrics and the
 //! exporters never see which engine moved the bodies.
 //!
-//! Ours, chosen with [`BackendKind`]:
-//! - `rigid`: rapier3d rigid bodies and impulse joints (the reference);
-//! - `particle`: our own position-based particle ragdoll (XPBD-style), for creatures;
-//! - `fast`: our own rigid-body solver built for ragdolls (small-step XPBD), for crowds.
+//! Ours, each with its own settings in one variant of [`BackendConfig`] (the world's
+//! settings carry one; [`BackendConfig::build`] builds the engine alone):
+//! - `rigid` ([`RigidBackend`]): rapier3d rigid bodies and impulse joints (the reference);
+//! - `particle` ([`ParticleBackend`]): our own position-based particle ragdoll
+//!   (XPBD-style), for creatures;
+//! - `fast` ([`FastBackend`]): our own rigid-body solver built for ragdolls (small-step
+//!   XPBD), for crowds.
 //!
 //! Another engine (a GPU solver, a game engine's physics) plugs in by implementing
 //! [`Backend`] and handing it to [`World::with_backend`](crate::world::World::with_backend):
@@ -16,6 +19,7 @@
 //! backend written against this interface alone.
 
 pub(crate) mod broad;
+mod config;
 pub(crate) mod fast;
 pub(crate) mod geom;
 pub(crate) mod hub;
@@ -24,6 +28,14 @@ pub(crate) mod rigid;
 pub(crate) mod tree;
 
 use serde::{Deserialize, Serialize};
+
+pub use config::{
+    BackendConfig, DEFAULT_FAST_IMPACT_PASSES, DEFAULT_FAST_SUBSTEPS, FastConfig,
+    MAX_FAST_ITERATIONS, MAX_SUBSTEPS, ParticleConfig, RigidConfig, Surroundings,
+};
+pub use fast::FastBackend;
+pub use particle::ParticleBackend;
+pub use rigid::RigidBackend;
 
 use glam::Vec3;
 
@@ -50,7 +62,7 @@ pub struct BodyState {
 ///
 /// let kind = BackendKind::from_name("particle").unwrap();
 /// assert_eq!(kind.as_str(), "particle");
-/// let settings = WorldSettings { backend: kind, ..Default::default() };
+/// let settings = WorldSettings { backend: kind.into(), ..Default::default() };
 /// let character = ragdoll::skeleton::humanoid();
 /// let spec = ragdoll::spec::build_spec(&character, &Default::default()).unwrap();
 /// let (mut world, _) = World::with_ragdoll(&character, &spec, &settings).unwrap();
@@ -197,12 +209,6 @@ pub trait Backend: Send {
     /// Whether a body's state has gone non-finite in a way [`Backend::body_states`] does
     /// not show: rapier disables such a body and zeroes its velocities (its quarantine).
     fn went_non_finite(&self) -> bool {
-        false
-    }
-    /// Whether one [`Backend::step`] per world step is all it takes: the backend substeps
-    /// inside (the fast backend does), so the world runs its events, motors and clips once
-    /// per step rather than once per collision substep.
-    fn substeps_inside(&self) -> bool {
         false
     }
     /// Half the side of the square ground it has, metres, where its ground is not a
@@ -441,7 +447,6 @@ impl Backend for AnyBackend {
         ref fn enforces_limits() -> bool;
         mut fn step(dt: f32);
         ref fn went_non_finite() -> bool;
-        ref fn substeps_inside() -> bool;
         ref fn ground_half_extent() -> Option<f32>;
         mut fn apply_impulses(impulses: &[BodyImpulse]);
         mut fn apply_impulse_at_point(index: usize, impulse: Vec3, point: Vec3);

@@ -9,7 +9,7 @@ use std::collections::HashSet;
 use glam::Vec3;
 use rapier3d::prelude::*;
 
-use super::{Backend, BodyDesc, BodyState, JointDesc};
+use super::{Backend, BodyDesc, BodyState, JointDesc, RigidConfig, Surroundings};
 use crate::math::Transform;
 use crate::spec::{JointKind, Shape};
 
@@ -27,19 +27,6 @@ const GROUND_KEY: u128 = u128::MAX;
 /// Set in the user data of an extra shape's collider, above its body's index: extra
 /// shapes never meet their own ragdoll's bodies.
 const EXTRA_BIT: u128 = 1 << 64;
-
-/// Settings the rigid backend takes from the world.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct RigidSettings {
-    /// Gravity, m/s².
-    pub gravity: Vec3,
-    /// Height of the ground plane, or `None` for no ground.
-    pub ground: Option<f32>,
-    /// Solver substeps per rapier step (rapier's TGS-soft iterations).
-    pub substeps: usize,
-    /// Constraint iterations per solver substep.
-    pub iterations: usize,
-}
 
 /// Filters contacts between pairs of bodies the spec says never collide, and between an
 /// extra shape and its own ragdoll.
@@ -68,8 +55,8 @@ impl PhysicsHooks for PairFilter {
     }
 }
 
-/// rapier3d world holding every ragdoll.
-pub(crate) struct RigidBackend {
+/// The `rigid` engine: a rapier3d world holding every ragdoll.
+pub struct RigidBackend {
     world: PhysicsWorld,
     joints: Vec<ImpulseJointHandle>,
     /// Each pin's kinematic anchor and joint (`None` once released).
@@ -90,13 +77,14 @@ fn pose(t: &Transform) -> Pose {
 }
 
 impl RigidBackend {
-    pub(crate) fn new(settings: RigidSettings, dt: f32) -> Self {
+    /// An empty rapier world in `surroundings` (its ground a box 1 km square and 1 m
+    /// thick, so fast bodies cannot tunnel under it).
+    pub fn new(config: &RigidConfig, surroundings: &Surroundings) -> Self {
         let mut world = PhysicsWorld::new();
-        world.gravity = settings.gravity;
-        world.integration_parameters.dt = dt;
-        world.integration_parameters.num_solver_iterations = settings.substeps.max(1);
-        world.integration_parameters.num_internal_pgs_iterations = settings.iterations.max(1);
-        if let Some(y) = settings.ground {
+        world.gravity = surroundings.gravity;
+        world.integration_parameters.num_solver_iterations = config.substeps.max(1);
+        world.integration_parameters.num_internal_pgs_iterations = config.iterations.max(1);
+        if let Some(y) = surroundings.ground {
             // A thick box rather than a half-space, so fast bodies cannot tunnel under it.
             let ground = ColliderBuilder::cuboid(GROUND_HALF_EXTENT_M, 1.0, GROUND_HALF_EXTENT_M)
                 .translation(Vec3::new(0.0, y - 1.0, 0.0))
@@ -116,7 +104,7 @@ impl RigidBackend {
             },
             drives: Vec::new(),
             quarantined: false,
-            has_ground: settings.ground.is_some(),
+            has_ground: surroundings.ground.is_some(),
         }
     }
 

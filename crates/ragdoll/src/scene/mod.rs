@@ -92,7 +92,9 @@ use crate::math::Transform;
 use crate::skeleton::Character;
 use crate::spec::RagdollSpec;
 use crate::track::Track;
-use crate::world::{Activation, RagdollId, World, WorldSettings};
+use crate::world::{
+    Activation, BackendConfig, BackendKind, FastConfig, RagdollId, World, WorldSettings,
+};
 use rayon::prelude::*;
 
 /// End of a time window left open in the file (`end_s` omitted): later than any scene, and
@@ -109,8 +111,12 @@ pub struct Scene {
     pub path: PathBuf,
     /// Simulated seconds.
     pub duration_s: f32,
-    /// How the world steps: fps, gravity, ground, start pose.
+    /// How the world steps: fps, gravity, ground, start pose, the engine.
     pub settings: WorldSettings,
+    /// The fast engine's settings as the file gives them (`fast_iterations`,
+    /// `fast_impact_passes`, `freeze_joints`), kept whatever its backend, so that
+    /// switching to the fast engine ([`Scene::set_backend`]) keeps them.
+    pub fast: FastConfig,
     /// The characters, in file order (their index is the `character` index in reports).
     pub characters: Vec<SceneCharacter>,
     /// Explosions.
@@ -224,6 +230,7 @@ impl Scene {
         Scene {
             path,
             duration_s,
+            fast: settings.backend.fast().copied().unwrap_or_default(),
             settings,
             characters: Vec::new(),
             blasts: Vec::new(),
@@ -233,6 +240,15 @@ impl Scene {
             pins: Vec::new(),
             outputs: Outputs::default(),
         }
+    }
+
+    /// Switches the scene's engine to `kind`: the fast engine with [`Scene::fast`], any
+    /// other at its defaults.
+    pub fn set_backend(&mut self, kind: BackendKind) {
+        self.settings.backend = match kind {
+            BackendKind::Fast => BackendConfig::Fast(self.fast),
+            other => other.into(),
+        };
     }
 
     /// Reads and checks a scene file (a regular file of at most
@@ -325,7 +341,7 @@ impl Scene {
             .collect();
         let report = SceneReport {
             scene: self.path.display().to_string(),
-            backend: self.settings.backend.as_str().into(),
+            backend: self.settings.backend.kind().as_str().into(),
             frames: tracks.first().map_or(0, |t| t.frames.len()),
             fps: self.settings.fps,
             seconds: self.duration_s,

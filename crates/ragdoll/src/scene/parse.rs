@@ -18,8 +18,8 @@ use crate::error::{Error, Result};
 use crate::events::{check_end, check_keys, check_magnitude, check_point, check_time};
 use crate::spec::check_within;
 use crate::world::{
-    Activation, MAX_COORDINATE_M, MAX_FPS, MAX_GRAVITY_MPS2, MAX_JOINT_DAMPING, MAX_SECONDS,
-    StartPose, WorldSettings,
+    Activation, BackendConfig, BackendKind, FastConfig, MAX_COORDINATE_M, MAX_FPS,
+    MAX_GRAVITY_MPS2, MAX_JOINT_DAMPING, MAX_SECONDS, StartPose, WorldSettings,
 };
 
 /// Most characters in one scene. Each is loaded and built before anything runs; a crowd
@@ -254,8 +254,35 @@ pub(super) fn span_of<T>(v: &Option<S<T>>) -> Option<Range<usize>> {
 
 // --- From the file to a Scene ----------------------------------------------------------
 
+/// The fast engine's settings from the top-level keys, each checked at its key. They are
+/// read whatever the backend (and ignored by the others), so that a wedge over
+/// `backend` can carry them.
+fn fast_config(top: &Ctx, raw: &RawScene) -> Result<FastConfig> {
+    let mut fast = FastConfig::default();
+    if let Some(f) = &raw.freeze_joints {
+        fast.freeze_joints = *f.get_ref();
+    }
+    // Each count is checked as it is read, so the error points at its own key.
+    let check = |fast: FastConfig, n: &S<u32>, key: &str| match BackendConfig::Fast(fast).validate()
+    {
+        Err(Error::Setting { setting, message }) if setting == key => {
+            Err(top.err(&n.span(), key, message))
+        }
+        _ => Ok(()),
+    };
+    if let Some(n) = &raw.fast_iterations {
+        fast.iterations = *n.get_ref() as usize;
+        check(fast, n, "fast_iterations")?;
+    }
+    if let Some(n) = &raw.fast_impact_passes {
+        fast.impact_passes = *n.get_ref() as usize;
+        check(fast, n, "fast_impact_passes")?;
+    }
+    Ok(fast)
+}
+
 /// The world's settings from the top-level keys.
-fn settings(src: &Src, raw: &RawScene) -> Result<WorldSettings> {
+fn settings(src: &Src, raw: &RawScene) -> Result<(WorldSettings, FastConfig)> {
     let top = Ctx::new(src, String::new());
     let fps = top.opt_checked(&raw.fps, "fps", 30.0, |f| {
         check_within(f, 1.0, MAX_FPS, " frames per second")
@@ -268,25 +295,6 @@ fn settings(src: &Src, raw: &RawScene) -> Result<WorldSettings> {
         joint_damping,
         ..Default::default()
     };
-    if let Some(f) = &raw.freeze_joints {
-        settings.freeze_joints = *f.get_ref();
-    }
-    if let Some(n) = &raw.fast_iterations {
-        settings.fast_iterations = *n.get_ref() as usize;
-        if let Err(Error::Setting { setting, message }) = settings.validate()
-            && setting == "fast_iterations"
-        {
-            return Err(top.err(&n.span(), "fast_iterations", message));
-        }
-    }
-    if let Some(n) = &raw.fast_impact_passes {
-        settings.fast_impact_passes = *n.get_ref() as usize;
-        if let Err(Error::Setting { setting, message }) = settings.validate()
-            && setting == "fast_impact_passes"
-        {
-            return Err(top.err(&n.span(), "fast_impact_passes", message));
-        }
-    }
     if let Some(g) = &raw.gravity {
         settings.gravity = top.vector(g, "gravity", MAX_GRAVITY_MPS2, " m/s²")?;
     }
@@ -299,10 +307,10 @@ fn settings(src: &Src, raw: &RawScene) -> Result<WorldSettings> {
             GroundValue::None => None,
         };
     }
-    if let Some(b) = &raw.backend {
-        settings.backend = crate::world::BackendKind::from_name(b.get_ref()).ok_or_else(|| {
+    let kind = match &raw.backend {
+        Some(b) => BackendKind::from_name(b.get_ref()).ok_or_else(|| {
             top.err(&b.span(), "backend", {
-                let names: Vec<String> = crate::world::BackendKind::ALL
+                let names: Vec<String> = BackendKind::ALL
                     .iter()
                     .map(|k| format!("\"{}\"", k.as_str()))
                     .collect();
@@ -312,8 +320,14 @@ fn settings(src: &Src, raw: &RawScene) -> Result<WorldSettings> {
                     names.join(", ")
                 )
             })
-        })?;
-    }
+        })?,
+        None => BackendKind::default(),
+    };
+    let fast = fast_config(&top, raw)?;
+    settings.backend = match kind {
+        BackendKind::Fast => BackendConfig::Fast(fast),
+        other => other.into(),
+    };
     // Damping the chosen backend cannot apply is refused at its key, not at run time.
     if let Some(c) = &raw.joint_damping
         && let Err(Error::Setting { setting, message }) = settings.validate()
@@ -327,7 +341,7 @@ fn settings(src: &Src, raw: &RawScene) -> Result<WorldSettings> {
             StartPoseName::Rest => StartPose::Rest,
         };
     }
-    Ok(settings)
+    Ok((settings, fast))
 }
 
 /// Refuses a scene with more tables of a kind than it may hold, at the first one past the
@@ -432,7 +446,7 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Scene> {
         3.0,
         check_above_zero_within_run,
     )?;
-    let settings = settings(&src, &raw)?;
+    let (settings, fast) = settings(&src, &raw)?;
     let mut raw = raw;
     let mut tables: Vec<Table> = (0..raw.character.len()).map(Table::Character).collect();
     for (crowd, member) in super::crowd::expand(&src, &raw.crowd)? {
@@ -465,6 +479,7 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Scene> {
         path: path.to_path_buf(),
         duration_s,
         settings,
+        fast,
         characters,
         blasts,
         projectiles,

@@ -443,7 +443,7 @@ mod tests {
             let character = crate::skeleton::humanoid();
             let spec = crate::spec::build_spec(&character, &Default::default()).unwrap();
             let settings = WorldSettings {
-                backend,
+                backend: backend.into(),
                 ..Default::default()
             };
             let (mut world, id) = World::with_ragdoll(&character, &spec, &settings).unwrap();

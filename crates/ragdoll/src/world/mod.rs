@@ -23,22 +23,19 @@ mod settings;
 mod spawn;
 mod start;
 
-pub use crate::backend::BackendKind;
+pub use crate::backend::{
+    BackendConfig, BackendKind, DEFAULT_FAST_IMPACT_PASSES, DEFAULT_FAST_SUBSTEPS, FastConfig,
+    MAX_FAST_ITERATIONS, MAX_SUBSTEPS, ParticleConfig, RigidConfig,
+};
 pub use forces::DragId;
 pub use motors::Motors;
 pub use playback::Activation;
-pub use settings::{
-    DEFAULT_FAST_IMPACT_PASSES, DEFAULT_FAST_SUBSTEPS, DEFAULT_JOINT_DAMPING, MAX_FAST_ITERATIONS,
-    MAX_JOINT_DAMPING, StartPose, WorldSettings,
-};
+pub use settings::{DEFAULT_JOINT_DAMPING, MAX_JOINT_DAMPING, StartPose, WorldSettings};
 pub use start::MAX_COORDINATE_M;
 use start::{beyond_world, within_world};
 
-use crate::backend::fast::{FastBackend, FastSettings};
-use crate::backend::particle::{ParticleBackend, ParticleSettings};
-use crate::backend::rigid::{RigidBackend, RigidSettings};
 use crate::backend::tree::JointTree;
-use crate::backend::{AnyBackend, Backend, BodyImpulse, BodyState};
+use crate::backend::{AnyBackend, Backend, BodyImpulse, BodyState, Surroundings};
 use crate::error::{Error, Result};
 use crate::events::{Projectile, ProjectileReport};
 use crate::math::Transform;
@@ -57,9 +54,6 @@ pub const STEP_RANGE_S: [f32; 2] = [1e-4, 0.1];
 
 /// Highest output frame rate, frames per second.
 pub const MAX_FPS: f32 = 1000.0;
-
-/// Most substeps or iterations of each kind per step.
-pub const MAX_SUBSTEPS: usize = 100;
 
 /// Most joint transforms a run records: frames × skeleton joints, over every character.
 ///
@@ -163,40 +157,18 @@ impl World {
     /// An empty world.
     pub fn new(settings: &WorldSettings) -> Result<Self> {
         settings.validate()?;
-        let backend = match settings.backend {
-            BackendKind::Rigid => AnyBackend::Rigid(Box::new(RigidBackend::new(
-                RigidSettings {
-                    gravity: settings.gravity,
-                    ground: settings.ground,
-                    substeps: settings.substeps,
-                    iterations: settings.iterations,
-                },
-                settings.dt,
-            ))),
-            BackendKind::Particle => {
-                AnyBackend::Particle(Box::new(ParticleBackend::new(ParticleSettings {
-                    gravity: settings.gravity,
-                    ground: settings.ground,
-                    substeps: settings.particle_substeps,
-                    iterations: settings.particle_iterations,
-                })))
-            }
-            BackendKind::Fast => AnyBackend::Fast(Box::new(FastBackend::new(FastSettings {
-                gravity: settings.gravity,
-                ground: settings.ground,
-                substeps: settings.fast_substeps,
-                iterations: settings.fast_iterations,
-                impact_passes: settings.fast_impact_passes,
-                freeze_joints: settings.freeze_joints,
-            }))),
-        };
+        let backend = settings.backend.build_any(&Surroundings {
+            gravity: settings.gravity,
+            ground: settings.ground,
+        });
         Ok(Self::with_any(settings, backend))
     }
 
     /// An empty world stepped by someone else's engine (see [`Backend`]). The world reads
-    /// `settings` as for its own engines but for `backend` and the solver counts; the
-    /// engine must simulate the same `gravity` and `ground` (the world lifts ragdolls onto
-    /// that ground and measures energy with that gravity).
+    /// `settings` as for its own engines but for `backend`, and steps the engine once per
+    /// step (`dt`): its substeps are its own. The engine must simulate the same `gravity`
+    /// and `ground` (the world lifts ragdolls onto that ground and measures energy with
+    /// that gravity).
     ///
     /// # Example
     ///
@@ -385,13 +357,13 @@ impl World {
         self.record_frames_until(self.time);
     }
 
-    /// How many times per step the backend steps, events and motors between: the fast
-    /// backend substeps inside one call.
+    /// How many times per step the backend steps, events and motors between: the
+    /// collision substeps of ours that find contacts once per call; one for the fast
+    /// engine, which substeps inside, and for someone else's, whose substeps are its own.
     fn outer_steps(&self) -> usize {
-        if self.backend.substeps_inside() {
-            1
-        } else {
-            self.settings.collision_substeps
+        match self.backend {
+            AnyBackend::Custom(_) => 1,
+            _ => self.settings.backend.world_substeps(),
         }
     }
 

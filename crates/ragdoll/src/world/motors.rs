@@ -223,8 +223,12 @@ impl World {
                 self.backend.set_joint_limits(inst.first_joint + k, &j.kind);
             }
         }
+        let substeps = match self.settings.backend {
+            super::BackendConfig::Rigid(c) => c.substeps,
+            _ => 1,
+        };
         self.backend
-            .set_solver_substeps(POWERED_SOLVER_SUBSTEPS.max(self.settings.substeps));
+            .set_solver_substeps(POWERED_SOLVER_SUBSTEPS.max(substeps));
         if let Some(root) = held_root {
             self.backend.set_kinematic(root, true);
         }

@@ -317,7 +317,7 @@ fn the_strongest_accepted_events_simulate_on_both_backends() {
             run_finite(world, 0.4, &format!("{what} on {backend:?}"));
         }
         let settings = WorldSettings {
-            backend,
+            backend: backend.into(),
             gravity: Vec3::new(0.0, -world::MAX_GRAVITY_MPS2, 0.0),
             ..Default::default()
         };
@@ -371,7 +371,10 @@ fn world_settings_and_runs_are_bounded() {
     s.dt = world::STEP_RANGE_S[0].next_down();
     assert_eq!(setting_of(s.validate()).0, "dt");
     let mut s = ok.clone();
-    s.substeps = world::MAX_SUBSTEPS + 1;
+    s.backend = world::BackendConfig::Rigid(world::RigidConfig {
+        substeps: world::MAX_SUBSTEPS + 1,
+        ..Default::default()
+    });
     assert_eq!(setting_of(s.validate()).0, "substeps");
 
     // A run records at most MAX_TRACK_SAMPLES joint transforms: 100 s at 1000 fps is

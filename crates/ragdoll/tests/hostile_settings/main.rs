@@ -103,7 +103,7 @@ pub(crate) fn world_with(
     backend: BackendKind,
 ) -> (World, world::RagdollId) {
     let settings = WorldSettings {
-        backend,
+        backend: backend.into(),
         ..Default::default()
     };
     World::with_ragdoll(character, spec, &settings).unwrap_or_else(|e| panic!("{backend:?}: {e}"))

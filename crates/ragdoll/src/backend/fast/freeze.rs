@@ -330,7 +330,7 @@ mod tests {
     fn a_compound_carries_its_parts_momentum() {
         // Two bodies side by side, spinning and moving differently: the compound of the
         // two has their total momentum and angular momentum.
-        let mut w = FastBackend::new(super::super::FastSettings {
+        let mut w = FastBackend::with_settings(super::super::FastSettings {
             gravity: Vec3::ZERO,
             ground: None,
             substeps: 4,
@@ -353,7 +353,7 @@ mod tests {
             );
             w.shape.push(shape);
         }
-        let mut sub = FastBackend::new(w.settings);
+        let mut sub = FastBackend::with_settings(w.settings);
         let mut local = vec![0u32; 2];
         w.push_compound(&[0, 1], &mut sub, 0, &mut local);
         let momentum = |b: &FastBackend, i: usize| b.vel[i] * b.mass[i];

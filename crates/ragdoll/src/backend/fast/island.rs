@@ -59,7 +59,7 @@ impl FastBackend {
         let count = self.assign_islands();
         let mut subs = std::mem::take(&mut self.island_pool);
         while subs.len() < count {
-            subs.push(FastBackend::new(self.settings));
+            subs.push(FastBackend::with_settings(self.settings));
         }
         // Each island takes the substeps its most demanding ragdoll needs, and the passes
         // of an impact where one of its ragdolls may strike something hard this step.

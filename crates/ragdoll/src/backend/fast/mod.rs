@@ -49,7 +49,7 @@ use std::collections::HashSet;
 
 use glam::{Quat, Vec3};
 
-use super::{Backend, BodyDesc, BodyState, JointDesc, SkinPointDesc};
+use super::{Backend, BodyDesc, BodyState, FastConfig, JointDesc, SkinPointDesc, Surroundings};
 use crate::math::Transform;
 use crate::spec::{JointKind, Shape};
 use limits::{Limits, Twist};
@@ -185,8 +185,8 @@ fn substep_factor(masses: &[f32]) -> f32 {
         .clamp(1.0, MAX_SUBSTEP_FACTOR)
 }
 
-/// Our rigid-body solver.
-pub(crate) struct FastBackend {
+/// The `fast` engine: our rigid-body solver built for ragdolls.
+pub struct FastBackend {
     settings: FastSettings,
     // Bodies, one entry each, global order.
     pos: Vec<Vec3>,
@@ -258,7 +258,20 @@ pub(crate) struct FastBackend {
 }
 
 impl FastBackend {
-    pub(crate) fn new(settings: FastSettings) -> Self {
+    /// An empty fast world in `surroundings`.
+    pub fn new(config: &FastConfig, surroundings: &Surroundings) -> Self {
+        Self::with_settings(FastSettings {
+            gravity: surroundings.gravity,
+            ground: surroundings.ground,
+            substeps: config.substeps,
+            iterations: config.iterations,
+            impact_passes: config.impact_passes,
+            freeze_joints: config.freeze_joints,
+        })
+    }
+
+    /// An empty solver with these settings: the world's, or one island's.
+    pub(crate) fn with_settings(settings: FastSettings) -> Self {
         FastBackend {
             settings,
             pos: Vec::new(),
@@ -421,10 +434,6 @@ impl Backend for FastBackend {
 
     fn step(&mut self, dt: f32) {
         self.step_impl(dt);
-    }
-
-    fn substeps_inside(&self) -> bool {
-        true
     }
 
     fn apply_impulse_at_point(&mut self, index: usize, impulse: Vec3, point: Vec3) {

@@ -365,7 +365,7 @@ mod tests {
 
     /// A box body and a capsule body at the given poses, no ground.
     fn box_and_capsule(box_pose: Transform, capsule_pose: Transform) -> FastBackend {
-        let mut b = FastBackend::new(super::super::FastSettings {
+        let mut b = FastBackend::with_settings(super::super::FastSettings {
             gravity: Vec3::ZERO,
             ground: None,
             substeps: 1,

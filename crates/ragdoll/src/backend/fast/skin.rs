@@ -208,7 +208,7 @@ mod tests {
     /// that has no bone), dropped from 0.5 m for 3 s, with freezing `freeze`. Returns
     /// the foot's lowest and last height, and the fastest body at the end.
     fn drop_with_a_foot(skin: bool, freeze: bool) -> (f32, f32, f32) {
-        let mut w = FastBackend::new(super::super::FastSettings {
+        let mut w = FastBackend::with_settings(super::super::FastSettings {
             gravity: Vec3::new(0.0, -9.81, 0.0),
             ground: Some(0.0),
             substeps: 32,

@@ -68,16 +68,16 @@ mod solve;
 use glam::{Mat3, Quat, Vec3, Vec4};
 
 use super::tree::JointTree;
-use super::{Backend, BodyDesc, BodyState, JointDesc};
+use super::{Backend, BodyDesc, BodyState, JointDesc, ParticleConfig, Surroundings};
 use crate::math::Transform;
 use crate::spec::{JointKind, ResolvedJoint, Shape};
 
 /// Friction of body-body and body-ground contacts (as the rigid backend: skin and clothing
 /// on a hard floor are around 0.5-0.8).
 const FRICTION: f32 = 0.7;
-/// Settings the particle backend takes from the world.
+/// What the particle backend reads of its configuration and surroundings.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct ParticleSettings {
+struct ParticleSettings {
     /// Gravity, m/s².
     pub gravity: Vec3,
     /// Height of the ground plane, or `None` for no ground.
@@ -167,8 +167,9 @@ struct Filter {
     offset: usize,
 }
 
-/// Every ragdoll's particles, bodies and constraints in flat arrays.
-pub(crate) struct ParticleBackend {
+/// The `particle` engine: every ragdoll's particles, bodies and constraints in flat
+/// arrays.
+pub struct ParticleBackend {
     settings: ParticleSettings,
     // Particles.
     x: Vec<Vec3>,
@@ -249,9 +250,15 @@ pub(super) fn triad_frame(x0: Vec3, x1: Vec3, x2: Vec3) -> Quat {
 }
 
 impl ParticleBackend {
-    pub(crate) fn new(settings: ParticleSettings) -> Self {
+    /// An empty particle world in `surroundings`.
+    pub fn new(config: &ParticleConfig, surroundings: &Surroundings) -> Self {
         ParticleBackend {
-            settings,
+            settings: ParticleSettings {
+                gravity: surroundings.gravity,
+                ground: surroundings.ground,
+                substeps: config.substeps,
+                iterations: config.iterations,
+            },
             x: Vec::new(),
             x_prev: Vec::new(),
             x_pred: Vec::new(),
