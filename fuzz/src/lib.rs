@@ -46,7 +46,7 @@ pub fn scratch_path(name: &str) -> PathBuf {
 pub fn run_world(character: &Character, spec: &RagdollSpec) {
     for backend in BackendKind::ALL {
         let settings = WorldSettings {
-            backend,
+            backend: backend.into(),
             ..WorldSettings::default()
         };
         let Ok((mut world, _)) = World::with_ragdoll(character, spec, &settings) else {
