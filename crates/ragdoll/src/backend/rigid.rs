@@ -9,7 +9,7 @@ use std::collections::HashSet;
 use glam::Vec3;
 use rapier3d::prelude::*;
 
-use super::{Backend, BodyDesc, BodyState, JointDesc, RigidConfig, Surroundings};
+use super::{Backend, BodyDesc, BodyState, JointDesc, RigidConfig, StepReport, Surroundings};
 use crate::math::Transform;
 use crate::spec::{JointKind, Shape};
 
@@ -77,6 +77,31 @@ fn pose(t: &Transform) -> Pose {
 }
 
 impl RigidBackend {
+    /// Deepest contact penetration of the last step, metres: between bodies that may
+    /// collide, and with the ground.
+    fn max_penetration(&self) -> f32 {
+        let mut deepest = 0.0f32;
+        for pair in self.world.narrow_phase.contact_pairs() {
+            let PairContacts::Rigid(contacts) = &pair.contacts else {
+                continue;
+            };
+            let k1 = self.world.colliders[pair.collider1].user_data;
+            let k2 = self.world.colliders[pair.collider2].user_data;
+            if k1 != GROUND_KEY && k2 != GROUND_KEY {
+                let (a, b) = (k1 as u32, k2 as u32);
+                if self.filter.disabled.contains(&(a.min(b), a.max(b))) {
+                    continue;
+                }
+            }
+            for m in &contacts.manifolds {
+                for p in &m.points {
+                    deepest = deepest.max(-p.dist);
+                }
+            }
+        }
+        deepest
+    }
+
     /// An empty rapier world in `surroundings` (its ground a box 1 km square and 1 m
     /// thick, so fast bodies cannot tunnel under it).
     pub fn new(config: &RigidConfig, surroundings: &Surroundings) -> Self {
@@ -252,7 +277,7 @@ impl Backend for RigidBackend {
         true
     }
 
-    fn step(&mut self, dt: f32) {
+    fn step(&mut self, dt: f32) -> StepReport {
         {
             self.world.integration_parameters.dt = dt;
             let w = &mut self.world;
@@ -275,10 +300,11 @@ impl Backend for RigidBackend {
         // rapier rolls a non-finite body back, zeroes and disables it, and says so only
         // here: a frozen body would otherwise pass for a finite result.
         self.quarantined |= !self.world.quarantine().is_empty();
-    }
-
-    fn went_non_finite(&self) -> bool {
-        self.quarantined
+        StepReport {
+            max_penetration_m: self.max_penetration(),
+            limit_violation_before_clamp_rad: None,
+            went_non_finite: self.quarantined,
+        }
     }
 
     fn body_states(&self, out: &mut Vec<BodyState>) {
@@ -292,29 +318,6 @@ impl Backend for RigidBackend {
                 angvel: rb.angvel(),
             }
         }));
-    }
-
-    fn max_penetration(&self) -> f32 {
-        let mut deepest = 0.0f32;
-        for pair in self.world.narrow_phase.contact_pairs() {
-            let PairContacts::Rigid(contacts) = &pair.contacts else {
-                continue;
-            };
-            let k1 = self.world.colliders[pair.collider1].user_data;
-            let k2 = self.world.colliders[pair.collider2].user_data;
-            if k1 != GROUND_KEY && k2 != GROUND_KEY {
-                let (a, b) = (k1 as u32, k2 as u32);
-                if self.filter.disabled.contains(&(a.min(b), a.max(b))) {
-                    continue;
-                }
-            }
-            for m in &contacts.manifolds {
-                for p in &m.points {
-                    deepest = deepest.max(-p.dist);
-                }
-            }
-        }
-        deepest
     }
 
     fn ground_half_extent(&self) -> Option<f32> {

@@ -35,7 +35,7 @@ pub use start::MAX_COORDINATE_M;
 use start::{beyond_world, within_world};
 
 use crate::backend::tree::JointTree;
-use crate::backend::{AnyBackend, Backend, BodyImpulse, BodyState, Surroundings};
+use crate::backend::{AnyBackend, Backend, BodyImpulse, BodyState, StepReport, Surroundings};
 use crate::error::{Error, Result};
 use crate::events::{Projectile, ProjectileReport};
 use crate::math::Transform;
@@ -151,6 +151,9 @@ pub struct World {
     /// The events' impulses of this substep, handed to the backend together before it
     /// steps ([`Backend::apply_impulses`]).
     impulses: Vec<BodyImpulse>,
+    /// What the backend said of this step's calls, the worst of each (see
+    /// [`StepReport::absorb`]).
+    step_report: StepReport,
 }
 
 impl World {
@@ -216,6 +219,7 @@ impl World {
             halted: false,
             active_joints: Vec::new(),
             impulses: Vec::new(),
+            step_report: StepReport::default(),
         }
     }
 
@@ -273,7 +277,7 @@ impl World {
     /// Whether every body's pose and velocities are finite now (and the backend has hidden
     /// no non-finite body).
     fn states_finite(&self) -> bool {
-        !self.backend.went_non_finite()
+        !self.step_report.went_non_finite
             && self
                 .states
                 .iter()
@@ -296,6 +300,7 @@ impl World {
         }
         let n = self.outer_steps();
         let h = self.settings.dt / n as f32;
+        self.step_report = StepReport::default();
         for i in 0..n {
             let t0 = self.time + (i as f64) * h as f64;
             // Every event of the substep reads the bodies as the last substep left them
@@ -322,7 +327,8 @@ impl World {
                 self.apply_joint_damping(h);
             }
             self.flush_impulses();
-            self.backend.step(h);
+            let report = self.backend.step(h);
+            self.step_report.absorb(report);
             // Checked every substep: a non-finite body must not reach the next substep's
             // events or the backend's queries.
             self.backend.body_states(&mut self.states);
@@ -343,14 +349,15 @@ impl World {
         self.blast_after_step();
         // What the solver left, before any clamp: the backend's own reading where it clamps
         // itself, else the bodies as they are before the world's projection.
-        let solver = match self.backend.solver_limit_violation() {
+        let solver = match self.step_report.limit_violation_before_clamp_rad {
             Some(v) => v,
             None => self.limit_violation_now(),
         };
         let m = &mut self.metrics;
         m.max_limit_violation_solver_deg =
             m.max_limit_violation_solver_deg.max(solver.to_degrees());
-        if self.settings.project_limits && !self.backend.enforces_limits() {
+        let engine_clamps = self.step_report.limit_violation_before_clamp_rad.is_some();
+        if self.settings.project_limits && !engine_clamps {
             self.project_limits();
         }
         self.measure_step();

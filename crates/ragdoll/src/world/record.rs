@@ -194,7 +194,7 @@ impl super::World {
 
     pub(super) fn measure_step(&mut self) {
         let m = &mut self.metrics;
-        m.max_penetration_m = m.max_penetration_m.max(self.backend.max_penetration());
+        m.max_penetration_m = m.max_penetration_m.max(self.step_report.max_penetration_m);
         for s in &self.states {
             if !(s.pose.is_finite() && s.linvel.is_finite() && s.angvel.is_finite()) {
                 m.nan = true;

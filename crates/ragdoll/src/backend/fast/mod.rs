@@ -49,7 +49,9 @@ use std::collections::HashSet;
 
 use glam::{Quat, Vec3};
 
-use super::{Backend, BodyDesc, BodyState, FastConfig, JointDesc, SkinPointDesc, Surroundings};
+use super::{
+    Backend, BodyDesc, BodyState, FastConfig, JointDesc, SkinPointDesc, StepReport, Surroundings,
+};
 use crate::math::Transform;
 use crate::spec::{JointKind, Shape};
 use limits::{Limits, Twist};
@@ -432,8 +434,13 @@ impl Backend for FastBackend {
         true
     }
 
-    fn step(&mut self, dt: f32) {
+    fn step(&mut self, dt: f32) -> StepReport {
         self.step_impl(dt);
+        StepReport {
+            max_penetration_m: self.collide.max_penetration,
+            limit_violation_before_clamp_rad: None,
+            went_non_finite: false,
+        }
     }
 
     fn apply_impulse_at_point(&mut self, index: usize, impulse: Vec3, point: Vec3) {
@@ -454,10 +461,6 @@ impl Backend for FastBackend {
             linvel: self.seen_vel[i],
             angvel: self.seen_angvel[i],
         }));
-    }
-
-    fn max_penetration(&self) -> f32 {
-        self.collide.max_penetration
     }
 
     // Of the solver's own velocities, at the end of the step where the poses are: the

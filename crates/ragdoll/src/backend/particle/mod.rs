@@ -68,7 +68,7 @@ mod solve;
 use glam::{Mat3, Quat, Vec3, Vec4};
 
 use super::tree::JointTree;
-use super::{Backend, BodyDesc, BodyState, JointDesc, ParticleConfig, Surroundings};
+use super::{Backend, BodyDesc, BodyState, JointDesc, ParticleConfig, StepReport, Surroundings};
 use crate::math::Transform;
 use crate::spec::{JointKind, ResolvedJoint, Shape};
 
@@ -346,12 +346,13 @@ impl Backend for ParticleBackend {
         true
     }
 
-    fn enforces_limits(&self) -> bool {
-        true
-    }
-
-    fn step(&mut self, dt: f32) {
+    fn step(&mut self, dt: f32) -> StepReport {
         self.step_impl(dt);
+        StepReport {
+            max_penetration_m: self.penetration,
+            limit_violation_before_clamp_rad: Some(self.solver_violation),
+            went_non_finite: false,
+        }
     }
 
     fn apply_impulse_at_point(&mut self, index: usize, impulse: Vec3, point: Vec3) {
@@ -383,14 +384,6 @@ impl Backend for ParticleBackend {
                 angvel,
             }
         }));
-    }
-
-    fn max_penetration(&self) -> f32 {
-        self.penetration
-    }
-
-    fn solver_limit_violation(&self) -> Option<f32> {
-        Some(self.solver_violation)
     }
 
     fn kinetic_energy(&self) -> f64 {
