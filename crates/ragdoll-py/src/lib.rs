@@ -14,6 +14,7 @@ use pyo3::prelude::*;
 mod arrays;
 mod character;
 mod errors;
+mod events;
 mod live;
 mod spec;
 mod world;

@@ -16,6 +16,7 @@ use ragdoll::world::{RagdollId, World};
 use crate::arrays::{self, ROW};
 use crate::character::Character;
 use crate::errors::{bound, guard, to_py};
+use crate::events;
 use crate::spec::Spec;
 use crate::world::{placement, point, shot_direction, world_settings};
 
@@ -214,6 +215,97 @@ impl Simulation {
         drop(world);
         self.events += 1;
         Ok(())
+    }
+
+    /// A force field on every body, as `World.add_field`, from `start_s` (by default now)
+    /// to `end_s` (by default for good).
+    #[pyo3(signature = (kind, *, keys=None, center=None, strength_mps2=0.0, radius_m=1.0,
+        rate_per_s=0.0, velocity_mps=None, start_s=None, end_s=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn add_field(
+        &mut self,
+        kind: &str,
+        keys: Option<&Bound<'_, PyAny>>,
+        center: Option<&Bound<'_, PyAny>>,
+        strength_mps2: f32,
+        radius_m: f32,
+        rate_per_s: f32,
+        velocity_mps: Option<&Bound<'_, PyAny>>,
+        start_s: Option<f32>,
+        end_s: Option<f32>,
+    ) -> PyResult<()> {
+        self.room_for_event()?;
+        let mut world = self.world()?;
+        let start_s = start_s.unwrap_or(world.time() as f32);
+        let field = events::field(
+            kind,
+            keys,
+            center,
+            (strength_mps2, radius_m, rate_per_s),
+            velocity_mps,
+            (start_s, end_s),
+        )?;
+        guard(|| world.add_field(field).map_err(to_py))?;
+        drop(world);
+        self.events += 1;
+        Ok(())
+    }
+
+    /// Holds ragdoll `handle`'s body part `target` (a body or joint name) at `position`,
+    /// or drags it along `keys` = [(time_s, (x, y, z)), …] (world times), as
+    /// `World.add_pin`.
+    #[pyo3(signature = (handle, target, position=None, *, keys=None, stiffness_hz=None,
+        damping_ratio=1.0, release_s=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn add_pin(
+        &mut self,
+        handle: usize,
+        target: String,
+        position: Option<&Bound<'_, PyAny>>,
+        keys: Option<&Bound<'_, PyAny>>,
+        stiffness_hz: Option<f32>,
+        damping_ratio: f32,
+        release_s: Option<f32>,
+    ) -> PyResult<()> {
+        self.room_for_event()?;
+        let id = self.id(handle)?;
+        let pin = events::pin(
+            target,
+            position,
+            keys,
+            stiffness_hz,
+            damping_ratio,
+            release_s,
+        )?;
+        let mut world = self.world()?;
+        guard(|| world.add_pin(id, pin).map_err(to_py))?;
+        drop(world);
+        self.events += 1;
+        Ok(())
+    }
+
+    /// Drags ragdoll `handle`'s body part `target` along `keys` = [(time_s, (x, y, z)),
+    /// …]: `add_pin` with keys.
+    #[pyo3(signature = (handle, target, keys, *, stiffness_hz=None, damping_ratio=1.0,
+        release_s=None))]
+    fn add_drag(
+        &mut self,
+        handle: usize,
+        target: String,
+        keys: &Bound<'_, PyAny>,
+        stiffness_hz: Option<f32>,
+        damping_ratio: f32,
+        release_s: Option<f32>,
+    ) -> PyResult<()> {
+        self.add_pin(
+            handle,
+            target,
+            None,
+            Some(keys),
+            stiffness_hz,
+            damping_ratio,
+            release_s,
+        )
     }
 
     /// Ragdoll `handle`'s bodies' velocities now, one row each in its spec's order:

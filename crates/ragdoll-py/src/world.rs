@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use glam::Vec3;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use ragdoll::events::{Blast, Field, OPEN_END_S, Pin, Projectile, Push};
+use ragdoll::events::{Blast, OPEN_END_S, Projectile, Push};
 use ragdoll::math::Transform;
 use ragdoll::scene::{
     Event, MAX_BURST, MAX_CHARACTERS, MAX_EVENTS, Scene, SceneCharacter, SceneResult,
@@ -22,6 +22,7 @@ use ragdoll::world::{
 use crate::arrays::{self, ROW};
 use crate::character::Character;
 use crate::errors::{Cancelled, Fields, bound, guard, raise, to_py};
+use crate::events;
 use crate::spec::Spec;
 
 /// A world's run length when `run` is not told, seconds: a scene file's default.
@@ -181,14 +182,6 @@ pub(crate) fn point(v: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec3> {
         ));
     }
     Ok(p)
-}
-
-/// `(time_s, point)` keys.
-fn keys(v: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<(f32, Vec3)>> {
-    let raw: Vec<(f32, Bound<'_, PyAny>)> = v.extract()?;
-    raw.iter()
-        .map(|(t, p)| Ok((*t, arrays::vec3(p, what)?)))
-        .collect()
 }
 
 /// When physics takes over from the animation.
@@ -508,39 +501,14 @@ impl World {
         start_s: f32,
         end_s: Option<f32>,
     ) -> PyResult<()> {
-        let end_s = end_s.unwrap_or(OPEN_END_S);
-        let field = match kind {
-            "gravity" => Field::Gravity {
-                keys: self::keys(need(keys, kind, "keys")?, "keys")?,
-            },
-            "radial" => Field::Radial {
-                center: point(need(center, kind, "center")?, "center")?,
-                strength_mps2,
-                radius_m,
-                start_s,
-                end_s,
-            },
-            "drag" => Field::Drag {
-                rate_per_s,
-                start_s,
-                end_s,
-            },
-            "wind" => Field::Wind {
-                velocity_mps: arrays::vec3(
-                    need(velocity_mps, kind, "velocity_mps")?,
-                    "velocity_mps",
-                )?,
-                start_s,
-                end_s,
-            },
-            other => {
-                return Err(bound(
-                    "kind",
-                    format!("must be \"gravity\", \"radial\", \"drag\" or \"wind\", not {other:?}"),
-                ));
-            }
-        };
-        field.validate().map_err(to_py)?;
+        let field = events::field(
+            kind,
+            keys,
+            center,
+            (strength_mps2, radius_m, rate_per_s),
+            velocity_mps,
+            (start_s, end_s),
+        )?;
         self.room_for(1)?;
         Arc::make_mut(&mut self.scene)
             .fields
@@ -565,19 +533,14 @@ impl World {
         release_s: Option<f32>,
     ) -> PyResult<()> {
         self.character(handle)?;
-        let keys = match (position, keys) {
-            (Some(p), None) => vec![(0.0, point(p, "position")?)],
-            (None, Some(k)) => self::keys(k, "keys")?,
-            _ => return Err(bound("position", "give either position or keys")),
-        };
-        let pin = Pin {
+        let pin = events::pin(
             target,
+            position,
             keys,
             stiffness_hz,
             damping_ratio,
             release_s,
-        };
-        pin.validate().map_err(to_py)?;
+        )?;
         self.room_for(1)?;
         Arc::make_mut(&mut self.scene).pins.push(Event {
             event: pin,
@@ -732,15 +695,6 @@ impl World {
             )
         })
     }
-}
-
-/// A keyword argument a field of `kind` cannot go without.
-fn need<'a, 'py>(
-    v: Option<&'a Bound<'py, PyAny>>,
-    kind: &str,
-    key: &str,
-) -> PyResult<&'a Bound<'py, PyAny>> {
-    v.ok_or_else(|| bound(key, format!("a {kind} field needs {key}")))
 }
 
 /// An event acting on every character.

@@ -107,3 +107,47 @@ def test_bad_calls_raise_in_a_sentence():
         sim.remove(h)
     with pytest.raises(rd.BoundError, match="seconds"):
         sim.step(1.0e9)
+
+
+def momentum(sim, handle, spec):
+    masses = np.array([b.mass_kg for b in spec.bodies])
+    return (sim.body_velocities(handle)[:, 0:3] * masses[:, None]).sum(axis=0)
+
+
+@pytest.mark.parametrize("backend", ["rigid", "fast", "particle"])
+def test_a_drag_field_added_between_steps_acts_from_then(backend):
+    # Zero gravity, no ground: a humanoid shoved at 0.4 m/s keeps its momentum until a
+    # drag of 4 per second is added 0.2 s in; 0.5 s later it keeps exp(-2) of it.
+    spec = rd.build_ragdoll(rd.humanoid())
+    sim = rd.Simulation(backend, ground=None, gravity=(0.0, 0.0, 0.0))
+    h = sim.add(rd.humanoid(), spec)
+    sim.add_push(h, "pelvis", (30.0, 0.0, 0.0))
+    sim.step(0.2)
+    before = momentum(sim, h, spec)
+    assert before[0] == pytest.approx(30.0, rel=0.01)
+    sim.add_field("drag", rate_per_s=4.0)
+    sim.step(0.5)
+    after = momentum(sim, h, spec)
+    assert after[0] / before[0] == pytest.approx(np.exp(-2.0), rel=0.15)
+
+
+@pytest.mark.parametrize("backend", ["rigid", "fast", "particle"])
+def test_a_pin_added_between_steps_holds_a_falling_ragdoll(backend):
+    # A humanoid falls freely for 0.3 s; its head joint is then pinned where it is: a
+    # second later the joint is still there and the body hangs from it instead of
+    # falling the 7 m free bodies fall in that time.
+    spec = rd.build_ragdoll(rd.humanoid())
+    sim = rd.Simulation(backend, ground=None)
+    h = sim.add(rd.humanoid(), spec)
+    sim.step(0.3)
+    head = rd.humanoid().joint_names.index("head")
+    at = sim.transforms(h)[-1, head, 0:3].copy()
+    sim.add_pin(h, "head", tuple(at))
+    start = centre_of_mass(sim, h, spec)
+    sim.step(1.0)
+    assert np.linalg.norm(sim.transforms(h)[-1, head, 0:3] - at) < 0.03
+    assert start[1] - centre_of_mass(sim, h, spec)[1] < 0.5
+    with pytest.raises(rd.BoundError):
+        sim.add_pin(h, "head")
+    with pytest.raises(rd.BoundError):
+        sim.add_field("wind")

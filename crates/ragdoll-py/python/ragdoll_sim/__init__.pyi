@@ -302,6 +302,40 @@ class Simulation:
         time_s: float | None = None,
     ) -> None: ...
     def add_push(self, handle: int, target: str, impulse_ns: _Vec3, *, time_s: float | None = None) -> None: ...
+    def add_field(
+        self,
+        kind: Literal["gravity", "radial", "drag", "wind"],
+        *,
+        keys: Sequence[tuple[float, _Vec3]] | None = None,
+        center: _Vec3 | None = None,
+        strength_mps2: float = 0.0,
+        radius_m: float = 1.0,
+        rate_per_s: float = 0.0,
+        velocity_mps: _Vec3 | None = None,
+        start_s: float | None = None,
+        end_s: float | None = None,
+    ) -> None: ...
+    def add_pin(
+        self,
+        handle: int,
+        target: str,
+        position: _Vec3 | None = None,
+        *,
+        keys: Sequence[tuple[float, _Vec3]] | None = None,
+        stiffness_hz: float | None = None,
+        damping_ratio: float = 1.0,
+        release_s: float | None = None,
+    ) -> None: ...
+    def add_drag(
+        self,
+        handle: int,
+        target: str,
+        keys: Sequence[tuple[float, _Vec3]],
+        *,
+        stiffness_hz: float | None = None,
+        damping_ratio: float = 1.0,
+        release_s: float | None = None,
+    ) -> None: ...
     def body_velocities(self, handle: int) -> npt.NDArray[np.float64]: ...
     def step(self, seconds: float) -> None: ...
     @property
