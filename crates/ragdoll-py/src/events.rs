@@ -7,7 +7,7 @@ use ragdoll::events::{Field, OPEN_END_S, Pin};
 
 use crate::arrays;
 use crate::errors::{bound, to_py};
-use crate::world::point;
+use crate::settings::point;
 
 /// `(time_s, point)` keys.
 pub(crate) fn keys(v: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<(f32, Vec3)>> {

@@ -16,6 +16,8 @@ mod character;
 mod errors;
 mod events;
 mod live;
+mod result;
+mod settings;
 mod spec;
 mod world;
 
@@ -40,7 +42,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<spec::Body>()?;
     m.add_class::<spec::JointView>()?;
     m.add_class::<world::World>()?;
-    m.add_class::<world::RunResult>()?;
+    m.add_class::<result::RunResult>()?;
     m.add_class::<live::Simulation>()?;
     Ok(())
 }

@@ -17,8 +17,8 @@ use crate::arrays::{self, ROW};
 use crate::character::Character;
 use crate::errors::{bound, guard, to_py};
 use crate::events;
+use crate::settings::{placement, point, shot_direction, world_settings};
 use crate::spec::Spec;
-use crate::world::{placement, point, shot_direction, world_settings};
 
 /// A physics world stepped a piece at a time: `step(seconds)` goes on from where the last
 /// step left it, and ragdolls can be added (`add`) and removed (`remove`) between any two
