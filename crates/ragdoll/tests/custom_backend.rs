@@ -6,7 +6,9 @@
 use std::sync::{Arc, Mutex};
 
 use glam::{Quat, Vec3};
-use ragdoll::backend::{Backend, BodyDesc, BodyImpulse, BodyState, JointDesc, StepReport};
+use ragdoll::backend::{
+    Backend, BodyDesc, BodyId, BodyImpulse, BodyState, JointDesc, JointId, PinId, StepReport,
+};
 use ragdoll::events::{Blast, Projectile};
 use ragdoll::math::Transform;
 use ragdoll::spec::{BuildOptions, JointKind, build_spec};
@@ -41,7 +43,12 @@ impl Ballistic {
 }
 
 impl Backend for Ballistic {
-    fn add_ragdoll(&mut self, bodies: &[BodyDesc], _: &[JointDesc], _: &[(usize, usize)]) -> usize {
+    fn add_ragdoll(
+        &mut self,
+        bodies: &[BodyDesc],
+        _: &[JointDesc],
+        _: &[(usize, usize)],
+    ) -> BodyId {
         let first = self.bodies.len();
         for b in bodies {
             let state = BodyState {
@@ -51,7 +58,7 @@ impl Backend for Ballistic {
             };
             self.bodies.push((state, b.mass, false));
         }
-        first
+        BodyId(first)
     }
 
     fn step(&mut self, dt: f32) -> StepReport {
@@ -93,12 +100,12 @@ impl Backend for Ballistic {
         }
     }
 
-    fn apply_impulse_at_point(&mut self, index: usize, impulse: Vec3, _point: Vec3) {
+    fn apply_impulse_at_point(&mut self, BodyId(index): BodyId, impulse: Vec3, _point: Vec3) {
         let (s, m, _) = &mut self.bodies[index];
         s.linvel += impulse / *m;
     }
 
-    fn apply_torque_impulse(&mut self, _: usize, _: Vec3) {}
+    fn apply_torque_impulse(&mut self, _: BodyId, _: Vec3) {}
 
     fn body_states(&self, out: &mut Vec<BodyState>) {
         out.clear();
@@ -112,7 +119,7 @@ impl Backend for Ballistic {
             .sum()
     }
 
-    fn cast_ray(&self, origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(usize, f32)> {
+    fn cast_ray(&self, origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(BodyId, f32)> {
         // Each body as a 10 cm ball about its centre: enough to be hit.
         self.bodies
             .iter()
@@ -120,51 +127,51 @@ impl Backend for Ballistic {
             .filter_map(|(k, (s, _, _))| {
                 let along = (s.pose.translation - origin).dot(dir);
                 let miss = (s.pose.translation - origin - dir * along).length();
-                (along > 0.0 && along < max_dist && miss < 0.1).then_some((k, along))
+                (along > 0.0 && along < max_dist && miss < 0.1).then_some((BodyId(k), along))
             })
             .min_by(|a, b| a.1.total_cmp(&b.1))
     }
 
-    fn set_kinematic(&mut self, index: usize, kinematic: bool) {
+    fn set_kinematic(&mut self, BodyId(index): BodyId, kinematic: bool) {
         self.bodies[index].2 = kinematic;
     }
 
-    fn set_kinematic_target(&mut self, index: usize, pose: &Transform) {
+    fn set_kinematic_target(&mut self, BodyId(index): BodyId, pose: &Transform) {
         self.bodies[index].0.pose = *pose;
     }
 
-    fn set_body_velocity(&mut self, index: usize, linvel: Vec3, angvel: Vec3) {
+    fn set_body_velocity(&mut self, BodyId(index): BodyId, linvel: Vec3, angvel: Vec3) {
         self.bodies[index].0.linvel = linvel;
         self.bodies[index].0.angvel = angvel;
     }
 
-    fn set_joint_parent_frame(&mut self, _: usize, _: &Transform) {}
-    fn set_joint_child_frame(&mut self, _: usize, _: &Transform) {}
+    fn set_joint_parent_frame(&mut self, _: JointId, _: &Transform) {}
+    fn set_joint_child_frame(&mut self, _: JointId, _: &Transform) {}
     fn set_solver_substeps(&mut self, _: usize) {}
-    fn set_joint_limits(&mut self, _: usize, _: &JointKind) {}
+    fn set_joint_limits(&mut self, _: JointId, _: &JointKind) {}
 
     fn set_gravity(&mut self, gravity: Vec3) {
         self.gravity = gravity;
     }
 
-    fn add_pin(&mut self, _: usize, _: Vec3, _: Vec3, _: Option<(f32, f32)>) -> usize {
-        0
+    fn add_pin(&mut self, _: BodyId, _: Vec3, _: Vec3, _: Option<(f32, f32)>) -> PinId {
+        PinId(0)
     }
-    fn move_pin(&mut self, _: usize, _: Vec3) {}
-    fn release_pin(&mut self, _: usize) {}
+    fn move_pin(&mut self, _: PinId, _: Vec3) {}
+    fn release_pin(&mut self, _: PinId) {}
 
     fn bodies_touching_other_ragdolls(&self, out: &mut Vec<bool>) {
         out.clear();
         out.resize(self.bodies.len(), false);
     }
 
-    fn disable_pair(&mut self, _: usize, _: usize) {}
+    fn disable_pair(&mut self, _: BodyId, _: BodyId) {}
 
-    fn set_body_pose(&mut self, index: usize, pose: &Transform) {
+    fn set_body_pose(&mut self, BodyId(index): BodyId, pose: &Transform) {
         self.bodies[index].0.pose = *pose;
     }
 
-    fn drive_joint(&mut self, _: usize, _: Quat, _: Vec3, _: f32, _: f32) -> bool {
+    fn drive_joint(&mut self, _: JointId, _: Quat, _: Vec3, _: f32, _: f32) -> bool {
         false
     }
 }

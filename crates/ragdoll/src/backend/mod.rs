@@ -122,6 +122,20 @@ impl BackendKind {
     }
 }
 
+/// A body of an engine: its place in the order bodies were added, from 0 (a ragdoll's
+/// bodies are contiguous, from the one [`Backend::add_ragdoll`] returned). Typed, so a
+/// joint's or a pin's number cannot be passed where a body's is meant.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct BodyId(pub usize);
+
+/// A joint of an engine: its place in the order joints were added, from 0.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct JointId(pub usize);
+
+/// A pin an engine made ([`Backend::add_pin`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct PinId(pub usize);
+
 /// What an engine says about one step besides the bodies' states ([`Backend::step`]):
 /// readings only its solver has, so that the world's metrics measure the solver itself
 /// and not only the poses it ends with.
@@ -162,14 +176,14 @@ impl StepReport {
     }
 }
 
-/// An impulse the world's events give one body (global index), delivered before the next
+/// An impulse the world's events give one body, delivered before the next
 /// step.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum BodyImpulse {
     /// `impulse` (N·s, world) at the world `point`: blasts, shots, pushes, drag, soft pins.
     AtPoint {
-        /// The body, global index.
-        body: usize,
+        /// The body.
+        body: BodyId,
         /// N·s, world.
         impulse: Vec3,
         /// Where it acts, world.
@@ -178,8 +192,8 @@ pub enum BodyImpulse {
     /// An angular impulse (N·m·s, world): joint motors and damping applied from outside
     /// the solver, in equal and opposite pairs.
     Angular {
-        /// The body, global index.
-        body: usize,
+        /// The body.
+        body: BodyId,
         /// N·m·s, world.
         impulse: Vec3,
     },
@@ -187,9 +201,9 @@ pub enum BodyImpulse {
 
 impl BodyImpulse {
     /// The equal and opposite angular impulses a joint's torque gives its child and its
-    /// parent (global indices): what motors and damping applied from outside the solver
+    /// parent: what motors and damping applied from outside the solver
     /// give.
-    pub(crate) fn joint_pair(child: usize, parent: usize, impulse: Vec3) -> [BodyImpulse; 2] {
+    pub(crate) fn joint_pair(child: BodyId, parent: BodyId, impulse: Vec3) -> [BodyImpulse; 2] {
         [
             BodyImpulse::Angular {
                 body: child,
@@ -205,9 +219,9 @@ impl BodyImpulse {
 
 /// What an engine does for the [`World`](crate::world::World).
 ///
-/// Bodies and joints have global indices in the order they were added (a ragdoll's
-/// bodies are contiguous, starting at what [`Backend::add_ragdoll`] returned); every pose
-/// is the body frame of [`BodyDesc::pose`]. Units are SI, Y is up, gravity and the ground
+/// Bodies and joints are numbered in the order they were added ([`BodyId`], [`JointId`]; a
+/// ragdoll's bodies are contiguous, starting at what [`Backend::add_ragdoll`] returned);
+/// every pose is the body frame of [`BodyDesc::pose`]. Units are SI, Y is up, gravity and the ground
 /// come from the backend's own settings (see [`World::with_backend`]).
 ///
 /// A backend must be `Send` so a world can move to a worker thread (the viewer and the
@@ -216,19 +230,19 @@ impl BodyImpulse {
 /// [`World::with_backend`]: crate::world::World::with_backend
 pub trait Backend: Send {
     /// Adds one ragdoll's bodies (world poses), joints (between its bodies) and pairs that
-    /// never collide (indices into `bodies`); returns the global index of its first body.
+    /// never collide (indices into `bodies`); returns its first body.
     fn add_ragdoll(
         &mut self,
         bodies: &[BodyDesc],
         joints: &[JointDesc],
         disabled_pairs: &[(usize, usize)],
-    ) -> usize;
+    ) -> BodyId;
     /// Adds skin points to the ragdoll whose first body is `first_body` (see
     /// [`crate::spec::RagdollSpec::skin_points`]): points several bodies carry together,
     /// to be kept above the ground as the weighted blend of where each carries them.
     /// Returns whether the backend keeps them; by default it does not, and the bodies'
     /// own and extra shapes are all that hold the skin.
-    fn add_skin_points(&mut self, first_body: usize, points: &[SkinPointDesc]) -> bool {
+    fn add_skin_points(&mut self, first_body: BodyId, points: &[SkinPointDesc]) -> bool {
         let _ = (first_body, points);
         false
     }
@@ -237,7 +251,7 @@ pub trait Backend: Send {
     /// kinetic energy; their indices stay valid (and their states readable) so that the
     /// other ragdolls' do not change. Returns whether the backend can; by default it
     /// cannot, and the world then refuses to remove a ragdoll.
-    fn remove_ragdoll(&mut self, first_body: usize) -> bool {
+    fn remove_ragdoll(&mut self, first_body: BodyId) -> bool {
         let _ = first_body;
         false
     }
@@ -249,11 +263,11 @@ pub trait Backend: Send {
     fn ground_half_extent(&self) -> Option<f32> {
         None
     }
-    /// Adds `impulse` (N·s, world) at the world `point` of body `index` (global), waking it.
-    fn apply_impulse_at_point(&mut self, index: usize, impulse: Vec3, point: Vec3);
-    /// Adds the angular impulse `impulse` (N·m·s, world) to body `index` (global), waking
+    /// Adds `impulse` (N·s, world) at the world `point` of body `body`, waking it.
+    fn apply_impulse_at_point(&mut self, body: BodyId, impulse: Vec3, point: Vec3);
+    /// Adds the angular impulse `impulse` (N·m·s, world) to body `body`, waking
     /// it: what a joint motor gives over one substep.
-    fn apply_torque_impulse(&mut self, index: usize, impulse: Vec3);
+    fn apply_torque_impulse(&mut self, body: BodyId, impulse: Vec3);
     /// Every impulse the world's events gave since the last step, in the order given:
     /// what the world calls. One body at a time by default; a backend that keeps its
     /// bodies elsewhere (a GPU) takes them in one transfer.
@@ -280,51 +294,51 @@ pub trait Backend: Send {
         None
     }
     /// The first body a ray from `origin` along `dir` (unit) meets within `max_dist`
-    /// metres: its global index and the distance. The ground does not count.
-    fn cast_ray(&self, origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(usize, f32)>;
-    /// Makes body `index` (global) kinematic (moved only by [`Backend::set_kinematic_target`])
+    /// metres, and the distance. The ground does not count.
+    fn cast_ray(&self, origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(BodyId, f32)>;
+    /// Makes body `body` kinematic (moved only by [`Backend::set_kinematic_target`])
     /// or dynamic again.
-    fn set_kinematic(&mut self, index: usize, kinematic: bool);
+    fn set_kinematic(&mut self, body: BodyId, kinematic: bool);
     /// Where a kinematic body must be at the end of the next step.
-    fn set_kinematic_target(&mut self, index: usize, pose: &Transform);
-    /// Sets the linear (m/s) and angular (rad/s) velocity of body `index` (global).
-    fn set_body_velocity(&mut self, index: usize, linvel: Vec3, angvel: Vec3);
-    /// Replaces the parent-side frame of joint `index` (global, in insertion order), in the
+    fn set_kinematic_target(&mut self, body: BodyId, pose: &Transform);
+    /// Sets the linear (m/s) and angular (rad/s) velocity of body `body`.
+    fn set_body_velocity(&mut self, body: BodyId, linvel: Vec3, angvel: Vec3);
+    /// Replaces the parent-side frame of joint `joint`, in the
     /// parent body's frame.
-    fn set_joint_parent_frame(&mut self, index: usize, frame: &Transform);
-    /// Replaces the child-side frame of joint `index` (global), in the child body's frame.
-    fn set_joint_child_frame(&mut self, index: usize, frame: &Transform);
+    fn set_joint_parent_frame(&mut self, joint: JointId, frame: &Transform);
+    /// Replaces the child-side frame of joint `joint`, in the child body's frame.
+    fn set_joint_child_frame(&mut self, joint: JointId, frame: &Transform);
     /// Sets how many solver substeps each step takes where the backend has them: powered
     /// ragdolls need stiffer drives than a limp one, and a drive must stay well below the
     /// substep rate to be stable. Backends without solver substeps ignore it.
     fn set_solver_substeps(&mut self, substeps: usize);
-    /// Replaces the limits of joint `index` (global) with those of `kind` (same kind).
-    fn set_joint_limits(&mut self, index: usize, kind: &crate::spec::JointKind);
+    /// Replaces the limits of joint `joint` with those of `kind` (same kind).
+    fn set_joint_limits(&mut self, joint: JointId, kind: &crate::spec::JointKind);
     /// Sets the gravity acting on every body, m/s².
     fn set_gravity(&mut self, gravity: Vec3);
-    /// Ties the point `local` (in body `index`'s frame) to the world point `target` with a
+    /// Ties the point `local` (in body `body`'s frame) to the world point `target` with a
     /// ball joint to an invisible kinematic anchor: hard, or a spring of `soft` =
-    /// (natural frequency Hz, damping ratio). Returns the pin's index.
+    /// (natural frequency Hz, damping ratio). Returns the pin.
     fn add_pin(
         &mut self,
-        index: usize,
+        body: BodyId,
         local: Vec3,
         target: Vec3,
         soft: Option<(f32, f32)>,
-    ) -> usize;
+    ) -> PinId;
     /// Where pin `pin`'s anchor must be at the end of the next step.
-    fn move_pin(&mut self, pin: usize, target: Vec3);
+    fn move_pin(&mut self, pin: PinId, target: Vec3);
     /// Lets go of pin `pin`.
-    fn release_pin(&mut self, pin: usize);
+    fn release_pin(&mut self, pin: PinId);
     /// One flag per body (global order) into `out`: whether it touches a body of another
     /// ragdoll (the ground does not count). One pass for every ragdoll: asking ragdoll by
     /// ragdoll went through every contact pair once per waiting character.
     fn bodies_touching_other_ragdolls(&self, out: &mut Vec<bool>);
-    /// Stops bodies `a` and `b` (global) from colliding with each other.
-    fn disable_pair(&mut self, a: usize, b: usize);
-    /// Moves body `index` (global) to `pose` without changing its velocities.
-    fn set_body_pose(&mut self, index: usize, pose: &Transform);
-    /// Drives joint `index` (global) inside the solver toward the relative rotation
+    /// Stops bodies `a` and `b` from colliding with each other.
+    fn disable_pair(&mut self, a: BodyId, b: BodyId);
+    /// Moves body `body` to `pose` without changing its velocities.
+    fn set_body_pose(&mut self, body: BodyId, pose: &Transform);
+    /// Drives joint `joint` inside the solver toward the relative rotation
     /// `target` (the child body's rotation in the parent body's frame) turning at
     /// `target_angvel` (rad/s, child relative to parent, in the parent body's frame), as a
     /// damped spring of `stiffness` (1/s²) and `damping` (1/s) per unit of inertia.
@@ -336,7 +350,7 @@ pub trait Backend: Send {
     /// carries, and the arms and head lagged the clip by tens of degrees that way.
     fn drive_joint(
         &mut self,
-        index: usize,
+        joint: JointId,
         target: glam::Quat,
         target_angvel: Vec3,
         stiffness: f32,
@@ -465,32 +479,32 @@ macro_rules! forward {
 
 impl Backend for AnyBackend {
     forward! {
-        mut fn add_ragdoll(bodies: &[BodyDesc], joints: &[JointDesc], disabled_pairs: &[(usize, usize)]) -> usize;
-        mut fn add_skin_points(first_body: usize, points: &[SkinPointDesc]) -> bool;
-        mut fn remove_ragdoll(first_body: usize) -> bool;
+        mut fn add_ragdoll(bodies: &[BodyDesc], joints: &[JointDesc], disabled_pairs: &[(usize, usize)]) -> BodyId;
+        mut fn add_skin_points(first_body: BodyId, points: &[SkinPointDesc]) -> bool;
+        mut fn remove_ragdoll(first_body: BodyId) -> bool;
         mut fn step(dt: f32) -> StepReport;
         ref fn ground_half_extent() -> Option<f32>;
         mut fn apply_impulses(impulses: &[BodyImpulse]);
-        mut fn apply_impulse_at_point(index: usize, impulse: Vec3, point: Vec3);
-        mut fn apply_torque_impulse(index: usize, impulse: Vec3);
+        mut fn apply_impulse_at_point(body: BodyId, impulse: Vec3, point: Vec3);
+        mut fn apply_torque_impulse(body: BodyId, impulse: Vec3);
         ref fn body_states(out: &mut Vec<BodyState>);
         ref fn kinetic_energy() -> f64;
         ref fn active_joints() -> Option<usize>;
-        ref fn cast_ray(origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(usize, f32)>;
-        mut fn set_kinematic(index: usize, kinematic: bool);
-        mut fn set_kinematic_target(index: usize, pose: &Transform);
-        mut fn set_body_velocity(index: usize, linvel: Vec3, angvel: Vec3);
-        mut fn set_joint_parent_frame(index: usize, frame: &Transform);
-        mut fn set_joint_child_frame(index: usize, frame: &Transform);
+        ref fn cast_ray(origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(BodyId, f32)>;
+        mut fn set_kinematic(body: BodyId, kinematic: bool);
+        mut fn set_kinematic_target(body: BodyId, pose: &Transform);
+        mut fn set_body_velocity(body: BodyId, linvel: Vec3, angvel: Vec3);
+        mut fn set_joint_parent_frame(joint: JointId, frame: &Transform);
+        mut fn set_joint_child_frame(joint: JointId, frame: &Transform);
         mut fn set_solver_substeps(substeps: usize);
-        mut fn drive_joint(index: usize, target: glam::Quat, target_angvel: Vec3, stiffness: f32, damping: f32) -> bool;
-        mut fn set_joint_limits(index: usize, kind: &crate::spec::JointKind);
+        mut fn drive_joint(joint: JointId, target: glam::Quat, target_angvel: Vec3, stiffness: f32, damping: f32) -> bool;
+        mut fn set_joint_limits(joint: JointId, kind: &crate::spec::JointKind);
         mut fn set_gravity(gravity: Vec3);
-        mut fn add_pin(index: usize, local: Vec3, target: Vec3, soft: Option<(f32, f32)>) -> usize;
-        mut fn move_pin(pin: usize, target: Vec3);
-        mut fn release_pin(pin: usize);
+        mut fn add_pin(body: BodyId, local: Vec3, target: Vec3, soft: Option<(f32, f32)>) -> PinId;
+        mut fn move_pin(pin: PinId, target: Vec3);
+        mut fn release_pin(pin: PinId);
         ref fn bodies_touching_other_ragdolls(out: &mut Vec<bool>);
-        mut fn disable_pair(a: usize, b: usize);
-        mut fn set_body_pose(index: usize, pose: &Transform);
+        mut fn disable_pair(a: BodyId, b: BodyId);
+        mut fn set_body_pose(body: BodyId, pose: &Transform);
     }
 }

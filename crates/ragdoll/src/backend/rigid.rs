@@ -9,7 +9,10 @@ use std::collections::HashSet;
 use glam::Vec3;
 use rapier3d::prelude::*;
 
-use super::{Backend, BodyDesc, BodyState, JointDesc, RigidConfig, StepReport, Surroundings};
+use super::{
+    Backend, BodyDesc, BodyId, BodyState, JointDesc, JointId, PinId, RigidConfig, StepReport,
+    Surroundings,
+};
 use crate::math::Transform;
 use crate::spec::{JointKind, Shape};
 
@@ -255,13 +258,13 @@ impl Backend for RigidBackend {
         bodies: &[BodyDesc],
         joints: &[JointDesc],
         disabled_pairs: &[(usize, usize)],
-    ) -> usize {
-        self.add_ragdoll_impl(bodies, joints, disabled_pairs)
+    ) -> BodyId {
+        BodyId(self.add_ragdoll_impl(bodies, joints, disabled_pairs))
     }
 
     /// rapier's own way: the bodies are disabled (out of the solver and of collision
     /// detection, their colliders with them), their handles kept.
-    fn remove_ragdoll(&mut self, first_body: usize) -> bool {
+    fn remove_ragdoll(&mut self, BodyId(first_body): BodyId) -> bool {
         let Some(&ragdoll) = self.filter.ragdoll_of.get(first_body) else {
             return false;
         };
@@ -324,31 +327,31 @@ impl Backend for RigidBackend {
         self.has_ground.then_some(GROUND_HALF_EXTENT_M)
     }
 
-    fn apply_impulse_at_point(&mut self, index: usize, impulse: Vec3, point: Vec3) {
+    fn apply_impulse_at_point(&mut self, BodyId(index): BodyId, impulse: Vec3, point: Vec3) {
         self.world.bodies[self.bodies[index]].apply_impulse_at_point(impulse, point, true);
     }
 
-    fn apply_torque_impulse(&mut self, index: usize, impulse: Vec3) {
+    fn apply_torque_impulse(&mut self, BodyId(index): BodyId, impulse: Vec3) {
         self.world.bodies[self.bodies[index]].apply_torque_impulse(impulse, true);
     }
 
-    fn cast_ray(&self, origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(usize, f32)> {
+    fn cast_ray(&self, origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(BodyId, f32)> {
         let not_ground =
             |_: ColliderHandle, c: &Collider| c.user_data != GROUND_KEY && c.is_enabled();
         let filter = QueryFilter::default().predicate(&not_ground);
         let ray = Ray::new(origin, dir);
         let (collider, toi) = self.world.cast_ray(&ray, max_dist, true, filter)?;
         let key = self.world.colliders[collider].user_data;
-        Some((key as usize, toi))
+        Some((BodyId(key as usize), toi))
     }
 
-    fn set_joint_parent_frame(&mut self, index: usize, frame: &Transform) {
+    fn set_joint_parent_frame(&mut self, JointId(index): JointId, frame: &Transform) {
         if let Some(joint) = self.world.impulse_joints.get_mut(self.joints[index], true) {
             joint.data.set_local_frame1(pose(frame));
         }
     }
 
-    fn set_joint_child_frame(&mut self, index: usize, frame: &Transform) {
+    fn set_joint_child_frame(&mut self, JointId(index): JointId, frame: &Transform) {
         if let Some(joint) = self.world.impulse_joints.get_mut(self.joints[index], true) {
             joint.data.set_local_frame2(pose(frame));
         }
@@ -358,7 +361,7 @@ impl Backend for RigidBackend {
         self.world.integration_parameters.num_solver_iterations = substeps.max(1);
     }
 
-    fn set_joint_limits(&mut self, index: usize, kind: &JointKind) {
+    fn set_joint_limits(&mut self, JointId(index): JointId, kind: &JointKind) {
         let Some(joint) = self.world.impulse_joints.get_mut(self.joints[index], true) else {
             return;
         };
@@ -393,11 +396,11 @@ impl Backend for RigidBackend {
 
     fn add_pin(
         &mut self,
-        index: usize,
+        BodyId(index): BodyId,
         local: Vec3,
         target: Vec3,
         soft: Option<(f32, f32)>,
-    ) -> usize {
+    ) -> PinId {
         let anchor = self
             .world
             .bodies
@@ -412,15 +415,15 @@ impl Backend for RigidBackend {
         let body = self.bodies[index];
         let handle = self.world.impulse_joints.insert(anchor, body, joint, true);
         self.pins.push((anchor, Some(handle)));
-        self.pins.len() - 1
+        PinId(self.pins.len() - 1)
     }
 
-    fn move_pin(&mut self, pin: usize, target: Vec3) {
+    fn move_pin(&mut self, PinId(pin): PinId, target: Vec3) {
         let anchor = self.pins[pin].0;
         self.world.bodies[anchor].set_next_kinematic_translation(target);
     }
 
-    fn release_pin(&mut self, pin: usize) {
+    fn release_pin(&mut self, PinId(pin): PinId) {
         if let Some(joint) = self.pins[pin].1.take() {
             self.world.impulse_joints.remove(joint, true);
         }
@@ -459,12 +462,12 @@ impl Backend for RigidBackend {
         }
     }
 
-    fn disable_pair(&mut self, a: usize, b: usize) {
+    fn disable_pair(&mut self, BodyId(a): BodyId, BodyId(b): BodyId) {
         let (a, b) = (a as u32, b as u32);
         self.filter.disabled.insert((a.min(b), a.max(b)));
     }
 
-    fn set_kinematic(&mut self, index: usize, kinematic: bool) {
+    fn set_kinematic(&mut self, BodyId(index): BodyId, kinematic: bool) {
         let kind = if kinematic {
             RigidBodyType::KinematicPositionBased
         } else {
@@ -473,23 +476,23 @@ impl Backend for RigidBackend {
         self.world.bodies[self.bodies[index]].set_body_type(kind, true);
     }
 
-    fn set_kinematic_target(&mut self, index: usize, p: &Transform) {
+    fn set_kinematic_target(&mut self, BodyId(index): BodyId, p: &Transform) {
         self.world.bodies[self.bodies[index]].set_next_kinematic_position(pose(p));
     }
 
-    fn set_body_velocity(&mut self, index: usize, linvel: Vec3, angvel: Vec3) {
+    fn set_body_velocity(&mut self, BodyId(index): BodyId, linvel: Vec3, angvel: Vec3) {
         let rb = &mut self.world.bodies[self.bodies[index]];
         rb.set_linvel(linvel, true);
         rb.set_angvel(angvel, true);
     }
 
-    fn set_body_pose(&mut self, index: usize, p: &Transform) {
+    fn set_body_pose(&mut self, BodyId(index): BodyId, p: &Transform) {
         self.world.bodies[self.bodies[index]].set_position(pose(p), false);
     }
 
     fn drive_joint(
         &mut self,
-        index: usize,
+        JointId(index): JointId,
         target: glam::Quat,
         target_angvel: Vec3,
         stiffness: f32,

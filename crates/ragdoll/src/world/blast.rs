@@ -3,6 +3,7 @@
 //! along the direction from the charge, at the part's surface point facing the charge, so
 //! the part is pushed and twisted. Each part sees its own arrival time.
 
+use crate::backend::BodyId;
 use crate::backend::BodyImpulse;
 use glam::{DVec3, Vec3};
 
@@ -315,7 +316,7 @@ impl super::World {
                         let impulse = dir.as_dvec3() * j;
                         record.impulse += impulse;
                         self.impulses.push(BodyImpulse::AtPoint {
-                            body: inst.first_body + k,
+                            body: BodyId(inst.first_body + k),
                             impulse: impulse.as_vec3(),
                             point,
                         });

@@ -10,6 +10,7 @@
 //! Off by default and refused on the particle backend (`WorldSettings::validate`): there
 //! the couple acted on velocities a substep old and fed energy in.
 
+use crate::backend::BodyId;
 use crate::backend::BodyImpulse;
 use glam::Vec3;
 
@@ -61,8 +62,8 @@ impl World {
                 let impulse: Vec3 = -relative * (share * inertia);
                 if impulse.is_finite() {
                     self.impulses.extend(BodyImpulse::joint_pair(
-                        base + j.child,
-                        base + j.parent,
+                        BodyId(base + j.child),
+                        BodyId(base + j.parent),
                         impulse,
                     ));
                 }

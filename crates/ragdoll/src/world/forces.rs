@@ -1,6 +1,7 @@
 //! Pushes, fields and pins: what they do to the bodies over one substep.
 
 use crate::backend::BodyImpulse;
+use crate::backend::{BodyId, PinId};
 use glam::Vec3;
 
 use crate::events::{Field, Pin, Push};
@@ -34,7 +35,7 @@ pub(crate) struct ActivePin {
     /// The pinned body's mass, kg (a soft pin is a spring per unit of it).
     pub mass: f32,
     /// The backend's pin index once created (pins start with the world).
-    pub handle: Option<usize>,
+    pub handle: Option<PinId>,
     pub released: bool,
 }
 
@@ -339,7 +340,7 @@ impl super::World {
             };
             if impulse != Vec3::ZERO {
                 self.impulses.push(BodyImpulse::AtPoint {
-                    body: p.body,
+                    body: BodyId(p.body),
                     impulse,
                     point,
                 });
@@ -367,7 +368,7 @@ impl super::World {
                 }
                 if impulse != Vec3::ZERO {
                     self.impulses.push(BodyImpulse::AtPoint {
-                        body: inst.first_body + k,
+                        body: BodyId(inst.first_body + k),
                         impulse,
                         point: state.pose.translation,
                     });
@@ -394,7 +395,9 @@ impl super::World {
             match p.pin.stiffness_hz {
                 // Hard: a ball joint to a kinematic anchor moved along the path.
                 None => match p.handle {
-                    None => p.handle = Some(self.backend.add_pin(p.body, p.local, target, None)),
+                    None => {
+                        p.handle = Some(self.backend.add_pin(BodyId(p.body), p.local, target, None))
+                    }
                     Some(handle) => self.backend.move_pin(handle, target),
                 },
                 // Soft: a damped spring on the pinned point, as an impulse per substep
@@ -410,7 +413,7 @@ impl super::World {
                         - point_velocity * (2.0 * p.pin.damping_ratio * omega);
                     let impulse = accel * p.mass * (t1 - t0) as f32;
                     self.impulses.push(BodyImpulse::AtPoint {
-                        body: p.body,
+                        body: BodyId(p.body),
                         impulse,
                         point,
                     });

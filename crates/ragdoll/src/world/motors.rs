@@ -11,6 +11,7 @@
 //! widen to take in every clip pose, each hinge turns to the axis the clip's own elbow or
 //! knee bends about, and parts the clip passes through each other stop colliding.
 
+use crate::backend::{BodyId, JointId};
 use crate::backend::{BodyImpulse, BodyState};
 use glam::{Quat, Vec3};
 
@@ -211,16 +212,17 @@ impl World {
                 .collect();
             if j.fit_hinge_to(&pairs).is_some() {
                 self.backend
-                    .set_joint_parent_frame(inst.first_joint + k, &j.frame_parent);
+                    .set_joint_parent_frame(JointId(inst.first_joint + k), &j.frame_parent);
                 self.backend
-                    .set_joint_child_frame(inst.first_joint + k, &j.frame_child);
+                    .set_joint_child_frame(JointId(inst.first_joint + k), &j.frame_child);
             }
             let mut widened = false;
             for (parent, child) in &pairs {
                 widened |= j.widen_to_include(parent, child, HANDOVER_LIMIT_MARGIN_DEG);
             }
             if widened {
-                self.backend.set_joint_limits(inst.first_joint + k, &j.kind);
+                self.backend
+                    .set_joint_limits(JointId(inst.first_joint + k), &j.kind);
             }
         }
         let substeps = match self.settings.backend {
@@ -230,7 +232,7 @@ impl World {
         self.backend
             .set_solver_substeps(POWERED_SOLVER_SUBSTEPS.max(substeps));
         if let Some(root) = held_root {
-            self.backend.set_kinematic(root, true);
+            self.backend.set_kinematic(BodyId(root), true);
         }
         for poses in &clip_poses {
             self.stop_overlapping_pairs(c, poses);
@@ -266,7 +268,7 @@ impl World {
         let targets = play.body_poses(t1);
         if state.motors.root_on_clip {
             self.backend
-                .set_kinematic_target(inst.first_body + state.root, &targets[state.root]);
+                .set_kinematic_target(BodyId(inst.first_body + state.root), &targets[state.root]);
         }
         let s = state.motors.strength_at((t0 + 0.5 * h as f64) as f32);
         // The clip's angular velocities: the motors damp toward the clip's motion
@@ -337,7 +339,7 @@ fn drive_in_solver(backend: &mut impl Backend, inst: &Instance, aim: &Aim) -> bo
         } else {
             (Quat::IDENTITY, Vec3::ZERO)
         };
-        if !backend.drive_joint(inst.first_joint + k, target, target_vel, kp, kd) {
+        if !backend.drive_joint(JointId(inst.first_joint + k), target, target_vel, kp, kd) {
             return false;
         }
     }
@@ -396,8 +398,8 @@ fn torque_impulses(
         let impulse = accel * inertia * h;
         if impulse.is_finite() {
             out.extend(BodyImpulse::joint_pair(
-                base + j.child,
-                base + j.parent,
+                BodyId(base + j.child),
+                BodyId(base + j.parent),
                 impulse,
             ));
         }

@@ -2,6 +2,7 @@
 //! bodies follow the clip kinematically until the activation moment, then become dynamic
 //! with the clip's velocities, so the hand-over keeps the motion's momentum.
 
+use crate::backend::{BodyId, JointId};
 use glam::Vec3;
 
 use crate::math::Transform;
@@ -223,7 +224,8 @@ impl super::World {
             && let Some(play) = &inst.playback
         {
             for (b, pose) in play.body_poses(0.0).iter().enumerate() {
-                self.backend.set_body_pose(inst.first_body + b, pose);
+                self.backend
+                    .set_body_pose(BodyId(inst.first_body + b), pose);
             }
         }
         inst.activation = activation;
@@ -231,7 +233,7 @@ impl super::World {
         inst.activated_at = inst.active.then_some(0.0);
         for b in 0..inst.shapes.len() {
             self.backend
-                .set_kinematic(inst.first_body + b, !inst.active);
+                .set_kinematic(BodyId(inst.first_body + b), !inst.active);
         }
         // The poses read before the first step are the clip's.
         self.backend.body_states(&mut self.states);
@@ -290,7 +292,8 @@ impl super::World {
                 self.hand_over(c, t0, h);
             } else {
                 for (k, pose) in play.body_poses(t1).iter().enumerate() {
-                    self.backend.set_kinematic_target(inst.first_body + k, pose);
+                    self.backend
+                        .set_kinematic_target(BodyId(inst.first_body + k), pose);
                 }
             }
         }
@@ -309,9 +312,9 @@ impl super::World {
         play.joint_world(t0, &mut joints);
         let first = inst.first_body;
         for (k, (pose, (v, w))) in poses.iter().zip(&velocities).enumerate() {
-            self.backend.set_kinematic(first + k, false);
-            self.backend.set_body_pose(first + k, pose);
-            self.backend.set_body_velocity(first + k, *v, *w);
+            self.backend.set_kinematic(BodyId(first + k), false);
+            self.backend.set_body_pose(BodyId(first + k), pose);
+            self.backend.set_body_velocity(BodyId(first + k), *v, *w);
             self.states[first + k].pose = *pose;
             self.states[first + k].linvel = *v;
             self.states[first + k].angvel = *w;
@@ -335,9 +338,10 @@ impl super::World {
             j.frame_parent.translation = parent.inverse().transform_point(anchor);
             j.align_hinge_to(parent, child);
             self.backend
-                .set_joint_parent_frame(inst.first_joint + k, &j.frame_parent);
+                .set_joint_parent_frame(JointId(inst.first_joint + k), &j.frame_parent);
             if j.widen_to_include(parent, child, super::HANDOVER_LIMIT_MARGIN_DEG) {
-                self.backend.set_joint_limits(inst.first_joint + k, &j.kind);
+                self.backend
+                    .set_joint_limits(JointId(inst.first_joint + k), &j.kind);
             }
         }
         inst.active = true;
@@ -366,7 +370,7 @@ impl super::World {
         pairs.sort_unstable();
         for &(a, b) in &pairs {
             self.backend
-                .disable_pair(inst.first_body + a, inst.first_body + b);
+                .disable_pair(BodyId(inst.first_body + a), BodyId(inst.first_body + b));
         }
         let exempt = &mut self.instances[c].exempt_pairs;
         exempt.extend(pairs.iter().map(|&(a, b)| (a.min(b), a.max(b))));

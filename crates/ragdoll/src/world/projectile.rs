@@ -50,7 +50,8 @@ impl World {
                 point: None,
                 impulse_ns: 0.0,
             };
-            if let Some((body, dist)) = self.backend.cast_ray(p.origin, dir, RANGE_M) {
+            if let Some((hit, dist)) = self.backend.cast_ray(p.origin, dir, RANGE_M) {
+                let body = hit.0;
                 let point = p.origin + dir * dist;
                 // A character waiting for contact is handed over before the hit lands (a
                 // clip-driven body would not feel it).
@@ -66,7 +67,7 @@ impl World {
                     self.hand_over(c, t1, h);
                 }
                 self.impulses.push(BodyImpulse::AtPoint {
-                    body,
+                    body: hit,
                     impulse: dir * momentum,
                     point,
                 });

@@ -4,6 +4,7 @@
 //! that every track keeps one frame per output frame. The others' ids stay valid.
 
 use super::{RagdollId, World};
+use crate::backend::BodyId;
 use crate::backend::{Backend, BodyImpulse};
 use crate::error::{Error, Result};
 
@@ -49,7 +50,7 @@ impl World {
             )));
         }
         let bodies = inst.first_body..inst.first_body + inst.masses.len();
-        if !self.backend.remove_ragdoll(inst.first_body) {
+        if !self.backend.remove_ragdoll(BodyId(inst.first_body)) {
             return Err(refuse(
                 "this backend cannot remove ragdolls; the built-in ones can".into(),
             ));
@@ -97,7 +98,7 @@ impl World {
             .iter()
             .filter(|imp| {
                 let (BodyImpulse::AtPoint { body, .. } | BodyImpulse::Angular { body, .. }) = **imp;
-                !removed.get(body).copied().unwrap_or(false)
+                !removed.get(body.0).copied().unwrap_or(false)
             })
             .copied()
             .collect();

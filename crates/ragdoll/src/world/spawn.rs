@@ -3,6 +3,7 @@
 //! bodies and joints handed to the backend, and the riders that carry every skeleton joint
 //! on a body so the track can be written for the whole skeleton.
 
+use crate::backend::BodyId;
 use glam::Vec3;
 
 use super::overlap::Solid;
@@ -86,8 +87,8 @@ impl World {
                 angvel: Vec3::ZERO,
             })
             .collect();
-        let first_body = self.backend.add_ragdoll(&bodies, &joint_descs, &disabled);
-        self.backend.add_skin_points(first_body, &skin);
+        let first_body = self.backend.add_ragdoll(&bodies, &joint_descs, &disabled).0;
+        self.backend.add_skin_points(BodyId(first_body), &skin);
         let mut exempt_pairs: Vec<(usize, usize)> = disabled
             .iter()
             .map(|&(a, b)| (a.min(b), a.max(b)))

@@ -50,7 +50,8 @@ use std::collections::HashSet;
 use glam::{Quat, Vec3};
 
 use super::{
-    Backend, BodyDesc, BodyState, FastConfig, JointDesc, SkinPointDesc, StepReport, Surroundings,
+    Backend, BodyDesc, BodyId, BodyState, FastConfig, JointDesc, JointId, PinId, SkinPointDesc,
+    StepReport, Surroundings,
 };
 use crate::math::Transform;
 use crate::spec::{JointKind, Shape};
@@ -332,7 +333,7 @@ impl Backend for FastBackend {
         bodies: &[BodyDesc],
         joints: &[JointDesc],
         disabled_pairs: &[(usize, usize)],
-    ) -> usize {
+    ) -> BodyId {
         let first = self.pos.len();
         let r = self.ragdolls.len();
         for b in bodies {
@@ -404,10 +405,10 @@ impl Backend for FastBackend {
             closing_mps: 0.0,
             removed: false,
         });
-        first
+        BodyId(first)
     }
 
-    fn remove_ragdoll(&mut self, first_body: usize) -> bool {
+    fn remove_ragdoll(&mut self, BodyId(first_body): BodyId) -> bool {
         let Some(&r) = self.ragdoll_of.get(first_body) else {
             return false;
         };
@@ -429,7 +430,7 @@ impl Backend for FastBackend {
         true
     }
 
-    fn add_skin_points(&mut self, first_body: usize, points: &[SkinPointDesc]) -> bool {
+    fn add_skin_points(&mut self, BodyId(first_body): BodyId, points: &[SkinPointDesc]) -> bool {
         self.add_skin_points_impl(first_body, points);
         true
     }
@@ -443,13 +444,13 @@ impl Backend for FastBackend {
         }
     }
 
-    fn apply_impulse_at_point(&mut self, index: usize, impulse: Vec3, point: Vec3) {
+    fn apply_impulse_at_point(&mut self, BodyId(index): BodyId, impulse: Vec3, point: Vec3) {
         let r = point - self.pos[index];
         let dw = self.inv_inertia_world(index, r.cross(impulse));
         self.kick(index, impulse * self.inv_mass[index], dw);
     }
 
-    fn apply_torque_impulse(&mut self, index: usize, impulse: Vec3) {
+    fn apply_torque_impulse(&mut self, BodyId(index): BodyId, impulse: Vec3) {
         let dw = self.inv_inertia_world(index, impulse);
         self.kick(index, Vec3::ZERO, dw);
     }
@@ -479,8 +480,9 @@ impl Backend for FastBackend {
             .sum()
     }
 
-    fn cast_ray(&self, origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(usize, f32)> {
+    fn cast_ray(&self, origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(BodyId, f32)> {
         self.cast_ray_impl(origin, dir, max_dist)
+            .map(|(b, d)| (BodyId(b), d))
     }
 
     fn active_joints(&self) -> Option<usize> {
@@ -493,7 +495,7 @@ impl Backend for FastBackend {
         )
     }
 
-    fn set_kinematic(&mut self, index: usize, kinematic: bool) {
+    fn set_kinematic(&mut self, BodyId(index): BodyId, kinematic: bool) {
         let pose = Transform::new(self.pos[index], self.rot[index]);
         self.kinematic[index] = kinematic.then_some(Kinematic {
             from: pose,
@@ -505,13 +507,13 @@ impl Backend for FastBackend {
         self.wake_body(index);
     }
 
-    fn set_kinematic_target(&mut self, index: usize, pose: &Transform) {
+    fn set_kinematic_target(&mut self, BodyId(index): BodyId, pose: &Transform) {
         if let Some(k) = &mut self.kinematic[index] {
             k.to = Transform::new(pose.translation, pose.rotation.normalize());
         }
     }
 
-    fn set_body_velocity(&mut self, index: usize, linvel: Vec3, angvel: Vec3) {
+    fn set_body_velocity(&mut self, BodyId(index): BodyId, linvel: Vec3, angvel: Vec3) {
         self.wake_body(index);
         self.thaw(self.ragdoll_of[index]);
         self.vel[index] = linvel;
@@ -520,7 +522,7 @@ impl Backend for FastBackend {
         self.seen_angvel[index] = angvel;
     }
 
-    fn set_joint_parent_frame(&mut self, index: usize, frame: &Transform) {
+    fn set_joint_parent_frame(&mut self, JointId(index): JointId, frame: &Transform) {
         let j = &mut self.joints[index];
         j.frame_a = *frame;
         let b = j.b;
@@ -528,7 +530,7 @@ impl Backend for FastBackend {
         self.thaw(self.ragdoll_of[b]);
     }
 
-    fn set_joint_child_frame(&mut self, index: usize, frame: &Transform) {
+    fn set_joint_child_frame(&mut self, JointId(index): JointId, frame: &Transform) {
         let j = &mut self.joints[index];
         j.frame_b = *frame;
         let b = j.b;
@@ -540,7 +542,7 @@ impl Backend for FastBackend {
     // nothing to raise.
     fn set_solver_substeps(&mut self, _substeps: usize) {}
 
-    fn set_joint_limits(&mut self, index: usize, kind: &JointKind) {
+    fn set_joint_limits(&mut self, JointId(index): JointId, kind: &JointKind) {
         let j = &mut self.joints[index];
         j.limits = Limits::of(kind);
         let b = j.b;
@@ -559,11 +561,11 @@ impl Backend for FastBackend {
 
     fn add_pin(
         &mut self,
-        index: usize,
+        BodyId(index): BodyId,
         local: Vec3,
         target: Vec3,
         soft: Option<(f32, f32)>,
-    ) -> usize {
+    ) -> PinId {
         self.pins.push(Pin {
             body: index,
             local,
@@ -573,14 +575,14 @@ impl Backend for FastBackend {
             active: true,
         });
         self.update_held();
-        self.pins.len() - 1
+        PinId(self.pins.len() - 1)
     }
 
-    fn move_pin(&mut self, pin: usize, target: Vec3) {
+    fn move_pin(&mut self, PinId(pin): PinId, target: Vec3) {
         self.pins[pin].to = target;
     }
 
-    fn release_pin(&mut self, pin: usize) {
+    fn release_pin(&mut self, PinId(pin): PinId) {
         self.pins[pin].active = false;
         self.update_held();
         let b = self.pins[pin].body;
@@ -593,12 +595,12 @@ impl Backend for FastBackend {
         out.resize(self.pos.len(), false);
     }
 
-    fn disable_pair(&mut self, a: usize, b: usize) {
+    fn disable_pair(&mut self, BodyId(a): BodyId, BodyId(b): BodyId) {
         let (a, b) = (a as u32, b as u32);
         self.disabled.insert((a.min(b), a.max(b)));
     }
 
-    fn set_body_pose(&mut self, index: usize, pose: &Transform) {
+    fn set_body_pose(&mut self, BodyId(index): BodyId, pose: &Transform) {
         self.pos[index] = pose.translation;
         self.rot[index] = pose.rotation.normalize();
         self.refresh_inertia(index);
@@ -609,7 +611,7 @@ impl Backend for FastBackend {
 
     fn drive_joint(
         &mut self,
-        index: usize,
+        JointId(index): JointId,
         target: Quat,
         target_angvel: Vec3,
         stiffness: f32,

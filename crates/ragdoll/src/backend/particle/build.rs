@@ -7,7 +7,7 @@ use glam::{Mat3, Vec3};
 
 use super::{Filter, ParticleBackend, solve};
 use crate::backend::tree::JointTree;
-use crate::backend::{Backend, BodyDesc, JointDesc};
+use crate::backend::{Backend, BodyDesc, BodyId, JointDesc};
 use crate::spec::ResolvedJoint;
 
 /// Joint anchors of one parent closer than this share a particle, metres.
@@ -203,10 +203,10 @@ impl ParticleBackend {
             offset,
         });
         for j in joint_descs {
-            self.disable_pair(fb + j.parent, fb + j.child);
+            self.disable_pair(BodyId(fb + j.parent), BodyId(fb + j.child));
         }
         for &(a, b) in disabled {
-            self.disable_pair(fb + a, fb + b);
+            self.disable_pair(BodyId(fb + a), BodyId(fb + b));
         }
     }
 
@@ -224,7 +224,7 @@ impl ParticleBackend {
         for list in &owners {
             for (i, &a) in list.iter().enumerate() {
                 for &b in &list[i + 1..] {
-                    self.disable_pair(a, b);
+                    self.disable_pair(BodyId(a), BodyId(b));
                 }
             }
         }

@@ -68,7 +68,10 @@ mod solve;
 use glam::{Mat3, Quat, Vec3, Vec4};
 
 use super::tree::JointTree;
-use super::{Backend, BodyDesc, BodyState, JointDesc, ParticleConfig, StepReport, Surroundings};
+use super::{
+    Backend, BodyDesc, BodyId, BodyState, JointDesc, JointId, ParticleConfig, PinId, StepReport,
+    Surroundings,
+};
 use crate::math::Transform;
 use crate::spec::{JointKind, ResolvedJoint, Shape};
 
@@ -309,19 +312,19 @@ impl Backend for ParticleBackend {
         bodies: &[BodyDesc],
         joints: &[JointDesc],
         disabled_pairs: &[(usize, usize)],
-    ) -> usize {
+    ) -> BodyId {
         let first = self.add_ragdoll_impl(bodies, joints, disabled_pairs);
         for (k, b) in bodies.iter().enumerate() {
             if b.linvel != Vec3::ZERO || b.angvel != Vec3::ZERO {
-                self.set_body_velocity(first + k, b.linvel, b.angvel);
+                self.set_body_velocity(BodyId(first + k), b.linvel, b.angvel);
             }
         }
-        first
+        BodyId(first)
     }
 
     /// Its bodies are held still as kinematic ones (their particles then carry no
     /// energy) and meet nothing.
-    fn remove_ragdoll(&mut self, first_body: usize) -> bool {
+    fn remove_ragdoll(&mut self, BodyId(first_body): BodyId) -> bool {
         let Some(ragdoll) = self.bodies.get(first_body).map(|b| b.ragdoll) else {
             return false;
         };
@@ -329,7 +332,7 @@ impl Backend for ParticleBackend {
             if self.bodies[b].ragdoll != ragdoll {
                 break;
             }
-            self.set_kinematic(b, true);
+            self.set_kinematic(BodyId(b), true);
             for k in self.body_parts(b) {
                 let p = self.parts[k] as usize;
                 self.v[p] = Vec3::ZERO;
@@ -355,11 +358,11 @@ impl Backend for ParticleBackend {
         }
     }
 
-    fn apply_impulse_at_point(&mut self, index: usize, impulse: Vec3, point: Vec3) {
+    fn apply_impulse_at_point(&mut self, BodyId(index): BodyId, impulse: Vec3, point: Vec3) {
         self.apply_impulse(index, impulse, Some(point), Vec3::ZERO);
     }
 
-    fn apply_torque_impulse(&mut self, index: usize, impulse: Vec3) {
+    fn apply_torque_impulse(&mut self, BodyId(index): BodyId, impulse: Vec3) {
         self.apply_impulse(index, Vec3::ZERO, None, impulse);
     }
 
@@ -396,11 +399,12 @@ impl Backend for ParticleBackend {
             .sum()
     }
 
-    fn cast_ray(&self, origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(usize, f32)> {
+    fn cast_ray(&self, origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(BodyId, f32)> {
         self.cast_ray_impl(origin, dir, max_dist)
+            .map(|(b, d)| (BodyId(b), d))
     }
 
-    fn set_kinematic(&mut self, index: usize, kinematic: bool) {
+    fn set_kinematic(&mut self, BodyId(index): BodyId, kinematic: bool) {
         if self.bodies[index].kinematic == kinematic {
             return;
         }
@@ -411,7 +415,7 @@ impl Backend for ParticleBackend {
         }
     }
 
-    fn set_kinematic_target(&mut self, index: usize, pose: &Transform) {
+    fn set_kinematic_target(&mut self, BodyId(index): BodyId, pose: &Transform) {
         for k in self.body_parts(index) {
             let p = self.parts[k] as usize;
             if self.kin[p] > 0 {
@@ -420,7 +424,7 @@ impl Backend for ParticleBackend {
         }
     }
 
-    fn set_body_velocity(&mut self, index: usize, linvel: Vec3, angvel: Vec3) {
+    fn set_body_velocity(&mut self, BodyId(index): BodyId, linvel: Vec3, angvel: Vec3) {
         let origin = self.bodies[index].pos;
         for k in self.body_parts(index) {
             let p = self.parts[k] as usize;
@@ -429,11 +433,11 @@ impl Backend for ParticleBackend {
         self.pairs_left = 0;
     }
 
-    fn set_joint_parent_frame(&mut self, index: usize, frame: &Transform) {
+    fn set_joint_parent_frame(&mut self, JointId(index): JointId, frame: &Transform) {
         self.joints[index].frame_parent = *frame;
     }
 
-    fn set_joint_child_frame(&mut self, index: usize, frame: &Transform) {
+    fn set_joint_child_frame(&mut self, JointId(index): JointId, frame: &Transform) {
         self.joints[index].frame_child = *frame;
     }
 
@@ -444,7 +448,7 @@ impl Backend for ParticleBackend {
     /// No drives inside the position solver yet: the world applies the motors as torques.
     fn drive_joint(
         &mut self,
-        _index: usize,
+        _: JointId,
         _target: glam::Quat,
         _target_angvel: Vec3,
         _stiffness: f32,
@@ -453,7 +457,7 @@ impl Backend for ParticleBackend {
         false
     }
 
-    fn set_joint_limits(&mut self, index: usize, kind: &JointKind) {
+    fn set_joint_limits(&mut self, JointId(index): JointId, kind: &JointKind) {
         self.joints[index].kind = *kind;
         self.bounds[index] = solve::Bounds::of(kind);
     }
@@ -464,11 +468,11 @@ impl Backend for ParticleBackend {
 
     fn add_pin(
         &mut self,
-        index: usize,
+        BodyId(index): BodyId,
         local: Vec3,
         target: Vec3,
         soft: Option<(f32, f32)>,
-    ) -> usize {
+    ) -> PinId {
         self.pins.push(Pin {
             body: index as u32,
             local,
@@ -477,14 +481,14 @@ impl Backend for ParticleBackend {
             soft,
             active: true,
         });
-        self.pins.len() - 1
+        PinId(self.pins.len() - 1)
     }
 
-    fn move_pin(&mut self, pin: usize, target: Vec3) {
+    fn move_pin(&mut self, PinId(pin): PinId, target: Vec3) {
         self.pins[pin].target = target;
     }
 
-    fn release_pin(&mut self, pin: usize) {
+    fn release_pin(&mut self, PinId(pin): PinId) {
         self.pins[pin].active = false;
     }
 
@@ -492,7 +496,7 @@ impl Backend for ParticleBackend {
         out.clone_from(&self.touched);
     }
 
-    fn disable_pair(&mut self, a: usize, b: usize) {
+    fn disable_pair(&mut self, BodyId(a): BodyId, BodyId(b): BodyId) {
         let (ra, rb) = (self.bodies[a].ragdoll, self.bodies[b].ragdoll);
         if ra == rb {
             let f = &self.filters[ra as usize];
@@ -510,7 +514,7 @@ impl Backend for ParticleBackend {
         self.pairs_left = 0;
     }
 
-    fn set_body_pose(&mut self, index: usize, pose: &Transform) {
+    fn set_body_pose(&mut self, BodyId(index): BodyId, pose: &Transform) {
         for k in self.body_parts(index) {
             let p = self.parts[k] as usize;
             let to = pose.transform_point(self.rest[k]);
