@@ -12,7 +12,8 @@ mod common;
 
 use glam::{Quat, Vec3, Vec4};
 use ragdoll::import::{ImportOptions, load};
-use ragdoll::skeleton::{Character, SkinnedMesh, humanoid};
+use ragdoll::math::Transform;
+use ragdoll::skeleton::{Character, Joint, Skeleton, SkinnedMesh, Source, humanoid};
 use ragdoll::spec::{BuildOptions, RagdollSpec, Shape, build_spec, recognise_roles};
 
 /// A body's world shape in the rest pose.
@@ -250,6 +251,109 @@ fn body_fit_bodies_reach_as_far_as_the_skin_and_not_much_farther() {
             "along {dir} the bodies reach {body_far}, {} m past the skin",
             body_far - skin_far
         );
+    }
+}
+
+/// How far past the skin the bodies reach at worst, over the six axes and the eight
+/// diagonals, and how far short of it (both metres, positive when past).
+fn reach_past_skin(c: &Character, spec: &RagdollSpec) -> (f32, f32) {
+    let solids = solids(c, spec);
+    let skin: Vec<Vec3> = c.meshes.iter().flat_map(|m| m.positions.clone()).collect();
+    let mut dirs = vec![Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
+    for sx in [-1.0, 1.0] {
+        for sy in [-1.0, 1.0] {
+            for sz in [-1.0, 1.0] {
+                dirs.push(Vec3::new(sx, sy, sz).normalize());
+            }
+        }
+    }
+    let (mut past, mut short) = (f32::MIN, f32::MIN);
+    for dir in dirs {
+        let skin_far = skin.iter().map(|p| p.dot(dir)).fold(f32::MIN, f32::max);
+        let body_far = solids
+            .iter()
+            .map(|s| support(s, dir))
+            .fold(f32::MIN, f32::max);
+        past = past.max(body_far - skin_far);
+        short = short.max(skin_far - body_far);
+    }
+    (past, short)
+}
+
+/// A low-polygon strip: two joints in a chain `turn`ed in the world, and a flat strip of
+/// `rows` pairs of vertices beside the bones (not around them), blended from the first
+/// joint to the second along it, as Khronos' skinning sample is.
+fn strip(turn: Quat, rows: usize) -> Character {
+    let joints = vec![
+        Joint {
+            name: "root".into(),
+            parent: None,
+            rest: Transform::new(Vec3::ZERO, turn),
+            tip: None,
+        },
+        Joint {
+            name: "tip".into(),
+            parent: Some(0),
+            rest: Transform::new(Vec3::Y, Quat::IDENTITY),
+            tip: Some(Vec3::Y),
+        },
+    ];
+    let mut mesh = SkinnedMesh {
+        name: "strip".into(),
+        positions: Vec::new(),
+        normals: Vec::new(),
+        indices: Vec::new(),
+        joints: Vec::new(),
+        weights: Vec::new(),
+    };
+    for r in 0..rows {
+        let t = r as f32 / (rows - 1) as f32;
+        for x in [0.0, 1.0] {
+            mesh.positions.push(turn * Vec3::new(x, 2.0 * t, 0.0));
+            mesh.joints.push([0, 1, 0, 0]);
+            mesh.weights.push(Vec4::new(1.0 - t, t, 0.0, 0.0));
+        }
+    }
+    Character {
+        name: "strip".into(),
+        skeleton: Skeleton::new(joints).unwrap(),
+        meshes: vec![mesh],
+        clips: Vec::new(),
+        humanoid_bones: Vec::new(),
+        warnings: Vec::new(),
+        source: Source::BuiltIn,
+    }
+}
+
+#[test]
+fn body_fit_a_strip_of_a_few_vertices_rests_on_bodies_as_thin_as_it() {
+    // Too few vertices per body for a percentile, but enough to say where the skin is:
+    // the bodies hold the whole strip and reach no farther than 5 % of its length past
+    // it on any side, so it neither sinks nor stands on bodies wider than it is. Upright,
+    // lying, and turned off every axis.
+    for turn in [
+        Quat::IDENTITY,
+        Quat::from_rotation_x(std::f32::consts::FRAC_PI_2),
+        Quat::from_euler(glam::EulerRot::YXZ, 0.7, 0.4, -0.3),
+    ] {
+        for rows in [4, 5, 7] {
+            let c = strip(turn, rows);
+            let spec = build_spec(&c, &BuildOptions::default()).unwrap();
+            for (d, b, p) in misfits(&c, &spec) {
+                assert!(
+                    d < 1e-3,
+                    "{rows} rows turned {turn}: {p} lies {d} m outside {:?}",
+                    spec.bodies[b].shape
+                );
+            }
+            let (past, short) = reach_past_skin(&c, &spec);
+            assert!(short < 1e-3, "{rows} rows turned {turn}: {short} m short");
+            assert!(
+                past < 0.05 * 2.0,
+                "{rows} rows turned {turn}: bodies reach {past} m past the strip: {:?}",
+                spec.bodies.iter().map(|b| &b.shape).collect::<Vec<_>>()
+            );
+        }
     }
 }
 

@@ -42,6 +42,11 @@ const AXIS_PERCENTILES: [f32; 2] = [0.05, 0.95];
 const BOX_PREFERENCE: f32 = 0.5;
 /// Fewest skin vertices a measurement is made from; below, proportions are used.
 const MIN_FIT_VERTICES: usize = 8;
+/// Fewest skin vertices a box is fitted to, holding every one of them, when there are
+/// too few to measure (a low-polygon strip or plate: Khronos' SimpleSkin is ten vertices
+/// in a flat strip beside its bones; the capsule holding them was a metre wide and
+/// rested the strip a quarter of its height off the floor). Four points span a solid.
+const MIN_BOX_VERTICES: usize = 4;
 /// Radii removed from each end of a capsule fitted without skin (or whose skin does not
 /// reach the joints): its round ends then stop at the joints, so neighbours meet instead of
 /// overlapping (jointed pairs do not collide anyway).
@@ -290,7 +295,18 @@ impl Builder<'_> {
             radius_m: radius,
             length_m: length,
         };
-        let (shape, centre, rotation) = match self.fit_box(start, u, x, group, q) {
+        // Too few vertices to measure, a box holding them is a measurement only where they
+        // lie farther from the bone than the proportional radius: the skin, not the
+        // proportions, then sized the capsule (a strip beside its bone). A handful of
+        // vertices bunched at a joint would make a box a centimetre wide.
+        let measured = group.len() >= MIN_FIT_VERTICES
+            || radius
+                > default_radius
+                    .clamp(RADIUS_RANGE[0] * self.size(), RADIUS_RANGE[1] * self.size());
+        let fitted = measured
+            .then(|| self.fit_box(start, u, x, group, q))
+            .flatten();
+        let (shape, centre, rotation) = match fitted {
             Some((b, centre, rotation)) if b.volume() < BOX_PREFERENCE * capsule.volume() => {
                 (b, centre, rotation)
             }
@@ -324,9 +340,15 @@ impl Builder<'_> {
         group: &[Vec3],
         q: f32,
     ) -> Option<(Shape, Vec3, Quat)> {
-        if group.len() < MIN_FIT_VERTICES {
+        if group.len() < MIN_BOX_VERTICES {
             return None;
         }
+        // Too few vertices for a percentile to leave strays out: hold them all.
+        let q = if group.len() < MIN_FIT_VERTICES {
+            1.0
+        } else {
+            q
+        };
         let z = x.cross(u);
         let c = centroid(group);
         let (mut cxx, mut cxz, mut czz) = (0.0f32, 0.0f32, 0.0f32);
