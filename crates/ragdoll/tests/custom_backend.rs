@@ -1,23 +1,25 @@
 //! A fourth backend written against the public seam alone ([`ragdoll::backend::Backend`]):
 //! free rigid bodies (no joints, no collisions between them) over a ground that stops
 //! them. Too simple for a ragdoll, enough to show that the world places, steps, blasts,
-//! shoots and records through the trait, and hands each step's impulses over in one call.
+//! shoots and records through the trait, and hands each step's impulses over in one call
+//! ([`Backend::apply`], a batch of [`Command`]s).
 
 use std::sync::{Arc, Mutex};
 
 use glam::{Quat, Vec3};
 use ragdoll::backend::{
-    Backend, BodyDesc, BodyId, BodyImpulse, BodyState, JointDesc, JointId, PinId, StepReport,
+    Backend, BodyDesc, BodyId, BodyImpulse, BodyState, Command, JointDesc, JointId, PinId,
+    StepReport,
 };
 use ragdoll::events::{Blast, Projectile};
 use ragdoll::math::Transform;
-use ragdoll::spec::{BuildOptions, JointKind, build_spec};
+use ragdoll::spec::{BuildOptions, build_spec};
 use ragdoll::world::{World, WorldSettings};
 
 /// What the test reads back of the backend after the world owns it.
 #[derive(Default)]
 struct Log {
-    /// The length of every `apply_impulses` call.
+    /// How many impulses each `apply` call that held any carried.
     batches: Vec<usize>,
     steps: usize,
     /// The deepest any body went under the ground before the engine stopped it, metres.
@@ -88,24 +90,51 @@ impl Backend for Ballistic {
         }
     }
 
-    fn apply_impulses(&mut self, impulses: &[BodyImpulse]) {
-        self.log.lock().unwrap().batches.push(impulses.len());
-        for i in impulses {
-            match *i {
-                BodyImpulse::AtPoint { body, impulse, .. } => {
-                    self.apply_impulse_at_point(body, impulse, Vec3::ZERO)
+    fn apply(&mut self, commands: &[Command]) {
+        let impulses = commands
+            .iter()
+            .filter(|c| matches!(c, Command::Impulse(_)))
+            .count();
+        if impulses > 0 {
+            self.log.lock().unwrap().batches.push(impulses);
+        }
+        for command in commands {
+            match *command {
+                Command::Impulse(BodyImpulse::AtPoint {
+                    body: BodyId(index),
+                    impulse,
+                    ..
+                }) => {
+                    let (s, m, _) = &mut self.bodies[index];
+                    s.linvel += impulse / *m;
                 }
-                BodyImpulse::Angular { body, impulse } => self.apply_torque_impulse(body, impulse),
+                Command::Kinematic {
+                    body: BodyId(index),
+                    kinematic,
+                } => self.bodies[index].2 = kinematic,
+                Command::KinematicTarget {
+                    body: BodyId(index),
+                    pose,
+                }
+                | Command::Pose {
+                    body: BodyId(index),
+                    pose,
+                } => self.bodies[index].0.pose = pose,
+                Command::Velocity {
+                    body: BodyId(index),
+                    linvel,
+                    angvel,
+                } => {
+                    self.bodies[index].0.linvel = linvel;
+                    self.bodies[index].0.angvel = angvel;
+                }
+                Command::Gravity(g) => self.gravity = g,
+                // No spin, joints, pins or solver substeps to change; a command added to
+                // the enum later lands here too.
+                _ => {}
             }
         }
     }
-
-    fn apply_impulse_at_point(&mut self, BodyId(index): BodyId, impulse: Vec3, _point: Vec3) {
-        let (s, m, _) = &mut self.bodies[index];
-        s.linvel += impulse / *m;
-    }
-
-    fn apply_torque_impulse(&mut self, _: BodyId, _: Vec3) {}
 
     fn body_states(&self, out: &mut Vec<BodyState>) {
         out.clear();
@@ -132,43 +161,12 @@ impl Backend for Ballistic {
             .min_by(|a, b| a.1.total_cmp(&b.1))
     }
 
-    fn set_kinematic(&mut self, BodyId(index): BodyId, kinematic: bool) {
-        self.bodies[index].2 = kinematic;
-    }
-
-    fn set_kinematic_target(&mut self, BodyId(index): BodyId, pose: &Transform) {
-        self.bodies[index].0.pose = *pose;
-    }
-
-    fn set_body_velocity(&mut self, BodyId(index): BodyId, linvel: Vec3, angvel: Vec3) {
-        self.bodies[index].0.linvel = linvel;
-        self.bodies[index].0.angvel = angvel;
-    }
-
-    fn set_joint_parent_frame(&mut self, _: JointId, _: &Transform) {}
-    fn set_joint_child_frame(&mut self, _: JointId, _: &Transform) {}
-    fn set_solver_substeps(&mut self, _: usize) {}
-    fn set_joint_limits(&mut self, _: JointId, _: &JointKind) {}
-
-    fn set_gravity(&mut self, gravity: Vec3) {
-        self.gravity = gravity;
-    }
-
     fn add_pin(&mut self, _: BodyId, _: Vec3, _: Vec3, _: Option<(f32, f32)>) -> PinId {
         PinId(0)
     }
-    fn move_pin(&mut self, _: PinId, _: Vec3) {}
-    fn release_pin(&mut self, _: PinId) {}
-
     fn bodies_touching_other_ragdolls(&self, out: &mut Vec<bool>) {
         out.clear();
         out.resize(self.bodies.len(), false);
-    }
-
-    fn disable_pair(&mut self, _: BodyId, _: BodyId) {}
-
-    fn set_body_pose(&mut self, BodyId(index): BodyId, pose: &Transform) {
-        self.bodies[index].0.pose = *pose;
     }
 
     fn drive_joint(&mut self, _: JointId, _: Quat, _: Vec3, _: f32, _: f32) -> bool {
@@ -230,7 +228,7 @@ fn the_world_steps_and_records_through_someone_elses_engine() {
 #[test]
 fn each_steps_impulses_arrive_in_one_call_and_add_up_to_the_events() {
     // A blast and a shot: every impulse the world's events give in a substep reaches the
-    // engine in one apply_impulses call, and the momentum the engine holds afterwards is
+    // engine in one `apply` call, and the momentum the engine holds afterwards is
     // what the blast report and the shot say they delivered.
     let settings = WorldSettings {
         ground: None,

@@ -14,13 +14,14 @@
 //! the world then places ragdolls, plays clips, applies blasts, shots, fields, pins and
 //! motors, measures and records through it alone. The seam is batched where a world step
 //! is: the world reads every body's state in one call ([`Backend::body_states`]) after
-//! each step, and hands over each step's event impulses in one call
-//! ([`Backend::apply_impulses`]) before it. What only the solver knows of a step (its
+//! each step, and hands over its changes (each step's event impulses, kinematic targets,
+//! poses, joint frames, pins) as [`Command`]s in one call ([`Backend::apply`]) before it. What only the solver knows of a step (its
 //! deepest contact, its limits before its own clamp) comes back from [`Backend::step`]
 //! as a [`StepReport`], not through queries the world must know to ask.
 //! `tests/custom_backend.rs` holds a whole backend written against this interface alone.
 
 pub(crate) mod broad;
+mod command;
 mod config;
 pub(crate) mod fast;
 pub(crate) mod geom;
@@ -31,6 +32,8 @@ pub(crate) mod tree;
 
 use serde::{Deserialize, Serialize};
 
+pub use command::Command;
+pub(crate) use command::{OneAtATime, apply_each};
 pub use config::{
     BackendConfig, DEFAULT_FAST_IMPACT_PASSES, DEFAULT_FAST_SUBSTEPS, FastConfig,
     MAX_FAST_ITERATIONS, MAX_SUBSTEPS, ParticleConfig, RigidConfig, Surroundings,
@@ -237,8 +240,9 @@ pub trait Backend: Send {
         joints: &[JointDesc],
         disabled_pairs: &[(usize, usize)],
     ) -> BodyId;
-    /// Adds skin points to the ragdoll whose first body is `first_body` (see
-    /// [`crate::spec::RagdollSpec::skin_points`]): points several bodies carry together,
+    /// Adds skin points to the ragdoll whose first body is `first_body` (the skin its
+    /// shapes leave loose, which the world finds as it places the ragdoll): points several
+    /// bodies carry together,
     /// to be kept above the ground as the weighted blend of where each carries them.
     /// Returns whether the backend keeps them; by default it does not, and the bodies'
     /// own and extra shapes are all that hold the skin.
@@ -263,26 +267,11 @@ pub trait Backend: Send {
     fn ground_half_extent(&self) -> Option<f32> {
         None
     }
-    /// Adds `impulse` (N·s, world) at the world `point` of body `body`, waking it.
-    fn apply_impulse_at_point(&mut self, body: BodyId, impulse: Vec3, point: Vec3);
-    /// Adds the angular impulse `impulse` (N·m·s, world) to body `body`, waking
-    /// it: what a joint motor gives over one substep.
-    fn apply_torque_impulse(&mut self, body: BodyId, impulse: Vec3);
-    /// Every impulse the world's events gave since the last step, in the order given:
-    /// what the world calls. One body at a time by default; a backend that keeps its
-    /// bodies elsewhere (a GPU) takes them in one transfer.
-    fn apply_impulses(&mut self, impulses: &[BodyImpulse]) {
-        for i in impulses {
-            match *i {
-                BodyImpulse::AtPoint {
-                    body,
-                    impulse,
-                    point,
-                } => self.apply_impulse_at_point(body, impulse, point),
-                BodyImpulse::Angular { body, impulse } => self.apply_torque_impulse(body, impulse),
-            }
-        }
-    }
+    /// Applies the world's changes since the last step, in the order given ([`Command`]):
+    /// its events' impulses, kinematic targets, velocities, poses, joint frames and
+    /// limits, gravity, pins. One call per batch, so an engine that keeps its bodies
+    /// elsewhere (a GPU) takes a batch in one transfer.
+    fn apply(&mut self, commands: &[Command]);
     /// Writes the state of every body of every ragdoll, in insertion order.
     fn body_states(&self, out: &mut Vec<BodyState>);
     /// Kinetic energy of everything, joules.
@@ -296,26 +285,6 @@ pub trait Backend: Send {
     /// The first body a ray from `origin` along `dir` (unit) meets within `max_dist`
     /// metres, and the distance. The ground does not count.
     fn cast_ray(&self, origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(BodyId, f32)>;
-    /// Makes body `body` kinematic (moved only by [`Backend::set_kinematic_target`])
-    /// or dynamic again.
-    fn set_kinematic(&mut self, body: BodyId, kinematic: bool);
-    /// Where a kinematic body must be at the end of the next step.
-    fn set_kinematic_target(&mut self, body: BodyId, pose: &Transform);
-    /// Sets the linear (m/s) and angular (rad/s) velocity of body `body`.
-    fn set_body_velocity(&mut self, body: BodyId, linvel: Vec3, angvel: Vec3);
-    /// Replaces the parent-side frame of joint `joint`, in the
-    /// parent body's frame.
-    fn set_joint_parent_frame(&mut self, joint: JointId, frame: &Transform);
-    /// Replaces the child-side frame of joint `joint`, in the child body's frame.
-    fn set_joint_child_frame(&mut self, joint: JointId, frame: &Transform);
-    /// Sets how many solver substeps each step takes where the backend has them: powered
-    /// ragdolls need stiffer drives than a limp one, and a drive must stay well below the
-    /// substep rate to be stable. Backends without solver substeps ignore it.
-    fn set_solver_substeps(&mut self, substeps: usize);
-    /// Replaces the limits of joint `joint` with those of `kind` (same kind).
-    fn set_joint_limits(&mut self, joint: JointId, kind: &crate::spec::JointKind);
-    /// Sets the gravity acting on every body, m/s².
-    fn set_gravity(&mut self, gravity: Vec3);
     /// Ties the point `local` (in body `body`'s frame) to the world point `target` with a
     /// ball joint to an invisible kinematic anchor: hard, or a spring of `soft` =
     /// (natural frequency Hz, damping ratio). Returns the pin.
@@ -326,18 +295,10 @@ pub trait Backend: Send {
         target: Vec3,
         soft: Option<(f32, f32)>,
     ) -> PinId;
-    /// Where pin `pin`'s anchor must be at the end of the next step.
-    fn move_pin(&mut self, pin: PinId, target: Vec3);
-    /// Lets go of pin `pin`.
-    fn release_pin(&mut self, pin: PinId);
     /// One flag per body (global order) into `out`: whether it touches a body of another
     /// ragdoll (the ground does not count). One pass for every ragdoll: asking ragdoll by
     /// ragdoll went through every contact pair once per waiting character.
     fn bodies_touching_other_ragdolls(&self, out: &mut Vec<bool>);
-    /// Stops bodies `a` and `b` from colliding with each other.
-    fn disable_pair(&mut self, a: BodyId, b: BodyId);
-    /// Moves body `body` to `pose` without changing its velocities.
-    fn set_body_pose(&mut self, body: BodyId, pose: &Transform);
     /// Drives joint `joint` inside the solver toward the relative rotation
     /// `target` (the child body's rotation in the parent body's frame) turning at
     /// `target_angvel` (rad/s, child relative to parent, in the parent body's frame), as a
@@ -484,27 +445,13 @@ impl Backend for AnyBackend {
         mut fn remove_ragdoll(first_body: BodyId) -> bool;
         mut fn step(dt: f32) -> StepReport;
         ref fn ground_half_extent() -> Option<f32>;
-        mut fn apply_impulses(impulses: &[BodyImpulse]);
-        mut fn apply_impulse_at_point(body: BodyId, impulse: Vec3, point: Vec3);
-        mut fn apply_torque_impulse(body: BodyId, impulse: Vec3);
+        mut fn apply(commands: &[Command]);
         ref fn body_states(out: &mut Vec<BodyState>);
         ref fn kinetic_energy() -> f64;
         ref fn active_joints() -> Option<usize>;
         ref fn cast_ray(origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(BodyId, f32)>;
-        mut fn set_kinematic(body: BodyId, kinematic: bool);
-        mut fn set_kinematic_target(body: BodyId, pose: &Transform);
-        mut fn set_body_velocity(body: BodyId, linvel: Vec3, angvel: Vec3);
-        mut fn set_joint_parent_frame(joint: JointId, frame: &Transform);
-        mut fn set_joint_child_frame(joint: JointId, frame: &Transform);
-        mut fn set_solver_substeps(substeps: usize);
         mut fn drive_joint(joint: JointId, target: glam::Quat, target_angvel: Vec3, stiffness: f32, damping: f32) -> bool;
-        mut fn set_joint_limits(joint: JointId, kind: &crate::spec::JointKind);
-        mut fn set_gravity(gravity: Vec3);
         mut fn add_pin(body: BodyId, local: Vec3, target: Vec3, soft: Option<(f32, f32)>) -> PinId;
-        mut fn move_pin(pin: PinId, target: Vec3);
-        mut fn release_pin(pin: PinId);
         ref fn bodies_touching_other_ragdolls(out: &mut Vec<bool>);
-        mut fn disable_pair(a: BodyId, b: BodyId);
-        mut fn set_body_pose(body: BodyId, pose: &Transform);
     }
 }

@@ -1,7 +1,7 @@
 //! Pushes, fields and pins: what they do to the bodies over one substep.
 
 use crate::backend::BodyImpulse;
-use crate::backend::{BodyId, PinId};
+use crate::backend::{BodyId, Command, PinId};
 use glam::Vec3;
 
 use crate::events::{Field, Pin, Push};
@@ -292,7 +292,7 @@ impl super::World {
             Field::Gravity { keys } => Some(sample_keys(keys, (0.5 * (t0 + t1)) as f32)),
             _ => None,
         }) {
-            self.backend.set_gravity(g);
+            self.backend.apply(&[Command::Gravity(g)]);
         }
         self.apply_pushes(t0, t1);
         if self
@@ -386,7 +386,7 @@ impl super::World {
             }
             if p.pin.release_s.is_some_and(|r| (r as f64) <= t0) {
                 if let Some(handle) = p.handle {
-                    self.backend.release_pin(handle);
+                    self.backend.apply(&[Command::ReleasePin(handle)]);
                 }
                 p.released = true;
                 continue;
@@ -398,7 +398,10 @@ impl super::World {
                     None => {
                         p.handle = Some(self.backend.add_pin(BodyId(p.body), p.local, target, None))
                     }
-                    Some(handle) => self.backend.move_pin(handle, target),
+                    Some(handle) => self.backend.apply(&[Command::MovePin {
+                        pin: handle,
+                        target,
+                    }]),
                 },
                 // Soft: a damped spring on the pinned point, as an impulse per substep
                 // (rapier's soft joints are regularised constraints, not springs of a

@@ -35,7 +35,9 @@ pub use start::MAX_COORDINATE_M;
 use start::{beyond_world, within_world};
 
 use crate::backend::tree::JointTree;
-use crate::backend::{AnyBackend, Backend, BodyImpulse, BodyState, StepReport, Surroundings};
+use crate::backend::{
+    AnyBackend, Backend, BodyImpulse, BodyState, Command, StepReport, Surroundings,
+};
 use crate::error::{Error, Result};
 use crate::events::{Projectile, ProjectileReport};
 use crate::math::Transform;
@@ -149,8 +151,10 @@ pub struct World {
     /// [`World::active_joints_per_frame`]); empty where it does not say.
     active_joints: Vec<u32>,
     /// The events' impulses of this substep, handed to the backend together before it
-    /// steps ([`Backend::apply_impulses`]).
+    /// steps ([`Backend::apply`]).
     impulses: Vec<BodyImpulse>,
+    /// The batch they go in (kept to reuse its memory).
+    commands: Vec<Command>,
     /// What the backend said of this step's calls, the worst of each (see
     /// [`StepReport::absorb`]).
     step_report: StepReport,
@@ -219,6 +223,7 @@ impl World {
             halted: false,
             active_joints: Vec::new(),
             impulses: Vec::new(),
+            commands: Vec::new(),
             step_report: StepReport::default(),
         }
     }
@@ -378,8 +383,11 @@ impl World {
     fn flush_impulses(&mut self) {
         self.drop_impulses_on_removed();
         if !self.impulses.is_empty() {
-            self.backend.apply_impulses(&self.impulses);
-            self.impulses.clear();
+            let mut commands = std::mem::take(&mut self.commands);
+            commands.clear();
+            commands.extend(self.impulses.drain(..).map(Command::Impulse));
+            self.backend.apply(&commands);
+            self.commands = commands;
         }
     }
 

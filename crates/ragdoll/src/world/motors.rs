@@ -11,7 +11,7 @@
 //! widen to take in every clip pose, each hinge turns to the axis the clip's own elbow or
 //! knee bends about, and parts the clip passes through each other stop colliding.
 
-use crate::backend::{BodyId, JointId};
+use crate::backend::{BodyId, Command, JointId};
 use crate::backend::{BodyImpulse, BodyState};
 use glam::{Quat, Vec3};
 
@@ -211,28 +211,41 @@ impl World {
                 .map(|p| (p[j.parent], p[j.child]))
                 .collect();
             if j.fit_hinge_to(&pairs).is_some() {
-                self.backend
-                    .set_joint_parent_frame(JointId(inst.first_joint + k), &j.frame_parent);
-                self.backend
-                    .set_joint_child_frame(JointId(inst.first_joint + k), &j.frame_child);
+                let joint = JointId(inst.first_joint + k);
+                self.backend.apply(&[
+                    Command::JointParentFrame {
+                        joint,
+                        frame: j.frame_parent,
+                    },
+                    Command::JointChildFrame {
+                        joint,
+                        frame: j.frame_child,
+                    },
+                ]);
             }
             let mut widened = false;
             for (parent, child) in &pairs {
                 widened |= j.widen_to_include(parent, child, HANDOVER_LIMIT_MARGIN_DEG);
             }
             if widened {
-                self.backend
-                    .set_joint_limits(JointId(inst.first_joint + k), &j.kind);
+                self.backend.apply(&[Command::JointLimits {
+                    joint: JointId(inst.first_joint + k),
+                    kind: j.kind,
+                }]);
             }
         }
         let substeps = match self.settings.backend {
             super::BackendConfig::Rigid(c) => c.substeps,
             _ => 1,
         };
-        self.backend
-            .set_solver_substeps(POWERED_SOLVER_SUBSTEPS.max(substeps));
+        self.backend.apply(&[Command::SolverSubsteps(
+            POWERED_SOLVER_SUBSTEPS.max(substeps),
+        )]);
         if let Some(root) = held_root {
-            self.backend.set_kinematic(BodyId(root), true);
+            self.backend.apply(&[Command::Kinematic {
+                body: BodyId(root),
+                kinematic: true,
+            }]);
         }
         for poses in &clip_poses {
             self.stop_overlapping_pairs(c, poses);
@@ -267,8 +280,10 @@ impl World {
         let t1 = t0 + h as f64;
         let targets = play.body_poses(t1);
         if state.motors.root_on_clip {
-            self.backend
-                .set_kinematic_target(BodyId(inst.first_body + state.root), &targets[state.root]);
+            self.backend.apply(&[Command::KinematicTarget {
+                body: BodyId(inst.first_body + state.root),
+                pose: targets[state.root],
+            }]);
         }
         let s = state.motors.strength_at((t0 + 0.5 * h as f64) as f32);
         // The clip's angular velocities: the motors damp toward the clip's motion

@@ -2,7 +2,7 @@
 //! bodies follow the clip kinematically until the activation moment, then become dynamic
 //! with the clip's velocities, so the hand-over keeps the motion's momentum.
 
-use crate::backend::{BodyId, JointId};
+use crate::backend::{BodyId, Command, JointId};
 use glam::Vec3;
 
 use crate::math::Transform;
@@ -223,18 +223,25 @@ impl super::World {
         if activation != Activation::Immediately
             && let Some(play) = &inst.playback
         {
-            for (b, pose) in play.body_poses(0.0).iter().enumerate() {
-                self.backend
-                    .set_body_pose(BodyId(inst.first_body + b), pose);
-            }
+            let poses = play.body_poses(0.0).into_iter().enumerate();
+            let commands: Vec<Command> = poses
+                .map(|(b, pose)| Command::Pose {
+                    body: BodyId(inst.first_body + b),
+                    pose,
+                })
+                .collect();
+            self.backend.apply(&commands);
         }
         inst.activation = activation;
         inst.active = activation == Activation::Immediately;
         inst.activated_at = inst.active.then_some(0.0);
-        for b in 0..inst.shapes.len() {
-            self.backend
-                .set_kinematic(BodyId(inst.first_body + b), !inst.active);
-        }
+        let commands: Vec<Command> = (0..inst.shapes.len())
+            .map(|b| Command::Kinematic {
+                body: BodyId(inst.first_body + b),
+                kinematic: !inst.active,
+            })
+            .collect();
+        self.backend.apply(&commands);
         // The poses read before the first step are the clip's.
         self.backend.body_states(&mut self.states);
         Ok(())
@@ -291,10 +298,14 @@ impl super::World {
             if go {
                 self.hand_over(c, t0, h);
             } else {
-                for (k, pose) in play.body_poses(t1).iter().enumerate() {
-                    self.backend
-                        .set_kinematic_target(BodyId(inst.first_body + k), pose);
-                }
+                let poses = play.body_poses(t1).into_iter().enumerate();
+                let commands: Vec<Command> = poses
+                    .map(|(k, pose)| Command::KinematicTarget {
+                        body: BodyId(inst.first_body + k),
+                        pose,
+                    })
+                    .collect();
+                self.backend.apply(&commands);
             }
         }
     }
@@ -312,9 +323,19 @@ impl super::World {
         play.joint_world(t0, &mut joints);
         let first = inst.first_body;
         for (k, (pose, (v, w))) in poses.iter().zip(&velocities).enumerate() {
-            self.backend.set_kinematic(BodyId(first + k), false);
-            self.backend.set_body_pose(BodyId(first + k), pose);
-            self.backend.set_body_velocity(BodyId(first + k), *v, *w);
+            let body = BodyId(first + k);
+            self.backend.apply(&[
+                Command::Kinematic {
+                    body,
+                    kinematic: false,
+                },
+                Command::Pose { body, pose: *pose },
+                Command::Velocity {
+                    body,
+                    linvel: *v,
+                    angvel: *w,
+                },
+            ]);
             self.states[first + k].pose = *pose;
             self.states[first + k].linvel = *v;
             self.states[first + k].angvel = *w;
@@ -337,11 +358,15 @@ impl super::World {
             let anchor = child.transform_point(j.frame_child.translation);
             j.frame_parent.translation = parent.inverse().transform_point(anchor);
             j.align_hinge_to(parent, child);
-            self.backend
-                .set_joint_parent_frame(JointId(inst.first_joint + k), &j.frame_parent);
+            self.backend.apply(&[Command::JointParentFrame {
+                joint: JointId(inst.first_joint + k),
+                frame: j.frame_parent,
+            }]);
             if j.widen_to_include(parent, child, super::HANDOVER_LIMIT_MARGIN_DEG) {
-                self.backend
-                    .set_joint_limits(JointId(inst.first_joint + k), &j.kind);
+                self.backend.apply(&[Command::JointLimits {
+                    joint: JointId(inst.first_joint + k),
+                    kind: j.kind,
+                }]);
             }
         }
         inst.active = true;
@@ -369,8 +394,10 @@ impl super::World {
         });
         pairs.sort_unstable();
         for &(a, b) in &pairs {
-            self.backend
-                .disable_pair(BodyId(inst.first_body + a), BodyId(inst.first_body + b));
+            self.backend.apply(&[Command::DisablePair(
+                BodyId(inst.first_body + a),
+                BodyId(inst.first_body + b),
+            )]);
         }
         let exempt = &mut self.instances[c].exempt_pairs;
         exempt.extend(pairs.iter().map(|&(a, b)| (a.min(b), a.max(b))));

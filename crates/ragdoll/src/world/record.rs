@@ -2,6 +2,7 @@
 //! limit projection, and the quality metrics (the guide's report reference).
 
 use crate::backend::BodyId;
+use crate::backend::Command;
 use glam::Vec3;
 
 use crate::backend::{Backend, BodyState};
@@ -178,7 +179,10 @@ impl super::World {
                 for &b in &turned {
                     let pose = moved(&self.states[base + b].pose, delta);
                     self.states[base + b].pose = pose;
-                    self.backend.set_body_pose(BodyId(base + b), &pose);
+                    self.backend.apply(&[Command::Pose {
+                        body: BodyId(base + b),
+                        pose,
+                    }]);
                 }
                 // A held ragdoll is not lifted: its holder would pull it straight back.
                 let any_held = (0..inst.shapes.len()).any(|b| held[base + b]);
@@ -186,7 +190,10 @@ impl super::World {
                     for b in 0..inst.shapes.len() {
                         self.states[base + b].pose.translation.y += lift;
                         let pose = self.states[base + b].pose;
-                        self.backend.set_body_pose(BodyId(base + b), &pose);
+                        self.backend.apply(&[Command::Pose {
+                            body: BodyId(base + b),
+                            pose,
+                        }]);
                     }
                 }
             }

@@ -5,7 +5,7 @@
 
 use super::{RagdollId, World};
 use crate::backend::BodyId;
-use crate::backend::{Backend, BodyImpulse};
+use crate::backend::{Backend, BodyImpulse, Command};
 use crate::error::{Error, Result};
 
 impl World {
@@ -58,7 +58,7 @@ impl World {
         for p in self.pins.iter_mut().filter(|p| bodies.contains(&p.body)) {
             if !p.released {
                 if let Some(handle) = p.handle {
-                    self.backend.release_pin(handle);
+                    self.backend.apply(&[Command::ReleasePin(handle)]);
                 }
                 p.released = true;
             }

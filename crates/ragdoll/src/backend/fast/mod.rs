@@ -50,8 +50,8 @@ use std::collections::HashSet;
 use glam::{Quat, Vec3};
 
 use super::{
-    Backend, BodyDesc, BodyId, BodyState, FastConfig, JointDesc, JointId, PinId, SkinPointDesc,
-    StepReport, Surroundings,
+    Backend, BodyDesc, BodyId, BodyState, Command, FastConfig, JointDesc, JointId, OneAtATime,
+    PinId, SkinPointDesc, StepReport, Surroundings, apply_each,
 };
 use crate::math::Transform;
 use crate::spec::{JointKind, Shape};
@@ -444,17 +444,6 @@ impl Backend for FastBackend {
         }
     }
 
-    fn apply_impulse_at_point(&mut self, BodyId(index): BodyId, impulse: Vec3, point: Vec3) {
-        let r = point - self.pos[index];
-        let dw = self.inv_inertia_world(index, r.cross(impulse));
-        self.kick(index, impulse * self.inv_mass[index], dw);
-    }
-
-    fn apply_torque_impulse(&mut self, BodyId(index): BodyId, impulse: Vec3) {
-        let dw = self.inv_inertia_world(index, impulse);
-        self.kick(index, Vec3::ZERO, dw);
-    }
-
     fn body_states(&self, out: &mut Vec<BodyState>) {
         out.clear();
         out.extend((0..self.pos.len()).map(|i| BodyState {
@@ -493,6 +482,72 @@ impl Backend for FastBackend {
                 .map(|r| r.joints.len() - r.frozen)
                 .sum(),
         )
+    }
+
+    fn add_pin(
+        &mut self,
+        BodyId(index): BodyId,
+        local: Vec3,
+        target: Vec3,
+        soft: Option<(f32, f32)>,
+    ) -> PinId {
+        self.pins.push(Pin {
+            body: index,
+            local,
+            from: target,
+            to: target,
+            soft,
+            active: true,
+        });
+        self.update_held();
+        PinId(self.pins.len() - 1)
+    }
+
+    fn bodies_touching_other_ragdolls(&self, out: &mut Vec<bool>) {
+        out.clear();
+        out.extend_from_slice(&self.collide.touching);
+        out.resize(self.pos.len(), false);
+    }
+
+    fn drive_joint(
+        &mut self,
+        JointId(index): JointId,
+        target: Quat,
+        target_angvel: Vec3,
+        stiffness: f32,
+        damping: f32,
+    ) -> bool {
+        let Some(j) = self.joints.get_mut(index) else {
+            return false;
+        };
+        let had = j.drive.is_some();
+        j.drive = (stiffness > 0.0 || damping > 0.0).then_some(Drive {
+            target: target.normalize(),
+            angvel: target_angvel,
+            stiffness: stiffness.max(0.0),
+            damping: damping.max(0.0),
+        });
+        if had != j.drive.is_some() {
+            self.update_held();
+        }
+        true
+    }
+
+    fn apply(&mut self, commands: &[Command]) {
+        apply_each(self, commands);
+    }
+}
+
+impl OneAtATime for FastBackend {
+    fn apply_impulse_at_point(&mut self, BodyId(index): BodyId, impulse: Vec3, point: Vec3) {
+        let r = point - self.pos[index];
+        let dw = self.inv_inertia_world(index, r.cross(impulse));
+        self.kick(index, impulse * self.inv_mass[index], dw);
+    }
+
+    fn apply_torque_impulse(&mut self, BodyId(index): BodyId, impulse: Vec3) {
+        let dw = self.inv_inertia_world(index, impulse);
+        self.kick(index, Vec3::ZERO, dw);
     }
 
     fn set_kinematic(&mut self, BodyId(index): BodyId, kinematic: bool) {
@@ -559,25 +614,6 @@ impl Backend for FastBackend {
         self.settings.gravity = gravity;
     }
 
-    fn add_pin(
-        &mut self,
-        BodyId(index): BodyId,
-        local: Vec3,
-        target: Vec3,
-        soft: Option<(f32, f32)>,
-    ) -> PinId {
-        self.pins.push(Pin {
-            body: index,
-            local,
-            from: target,
-            to: target,
-            soft,
-            active: true,
-        });
-        self.update_held();
-        PinId(self.pins.len() - 1)
-    }
-
     fn move_pin(&mut self, PinId(pin): PinId, target: Vec3) {
         self.pins[pin].to = target;
     }
@@ -587,12 +623,6 @@ impl Backend for FastBackend {
         self.update_held();
         let b = self.pins[pin].body;
         self.wake_body(b);
-    }
-
-    fn bodies_touching_other_ragdolls(&self, out: &mut Vec<bool>) {
-        out.clear();
-        out.extend_from_slice(&self.collide.touching);
-        out.resize(self.pos.len(), false);
     }
 
     fn disable_pair(&mut self, BodyId(a): BodyId, BodyId(b): BodyId) {
@@ -607,29 +637,5 @@ impl Backend for FastBackend {
         if let Some(k) = &mut self.kinematic[index] {
             k.from = Transform::new(self.pos[index], self.rot[index]);
         }
-    }
-
-    fn drive_joint(
-        &mut self,
-        JointId(index): JointId,
-        target: Quat,
-        target_angvel: Vec3,
-        stiffness: f32,
-        damping: f32,
-    ) -> bool {
-        let Some(j) = self.joints.get_mut(index) else {
-            return false;
-        };
-        let had = j.drive.is_some();
-        j.drive = (stiffness > 0.0 || damping > 0.0).then_some(Drive {
-            target: target.normalize(),
-            angvel: target_angvel,
-            stiffness: stiffness.max(0.0),
-            damping: damping.max(0.0),
-        });
-        if had != j.drive.is_some() {
-            self.update_held();
-        }
-        true
     }
 }

@@ -7,7 +7,7 @@ use glam::{Mat3, Vec3};
 
 use super::{Filter, ParticleBackend, solve};
 use crate::backend::tree::JointTree;
-use crate::backend::{Backend, BodyDesc, BodyId, JointDesc};
+use crate::backend::{BodyDesc, BodyId, JointDesc, OneAtATime};
 use crate::spec::ResolvedJoint;
 
 /// Joint anchors of one parent closer than this share a particle, metres.

@@ -69,8 +69,8 @@ use glam::{Mat3, Quat, Vec3, Vec4};
 
 use super::tree::JointTree;
 use super::{
-    Backend, BodyDesc, BodyId, BodyState, JointDesc, JointId, ParticleConfig, PinId, StepReport,
-    Surroundings,
+    Backend, BodyDesc, BodyId, BodyState, Command, JointDesc, JointId, OneAtATime, ParticleConfig,
+    PinId, StepReport, Surroundings, apply_each,
 };
 use crate::math::Transform;
 use crate::spec::{JointKind, ResolvedJoint, Shape};
@@ -358,14 +358,6 @@ impl Backend for ParticleBackend {
         }
     }
 
-    fn apply_impulse_at_point(&mut self, BodyId(index): BodyId, impulse: Vec3, point: Vec3) {
-        self.apply_impulse(index, impulse, Some(point), Vec3::ZERO);
-    }
-
-    fn apply_torque_impulse(&mut self, BodyId(index): BodyId, impulse: Vec3) {
-        self.apply_impulse(index, Vec3::ZERO, None, impulse);
-    }
-
     fn body_states(&self, out: &mut Vec<BodyState>) {
         out.clear();
         let dt = self.last_dt;
@@ -402,6 +394,54 @@ impl Backend for ParticleBackend {
     fn cast_ray(&self, origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(BodyId, f32)> {
         self.cast_ray_impl(origin, dir, max_dist)
             .map(|(b, d)| (BodyId(b), d))
+    }
+
+    fn add_pin(
+        &mut self,
+        BodyId(index): BodyId,
+        local: Vec3,
+        target: Vec3,
+        soft: Option<(f32, f32)>,
+    ) -> PinId {
+        self.pins.push(Pin {
+            body: index as u32,
+            local,
+            from: target,
+            target,
+            soft,
+            active: true,
+        });
+        PinId(self.pins.len() - 1)
+    }
+
+    fn bodies_touching_other_ragdolls(&self, out: &mut Vec<bool>) {
+        out.clone_from(&self.touched);
+    }
+
+    fn apply(&mut self, commands: &[Command]) {
+        apply_each(self, commands);
+    }
+
+    /// No drives inside the position solver yet: the world applies the motors as torques.
+    fn drive_joint(
+        &mut self,
+        _: JointId,
+        _target: glam::Quat,
+        _target_angvel: Vec3,
+        _stiffness: f32,
+        _damping: f32,
+    ) -> bool {
+        false
+    }
+}
+
+impl OneAtATime for ParticleBackend {
+    fn apply_impulse_at_point(&mut self, BodyId(index): BodyId, impulse: Vec3, point: Vec3) {
+        self.apply_impulse(index, impulse, Some(point), Vec3::ZERO);
+    }
+
+    fn apply_torque_impulse(&mut self, BodyId(index): BodyId, impulse: Vec3) {
+        self.apply_impulse(index, Vec3::ZERO, None, impulse);
     }
 
     fn set_kinematic(&mut self, BodyId(index): BodyId, kinematic: bool) {
@@ -445,18 +485,6 @@ impl Backend for ParticleBackend {
     /// motors act as torques here (see `drive_joint`), so they need no more.
     fn set_solver_substeps(&mut self, _substeps: usize) {}
 
-    /// No drives inside the position solver yet: the world applies the motors as torques.
-    fn drive_joint(
-        &mut self,
-        _: JointId,
-        _target: glam::Quat,
-        _target_angvel: Vec3,
-        _stiffness: f32,
-        _damping: f32,
-    ) -> bool {
-        false
-    }
-
     fn set_joint_limits(&mut self, JointId(index): JointId, kind: &JointKind) {
         self.joints[index].kind = *kind;
         self.bounds[index] = solve::Bounds::of(kind);
@@ -466,34 +494,12 @@ impl Backend for ParticleBackend {
         self.settings.gravity = gravity;
     }
 
-    fn add_pin(
-        &mut self,
-        BodyId(index): BodyId,
-        local: Vec3,
-        target: Vec3,
-        soft: Option<(f32, f32)>,
-    ) -> PinId {
-        self.pins.push(Pin {
-            body: index as u32,
-            local,
-            from: target,
-            target,
-            soft,
-            active: true,
-        });
-        PinId(self.pins.len() - 1)
-    }
-
     fn move_pin(&mut self, PinId(pin): PinId, target: Vec3) {
         self.pins[pin].target = target;
     }
 
     fn release_pin(&mut self, PinId(pin): PinId) {
         self.pins[pin].active = false;
-    }
-
-    fn bodies_touching_other_ragdolls(&self, out: &mut Vec<bool>) {
-        out.clone_from(&self.touched);
     }
 
     fn disable_pair(&mut self, BodyId(a): BodyId, BodyId(b): BodyId) {
