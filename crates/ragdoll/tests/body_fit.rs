@@ -280,10 +280,9 @@ fn reach_past_skin(c: &Character, spec: &RagdollSpec) -> (f32, f32) {
     (past, short)
 }
 
-/// A low-polygon strip: two joints in a chain `turn`ed in the world, and a flat strip of
-/// `rows` pairs of vertices beside the bones (not around them), blended from the first
-/// joint to the second along it, as Khronos' skinning sample is.
-fn strip(turn: Quat, rows: usize) -> Character {
+/// Two joints in a chain `turn`ed in the world, the bone between them `length` metres
+/// long, with an empty skin.
+fn two_bones(turn: Quat, length: f32) -> Character {
     let joints = vec![
         Joint {
             name: "root".into(),
@@ -294,18 +293,35 @@ fn strip(turn: Quat, rows: usize) -> Character {
         Joint {
             name: "tip".into(),
             parent: Some(0),
-            rest: Transform::new(Vec3::Y, Quat::IDENTITY),
-            tip: Some(Vec3::Y),
+            rest: Transform::new(Vec3::Y * length, Quat::IDENTITY),
+            tip: Some(Vec3::Y * length),
         },
     ];
-    let mut mesh = SkinnedMesh {
-        name: "strip".into(),
+    let mesh = SkinnedMesh {
+        name: "skin".into(),
         positions: Vec::new(),
         normals: Vec::new(),
         indices: Vec::new(),
         joints: Vec::new(),
         weights: Vec::new(),
     };
+    Character {
+        name: "two bones".into(),
+        skeleton: Skeleton::new(joints).unwrap(),
+        meshes: vec![mesh],
+        clips: Vec::new(),
+        humanoid_bones: Vec::new(),
+        warnings: Vec::new(),
+        source: Source::BuiltIn,
+    }
+}
+
+/// A low-polygon strip: [`two_bones`] 1 m apart and a flat strip of `rows` pairs of
+/// vertices beside the bones (not around them), blended from the first joint to the
+/// second along it, as Khronos' skinning sample is.
+fn strip(turn: Quat, rows: usize) -> Character {
+    let mut c = two_bones(turn, 1.0);
+    let mesh = &mut c.meshes[0];
     for r in 0..rows {
         let t = r as f32 / (rows - 1) as f32;
         for x in [0.0, 1.0] {
@@ -314,15 +330,7 @@ fn strip(turn: Quat, rows: usize) -> Character {
             mesh.weights.push(Vec4::new(1.0 - t, t, 0.0, 0.0));
         }
     }
-    Character {
-        name: "strip".into(),
-        skeleton: Skeleton::new(joints).unwrap(),
-        meshes: vec![mesh],
-        clips: Vec::new(),
-        humanoid_bones: Vec::new(),
-        warnings: Vec::new(),
-        source: Source::BuiltIn,
-    }
+    c
 }
 
 #[test]
@@ -354,6 +362,39 @@ fn body_fit_a_strip_of_a_few_vertices_rests_on_bodies_as_thin_as_it() {
                 spec.bodies.iter().map(|b| &b.shape).collect::<Vec<_>>()
             );
         }
+    }
+}
+
+#[test]
+fn body_fit_a_few_vertices_bunched_off_the_bone_keep_a_body_as_thick_as_a_limb() {
+    // A handful of vertices in a centimetre, 12 cm beside a 30 cm bone (a stray patch of
+    // skin weighted to it, farther out than the bone's proportional radius): too few to
+    // measure, and no strip or plate, so the body keeps its proportional thickness rather
+    // than shrinking to a box round the patch (a 14 mm box on a fox's leg blew it apart
+    // on the particle engine).
+    for turn in [
+        Quat::IDENTITY,
+        Quat::from_euler(glam::EulerRot::YXZ, 0.7, 0.4, -0.3),
+    ] {
+        let mut c = two_bones(turn, 0.3);
+        let mesh = &mut c.meshes[0];
+        for k in 0..5 {
+            let p = Vec3::new(
+                0.12 + 0.002 * k as f32,
+                0.15 + 0.002 * (k % 2) as f32,
+                0.003,
+            );
+            mesh.positions.push(turn * p);
+            mesh.joints.push([0, 1, 0, 0]);
+            mesh.weights.push(Vec4::new(1.0, 0.0, 0.0, 0.0));
+        }
+        let spec = build_spec(&c, &BuildOptions::default()).unwrap();
+        let root = &spec.bodies[0];
+        let thinnest = match root.shape {
+            Shape::Capsule { radius_m, .. } => 2.0 * radius_m,
+            Shape::Box { size_m } => size_m[0].min(size_m[2]),
+        };
+        assert!(thinnest > 0.03, "{:?}", root.shape);
     }
 }
 
