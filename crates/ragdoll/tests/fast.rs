@@ -194,6 +194,26 @@ fn light_hands_and_feet_keep_their_limits_as_the_body_falls_on_them() {
 }
 
 #[test]
+fn a_forearm_shrunk_to_a_centimetre_cube_holds_together() {
+    // A spec edited by hand: both forearms 12 mm cubes, their mass kept, their joints
+    // still 0.1 m and more from their centres. Dropped for 3 s the ragdoll stays whole:
+    // joints within a centimetre, no energy gained, as rapier holds it (11 mm).
+    let (character, mut spec) = humanoid();
+    for b in &mut spec.bodies {
+        if b.name.starts_with("forearm") {
+            b.shape = ragdoll::spec::Shape::Box { size_m: [0.012; 3] };
+        }
+    }
+    spec.validate().unwrap();
+    let (mut world, _) = World::with_ragdoll(&character, &spec, &fast()).unwrap();
+    world.run(3.0);
+    let m = world.metrics();
+    assert!(!m.nan);
+    assert!(m.max_joint_separation_m < 0.01, "{m:?}");
+    assert!(m.energy_drift < 0.005, "{m:?}");
+}
+
+#[test]
 fn same_input_twice_gives_identical_tracks() {
     let (character, spec) = humanoid();
     let run = || {

@@ -373,6 +373,7 @@ impl Backend for FastBackend {
             let (a, b) = ((first + a) as u32, (first + b) as u32);
             (a.min(b), a.max(b))
         };
+        self.floor_inertia_by_anchors(first, joints);
         let links: Vec<(usize, usize)> = joints.iter().map(|j| (j.parent, j.child)).collect();
         let hub = crate::backend::hub::hub_relaxation(&self.mass[first..], &links);
         for j in joints {
