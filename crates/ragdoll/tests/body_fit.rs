@@ -226,32 +226,9 @@ fn body_fit_bodies_reach_as_far_as_the_skin_and_not_much_farther() {
     let c = skinned_humanoid();
     let spec = build_spec(&c, &BuildOptions::default()).unwrap();
     let h = skin_height(&c);
-    let solids = solids(&c, &spec);
-    let skin: Vec<Vec3> = c.meshes[0].positions.clone();
-    let mut dirs = vec![Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
-    for sx in [-1.0, 1.0] {
-        for sy in [-1.0, 1.0] {
-            for sz in [-1.0, 1.0] {
-                dirs.push(Vec3::new(sx, sy, sz).normalize());
-            }
-        }
-    }
-    for dir in dirs {
-        let skin_far = skin.iter().map(|p| p.dot(dir)).fold(f32::MIN, f32::max);
-        let body_far = solids
-            .iter()
-            .map(|s| support(s, dir))
-            .fold(f32::MIN, f32::max);
-        assert!(
-            body_far >= skin_far - 1e-3,
-            "along {dir} the skin reaches {skin_far}, the bodies only {body_far}"
-        );
-        assert!(
-            body_far <= skin_far + 0.05 * h,
-            "along {dir} the bodies reach {body_far}, {} m past the skin",
-            body_far - skin_far
-        );
-    }
+    let (past, short) = reach_past_skin(&c, &spec);
+    assert!(short <= 1e-3, "the bodies stop {short} m short of the skin");
+    assert!(past <= 0.05 * h, "the bodies reach {past} m past the skin");
 }
 
 /// How far past the skin the bodies reach at worst, over the six axes and the eight
