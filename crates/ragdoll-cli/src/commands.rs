@@ -3,17 +3,17 @@
 //! writes every output together through [`Staging`].
 
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 use anyhow::{Result, bail};
 use ragdoll::backend::{BackendConfig, BackendKind, FastConfig};
 use ragdoll::events::{Blast, Projectile};
 use ragdoll::export;
 use ragdoll::report::Report;
+use ragdoll::scene::{Event, Scene};
 use ragdoll::skeleton::{self, Character};
 use ragdoll::spec::RagdollSpec;
 use ragdoll::track::Track;
-use ragdoll::world::{StartPose, World, WorldSettings};
+use ragdoll::world::{StartPose, WorldSettings};
 
 use crate::character::{in_file, load, load_or_builtin, ragdoll_spec};
 use crate::output::{self, Staging};
@@ -155,8 +155,9 @@ pub fn shoot(a: &ShootArgs) -> Result<()> {
     Ok(())
 }
 
-/// Runs the simulation with a progress bar; returns the track and its report, or an error
-/// when the simulation produced non-finite numbers.
+/// Runs the character as a scene of one (the pipeline scenes run through) with a progress
+/// bar; returns its track and the report, or an error when the simulation produced
+/// non-finite numbers.
 fn simulate_character(
     input: &str,
     character: &Character,
@@ -171,68 +172,50 @@ fn simulate_character(
     settings
         .validate_run(run.seconds, character.skeleton.len())
         .map_err(flag_error)?;
-    let started = Instant::now();
-    let progress = Progress::new(0, "building the ragdoll");
-    // The world refuses some specs only once it places them (parts piled inside each
-    // other): name the spec file those came from, or the character the spec was built for.
-    let (mut world, id) =
-        World::with_ragdoll(character, spec, &settings).map_err(|e| match spec_file {
-            Some(path) => in_file(path, e),
-            None => in_file(Path::new(input), e),
-        })?;
-    world
-        .set_activation(id, anim.activate)
-        .map_err(flag_error)?;
-    if let Some(strength) = anim.powered {
+    let backend = settings.backend.kind();
+    let mut scene = Scene::single(
+        character.clone(),
+        spec.clone(),
+        input,
+        run.seconds,
+        settings,
+    );
+    let one = &mut scene.characters[0];
+    one.activation = anim.activate;
+    one.motors = anim.powered.map(|strength| {
         let mut motors = match anim.fade_out {
             Some([start, end]) => ragdoll::world::Motors::fade_out(strength, start, end),
             None => ragdoll::world::Motors::constant(strength),
         };
         motors.root_on_clip = anim.root_on_clip;
-        world.set_motors(id, motors).map_err(|e| match e {
-            ragdoll::Error::Setting { message, .. } => anyhow::anyhow!("--powered: {message}"),
-            e => e.into(),
-        })?;
-    }
-    for b in &events.blasts {
-        world.add_blast(*b)?;
-    }
-    for p in &events.projectiles {
-        world.add_projectile(*p)?;
-    }
-    let steps = (run.seconds / settings.dt).round() as u64;
-    progress.stage(steps, "simulating");
-    world.run(0.0);
-    for i in 0..steps {
-        world.step();
-        progress.set(i + 1);
-    }
+        motors
+    });
+    scene.blasts = events.blasts.iter().copied().map(Event::new).collect();
+    scene.projectiles = events.projectiles.iter().copied().map(Event::new).collect();
+    let progress = Progress::new(0, "building the ragdoll");
+    let mut stage_set = false;
+    let result = scene
+        .run_until(|done, total| {
+            if !stage_set {
+                progress.stage(total, "simulating");
+                stage_set = true;
+            }
+            progress.set(done);
+            true
+        })
+        // A bad activation or motor setting names its flag; the world refuses some specs
+        // only once it places them (parts piled inside each other): name the spec file
+        // those came from, or the character the spec was built for.
+        .map_err(|e| match e {
+            e @ ragdoll::Error::Setting { .. } => flag_error(e),
+            e => in_file(spec_file.unwrap_or(Path::new(input)), e),
+        })?
+        .expect("a run whose callback never stops it finishes");
     progress.finish();
-    let metrics = world.metrics();
-    let blast_reports = world.blast_reports();
-    let world_projectiles = world.projectile_reports();
-    let active_joints = world.active_joints_per_frame().map(<[u32]>::to_vec);
-    let track = world.into_track();
-    check_finite(
-        &character.name,
-        metrics.nan,
-        &track,
-        settings.backend.kind(),
-    )?;
-    let mut report = Report::new(
-        input,
-        ragdoll::import::standing_height(character),
-        spec,
-        &track,
-        metrics,
-        run.seconds,
-        started.elapsed().as_secs_f64(),
-    );
-    report.backend = settings.backend.kind().as_str().into();
-    report.blasts = blast_reports;
-    report.projectiles = world_projectiles;
-    report.active_joints_per_frame = active_joints;
-    Ok((track, report))
+    let mut tracks = result.tracks;
+    let track = tracks.pop().expect("a scene of one has one track");
+    check_finite(&character.name, result.report.metrics.nan, &track, backend)?;
+    Ok((track, result.report))
 }
 
 /// A run whose numbers went non-finite (`nan` in the metrics, or a NaN or infinite joint
@@ -315,7 +298,7 @@ pub fn demo(a: &DemoArgs) -> Result<()> {
         run: a.run.clone(),
         anim: AnimArgs::default(),
     };
-    let (track, report) = simulate_character(
+    let (track, mut report) = simulate_character(
         "built-in",
         &character,
         &spec,
@@ -330,6 +313,9 @@ pub fn demo(a: &DemoArgs) -> Result<()> {
     let json = a.output.join("report.json");
     staging.write(&glb, &encode(OutputKind::Glb, &character, &spec, &track)?)?;
     staging.write(&bvh, &encode(OutputKind::Bvh, &character, &spec, &track)?)?;
+    if let Some(c) = report.characters.first_mut() {
+        c.bvh = Some("demo.bvh".into());
+    }
     staging.write(&json, report.to_json().as_bytes())?;
     let preview = a
         .preview
@@ -385,6 +371,13 @@ fn write_result(
     let mut staging = Staging::new();
     let report_path = report_path(out.path);
     staging.write(out.path, &encode(out.kind, character, spec, track)?)?;
+    let mut report = report.clone();
+    if let (OutputKind::Bvh, Some(c)) = (out.kind, report.characters.first_mut()) {
+        c.bvh = out
+            .path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned());
+    }
     staging.write(&report_path, report.to_json().as_bytes())?;
     let preview = out.preview.stage(
         &mut staging,
@@ -402,7 +395,7 @@ fn write_result(
     fatal::debug_panic_point("staged");
     let written = staging.commit()?;
     progress.finish();
-    print_summary(report);
+    print_summary(&report);
     print_paths(&written, preview.as_deref(), objs);
     Ok(())
 }
@@ -492,11 +485,14 @@ fn report_path(output: &Path) -> PathBuf {
 
 fn print_summary(report: &Report) {
     let m = &report.metrics;
+    let Some(c) = report.characters.first() else {
+        return;
+    };
     errln!(
         "{}: {} bodies, {:.1} kg, {} frames at {} fps in {:.2} s wall; limit violation {:.2}° ({:.2}° before the clamp), penetration {:.1} mm, joint separation {:.2} mm, energy drift {:.4}",
-        report.character,
-        report.bodies,
-        report.total_mass_kg,
+        c.name,
+        c.bodies,
+        c.total_mass_kg,
         report.frames,
         report.fps,
         report.wall_seconds,
@@ -507,12 +503,7 @@ fn print_summary(report: &Report) {
         m.energy_drift,
     );
     let loaded = !report.blasts.is_empty() || !report.projectiles.is_empty();
-    warn_if_torn(
-        &report.character,
-        m.max_joint_separation_m,
-        report.height_m,
-        loaded,
-    );
+    warn_if_torn(&c.name, m.max_joint_separation_m, c.height_m, loaded);
 }
 
 /// Joints held within this fraction of the character's height (9 cm on a person) are taken

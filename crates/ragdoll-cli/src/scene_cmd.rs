@@ -7,7 +7,8 @@ use std::path::Path;
 use anyhow::{Result, bail};
 use clap::ArgMatches;
 use clap::parser::ValueSource;
-use ragdoll::scene::{Scene, SceneReport, SceneResult};
+use ragdoll::report::Report;
+use ragdoll::scene::{Scene, SceneResult};
 use ragdoll::world::StartPose;
 
 use crate::SimulateArgs;
@@ -233,11 +234,11 @@ pub fn print_warnings(scene: &Scene) {
     }
 }
 
-fn print_summary(r: &SceneReport) {
+fn print_summary(r: &Report) {
     let m = &r.metrics;
     errln!(
         "{}: {} character{}, {} frames at {} fps in {:.2} s wall; limit violation {:.2}° ({:.2}° before the clamp), penetration {:.1} mm, joint separation {:.2} mm, energy drift {:.4}",
-        r.scene,
+        r.scene.as_deref().unwrap_or("scene"),
         r.characters.len(),
         if r.characters.len() == 1 { "" } else { "s" },
         r.frames,

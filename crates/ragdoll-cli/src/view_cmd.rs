@@ -10,7 +10,7 @@ use anyhow::{Result, bail};
 use clap::Args;
 use ragdoll::scene::Scene;
 use ragdoll::world::{StartPose, WorldSettings};
-use ragdoll_view::{ViewOptions, Viewer, single_character_scene};
+use ragdoll_view::{ViewOptions, Viewer};
 
 use crate::character::{load_or_builtin, ragdoll_spec};
 use crate::scene_cmd::is_scene;
@@ -83,7 +83,10 @@ pub fn run(a: &ViewArgs) -> Result<()> {
                 },
                 ..Default::default()
             };
-            single_character_scene(character, spec, &input, settings)
+            let mut scene = Scene::single(character, spec, &input, 0.0, settings);
+            // Errors placing the character name its file.
+            scene.path = PathBuf::from(&input);
+            scene
         }
     };
     // The current folder, not the input's: inputs often sit in folders that are not ours

@@ -37,7 +37,7 @@ fn counts(extra: &[&str]) -> (Vec<u64>, u64) {
         .map(|n| n.as_u64().unwrap())
         .collect::<Vec<_>>();
     assert_eq!(active.len() as u64, report["frames"].as_u64().unwrap());
-    (active, report["joints"].as_u64().unwrap())
+    (active, report["characters"][0]["joints"].as_u64().unwrap())
 }
 
 #[test]

@@ -367,7 +367,7 @@ fn mass_is_the_characters_and_scales_a_spec() {
     );
     assert!(o.status.success(), "{}", err(&o));
     let r = json(&fx.path("s.report.json"));
-    assert!((r["total_mass_kg"].as_f64().unwrap() - 80.0).abs() < 0.01);
+    assert!((r["characters"][0]["total_mass_kg"].as_f64().unwrap() - 80.0).abs() < 0.01);
     let j = r["projectiles"][0]["impulse_ns"].as_f64().unwrap();
     assert!((j - 0.008 * 360.0).abs() < 1e-3, "the default bullet: {j}");
 }

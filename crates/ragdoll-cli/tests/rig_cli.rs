@@ -104,7 +104,7 @@ fn the_report_gives_the_height_of_the_skin() {
         assert!(o.status.success(), "{args:?}: {}", stderr(&o));
     }
     let report = common::read_json(&dir.path().join("out.report.json"));
-    let height = report["height_m"].as_f64().unwrap();
+    let height = report["characters"][0]["height_m"].as_f64().unwrap();
     assert!((height - 0.4).abs() < 0.01, "height_m {height}");
 }
 

@@ -22,7 +22,7 @@ fn a_kiloton_next_to_a_person_warns_that_the_joints_gave_way() {
     );
     let report = read_json(&dir.path().join("kt.report.json"));
     let separation = report["max_joint_separation_m"].as_f64().unwrap();
-    let height = report["height_m"].as_f64().unwrap();
+    let height = report["characters"][0]["height_m"].as_f64().unwrap();
     assert!(separation > 0.05 * height, "{separation} m of {height} m");
 
     let o = ragdoll(

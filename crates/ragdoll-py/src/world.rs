@@ -217,7 +217,7 @@ impl World {
         self.room_for(1)?;
         Arc::make_mut(&mut self.scene)
             .blasts
-            .push(world_event(blast));
+            .push(Event::new(blast));
         Ok(())
     }
 
@@ -266,7 +266,7 @@ impl World {
         }
         self.room_for(shots.len())?;
         let scene = Arc::make_mut(&mut self.scene);
-        scene.projectiles.extend(shots.into_iter().map(world_event));
+        scene.projectiles.extend(shots.into_iter().map(Event::new));
         Ok(())
     }
 
@@ -339,7 +339,7 @@ impl World {
         self.room_for(1)?;
         Arc::make_mut(&mut self.scene)
             .fields
-            .push(world_event(field));
+            .push(Event::new(field));
         Ok(())
     }
 
@@ -521,15 +521,6 @@ impl World {
                 ),
             )
         })
-    }
-}
-
-/// An event acting on every character.
-fn world_event<T>(event: T) -> Event<T> {
-    Event {
-        event,
-        character: None,
-        line: 0,
     }
 }
 

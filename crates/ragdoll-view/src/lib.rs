@@ -36,10 +36,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, mpsc};
 
 use ragdoll::error::{Error, Result};
-use ragdoll::scene::{Scene, SceneCharacter};
-use ragdoll::skeleton::Character;
-use ragdoll::spec::RagdollSpec;
-use ragdoll::world::{Activation, WorldSettings};
+use ragdoll::scene::Scene;
 use tokio::sync::{broadcast, watch};
 
 use session::{Command, Outlets, SaveTarget, Session};
@@ -71,32 +68,6 @@ impl Default for ViewOptions {
             save_stem: "ragdoll".into(),
         }
     }
-}
-
-/// A one-character scene for a character file: the character standing at the origin,
-/// physics from the start, default world settings.
-pub fn single_character_scene(
-    character: Character,
-    spec: RagdollSpec,
-    input: &str,
-    settings: WorldSettings,
-) -> Scene {
-    let place = format!("[[character]] \"{}\"", character.name);
-    let mut scene = Scene::new(PathBuf::from(input), 0.0, settings);
-    scene.characters.push(SceneCharacter {
-        name: character.name.clone(),
-        input: input.into(),
-        character,
-        spec,
-        position: glam::Vec3::ZERO,
-        facing_deg: 0.0,
-        activation: Activation::Immediately,
-        clip_offset_s: 0.0,
-        motors: None,
-        line: 0,
-        place,
-    });
-    scene
 }
 
 /// The server's socket, bound and non-blocking, and the address it got.
@@ -225,11 +196,12 @@ impl Viewer {
     ///
     /// ```no_run
     /// use ragdoll::{skeleton, spec, world::WorldSettings};
-    /// use ragdoll_view::{ViewOptions, Viewer, single_character_scene};
+    /// use ragdoll::scene::Scene;
+    /// use ragdoll_view::{ViewOptions, Viewer};
     ///
     /// let character = skeleton::humanoid();
     /// let spec = spec::build_spec(&character, &spec::BuildOptions::default()).unwrap();
-    /// let scene = single_character_scene(character, spec, "built-in", WorldSettings::default());
+    /// let scene = Scene::single(character, spec, "built-in", 0.0, WorldSettings::default());
     /// let viewer = Viewer::start(scene, &ViewOptions { port: 0, ..Default::default() }).unwrap();
     /// println!("open {}", viewer.url());
     /// viewer.wait().unwrap();

@@ -168,10 +168,11 @@ fn a_save_folder_that_is_a_file_is_refused_at_start() {
         let character = ragdoll::skeleton::humanoid();
         let spec =
             ragdoll::spec::build_spec(&character, &ragdoll::spec::BuildOptions::default()).unwrap();
-        let scene = ragdoll_view::single_character_scene(
+        let scene = ragdoll::scene::Scene::single(
             character,
             spec,
             "built-in",
+            0.0,
             ragdoll::world::WorldSettings::default(),
         );
         let options = ragdoll_view::ViewOptions {
@@ -257,10 +258,11 @@ fn the_recording_is_capped_and_shorter_for_larger_scenes() {
     let character = ragdoll::skeleton::humanoid();
     let spec =
         ragdoll::spec::build_spec(&character, &ragdoll::spec::BuildOptions::default()).unwrap();
-    let mut scene = ragdoll_view::single_character_scene(
+    let mut scene = ragdoll::scene::Scene::single(
         character,
         spec,
         "built-in",
+        0.0,
         ragdoll::world::WorldSettings::default(),
     );
     let first = scene.characters[0].clone();

@@ -3,11 +3,12 @@
 
 use std::path::Path;
 
-use ragdoll::scene::{AIRBORNE_CLEARANCE_M, Scene};
+use ragdoll::report::AIRBORNE_CLEARANCE_M;
+use ragdoll::scene::Scene;
 
 const G: f32 = 9.80665;
 
-fn run(text: &str) -> ragdoll::scene::SceneReport {
+fn run(text: &str) -> ragdoll::report::Report {
     Scene::from_toml(text, Path::new("summary.toml"))
         .unwrap()
         .run()

@@ -57,7 +57,12 @@ fn report(dir: &Path) -> serde_json::Value {
 }
 
 fn total_mass(dir: &Path) -> f64 {
-    report(dir)["total_mass_kg"].as_f64().unwrap()
+    let r = report(dir);
+    // A run's report lists its characters; `inspect --json` describes one.
+    r["characters"][0]["total_mass_kg"]
+        .as_f64()
+        .or(r["total_mass_kg"].as_f64())
+        .unwrap()
 }
 
 fn number(dir: &Path, pointer: &str) -> f64 {

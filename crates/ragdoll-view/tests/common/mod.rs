@@ -7,10 +7,11 @@ use std::net::{SocketAddr, TcpStream};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
+use ragdoll::scene::Scene;
 use ragdoll::skeleton::humanoid;
 use ragdoll::spec::{BuildOptions, build_spec};
 use ragdoll::world::WorldSettings;
-use ragdoll_view::{ViewOptions, Viewer, single_character_scene};
+use ragdoll_view::{ViewOptions, Viewer};
 use serde_json::Value;
 use tungstenite::Message;
 
@@ -20,7 +21,7 @@ pub type Socket = tungstenite::WebSocket<TcpStream>;
 pub fn start_saving(save_dir: PathBuf, save_stem: &str) -> Viewer {
     let character = humanoid();
     let spec = build_spec(&character, &BuildOptions::default()).unwrap();
-    let scene = single_character_scene(character, spec, "built-in", WorldSettings::default());
+    let scene = Scene::single(character, spec, "built-in", 0.0, WorldSettings::default());
     Viewer::start(
         scene,
         &ViewOptions {

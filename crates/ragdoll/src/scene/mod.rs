@@ -66,8 +66,8 @@ mod crowd;
 mod load;
 mod parse;
 mod raw;
-mod report;
 mod timeline;
+mod watch;
 pub mod wedge;
 
 pub use characters::{
@@ -76,9 +76,8 @@ pub use characters::{
 };
 pub use crowd::{MAX_CROWD_FILES, MAX_CROWD_SPACING_M, MAX_CROWD_SPREAD, MIN_CROWD_SPACING_M};
 pub use parse::{MAX_CHARACTERS, MAX_EVENTS, MAX_OUTPUT_NAME_BYTES, MAX_SCENE_BODIES};
-use report::Watch;
-pub use report::{AIRBORNE_CLEARANCE_M, CharacterReport, SceneReport};
 pub use timeline::MAX_BURST;
+use watch::{Watch, character_report};
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -89,6 +88,7 @@ use crate::error::{Error, Result};
 use crate::events::{Blast, Field, Pin, Projectile, Push};
 use crate::export::{self, write_atomic};
 use crate::math::Transform;
+use crate::report::Report;
 use crate::skeleton::Character;
 use crate::spec::RagdollSpec;
 use crate::track::Track;
@@ -183,6 +183,18 @@ pub struct Event<T> {
     pub line: usize,
 }
 
+impl<T> Event<T> {
+    /// A world-wide event (a blast, a shot, a field) of a scene built in code: no character
+    /// of its own, no line in a file.
+    pub fn new(event: T) -> Self {
+        Event {
+            event,
+            character: None,
+            line: 0,
+        }
+    }
+}
+
 /// Output file names inside the output folder; `None` skips that output.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Outputs {
@@ -219,7 +231,7 @@ pub struct SceneResult {
     /// Per character, in scene order.
     pub tracks: Vec<Track>,
     /// Metrics and event reports.
-    pub report: SceneReport,
+    pub report: Report,
 }
 
 impl Scene {
@@ -240,6 +252,54 @@ impl Scene {
             pins: Vec::new(),
             outputs: Outputs::default(),
         }
+    }
+
+    /// A scene of one character standing at the origin facing +Z, physics from the start,
+    /// no events and no outputs yet: how `ragdoll simulate`, `blast`, `shoot` and the
+    /// viewer run a character file, so that one character and many go through one
+    /// pipeline and give one kind of report. It has no file (its errors keep their own
+    /// kind); `input` names the character's file in the report.
+    ///
+    /// ```
+    /// use ragdoll::scene::Scene;
+    /// use ragdoll::world::WorldSettings;
+    ///
+    /// let character = ragdoll::skeleton::humanoid();
+    /// let spec = ragdoll::spec::build_spec(&character, &Default::default())?;
+    /// let mut scene = Scene::single(character, spec, "built-in", 0.5, WorldSettings::default());
+    /// let result = scene.run()?;
+    /// assert_eq!(result.report.scene, None);
+    /// assert_eq!(result.report.characters[0].input, "built-in");
+    /// assert!(!result.report.metrics.nan);
+    /// # Ok::<(), ragdoll::Error>(())
+    /// ```
+    pub fn single(
+        character: Character,
+        spec: RagdollSpec,
+        input: &str,
+        duration_s: f32,
+        settings: WorldSettings,
+    ) -> Scene {
+        let mut scene = Scene::new(PathBuf::new(), duration_s, settings);
+        scene.outputs = Outputs {
+            glb: None,
+            bvh: None,
+            report: None,
+        };
+        scene.characters.push(SceneCharacter {
+            name: character.name.clone(),
+            place: format!("character {:?}", character.name),
+            input: input.into(),
+            character,
+            spec,
+            position: Vec3::ZERO,
+            facing_deg: 0.0,
+            activation: Activation::Immediately,
+            clip_offset_s: 0.0,
+            motors: None,
+            line: 0,
+        });
+        scene
     }
 
     /// Switches the scene's engine to `kind`: the fast engine with [`Scene::fast`], any
@@ -329,7 +389,7 @@ impl Scene {
             .zip(&tracks)
             .zip(&watches)
             .map(|(((c, &id), track), watch)| {
-                CharacterReport::new(
+                character_report(
                     c,
                     track,
                     world.activated_at(id),
@@ -339,8 +399,8 @@ impl Scene {
                 )
             })
             .collect();
-        let report = SceneReport {
-            scene: self.path.display().to_string(),
+        let report = Report {
+            scene: (!self.path.as_os_str().is_empty()).then(|| self.path.display().to_string()),
             backend: self.settings.backend.kind().as_str().into(),
             frames: tracks.first().map_or(0, |t| t.frames.len()),
             fps: self.settings.fps,
