@@ -29,7 +29,6 @@ fn set(s: &mut WorldSettings, key: &str, v: &Bound<'_, PyAny>) -> PyResult<()> {
             }
         }
         "dt" => s.dt = v.extract()?,
-        "project_limits" => s.project_limits = v.extract()?,
         "joint_damping" => s.joint_damping = v.extract()?,
         other => return set_engine(&mut s.backend, other, v),
     }
@@ -43,6 +42,7 @@ fn set_engine(c: &mut BackendConfig, key: &str, v: &Bound<'_, PyAny>) -> PyResul
         (BackendConfig::Rigid(c), "substeps") => c.substeps = v.extract()?,
         (BackendConfig::Rigid(c), "iterations") => c.iterations = v.extract()?,
         (BackendConfig::Rigid(c), "collision_substeps") => c.collision_substeps = v.extract()?,
+        (BackendConfig::Rigid(c), "project_limits") => c.project_limits = v.extract()?,
         (BackendConfig::Particle(c), "collision_substeps") => c.collision_substeps = v.extract()?,
         (BackendConfig::Particle(c), "particle_substeps") => c.substeps = v.extract()?,
         (BackendConfig::Particle(c), "particle_iterations") => c.iterations = v.extract()?,
@@ -50,9 +50,11 @@ fn set_engine(c: &mut BackendConfig, key: &str, v: &Bound<'_, PyAny>) -> PyResul
         (BackendConfig::Fast(c), "fast_iterations") => c.iterations = v.extract()?,
         (BackendConfig::Fast(c), "fast_impact_passes") => c.impact_passes = v.extract()?,
         (BackendConfig::Fast(c), "freeze_joints") => c.freeze_joints = v.extract()?,
+        (BackendConfig::Fast(c), "project_limits") => c.project_limits = v.extract()?,
         (c, key) => {
             let owner = match key {
                 "substeps" | "iterations" => Some("rigid"),
+                "project_limits" => Some("rigid and fast"),
                 "collision_substeps" => Some("rigid and particle"),
                 "particle_substeps" | "particle_iterations" => Some("particle"),
                 "fast_substeps" | "fast_iterations" | "fast_impact_passes" | "freeze_joints" => {

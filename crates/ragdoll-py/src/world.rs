@@ -34,11 +34,11 @@ const LOOK_UP: Duration = Duration::from_millis(20);
 /// `backend` is `"rigid"` (rapier, the reference), `"fast"` (our solver built for
 /// crowds) or `"particle"`; the other keyword arguments are the world's settings:
 /// `gravity` (3 numbers, m/s²), `ground` (height in metres, or None for none),
-/// `start_pose` (`"first_frame"` or `"rest"`), `dt`, `project_limits` and
-/// `joint_damping`, and the chosen backend's own: `substeps`, `iterations` and
-/// `collision_substeps` (rigid), `collision_substeps`, `particle_substeps` and
+/// `start_pose` (`"first_frame"` or `"rest"`), `dt` and `joint_damping`, and the
+/// chosen backend's own: `substeps`, `iterations`, `collision_substeps` and
+/// `project_limits` (rigid), `collision_substeps`, `particle_substeps` and
 /// `particle_iterations` (particle), `fast_substeps`, `fast_iterations`,
-/// `fast_impact_passes` and `freeze_joints` (fast). Another backend's setting is refused.
+/// `fast_impact_passes`, `freeze_joints` and `project_limits` (fast). Another backend's setting is refused.
 #[pyclass(module = "ragdoll_sim")]
 pub struct World {
     scene: Arc<Scene>,

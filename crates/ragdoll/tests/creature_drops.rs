@@ -157,7 +157,7 @@ const KNOWN_GAPS: &[(&str, BackendKind, bool, &str)] = &[
         "spider",
         BackendKind::Fast,
         true,
-        "the world's limit clamp turns legs the solver left up to 3° past their cones back \
+        "the end-of-step limit clamp turns legs the solver left up to 3° past their cones back \
          into the floor and lifts the spider out: 1.4 % energy gained in a frame (0.6 % \
          with `project_limits` off)",
     ),

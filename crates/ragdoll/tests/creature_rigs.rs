@@ -119,7 +119,7 @@ fn lands_whole(name: &str, bones: fn() -> Bones, seconds: f32) {
             assert!(m.max_joint_separation_m < joint_gap, "{what}: {m:?}");
             assert!(m.max_penetration_m < 0.03, "{what}: {m:?}");
             // A passive drop gains no energy (1 %, as in `creature_drops.rs`). Without the
-            // damping the spider gained up to 6.7 % here through the world's limit clamp
+            // damping the spider gained up to 6.7 % here through the end-of-step limit clamp
             // (the known gap of `creature_drops.rs`' spider); the particle backend's horse
             // gains up to 28 % (facing 270°), a known gap of that backend, whose joints
             // still hold.

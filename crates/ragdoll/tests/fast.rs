@@ -1,6 +1,6 @@
 //! Physical facts the fast backend must reproduce: free fall, a pendulum's
 //! period, joints that stay closed and limits held by the solver itself (read before the
-//! world's clamp), the load of a blast delivered as momentum, bit-identical reruns,
+//! end-of-step clamp), the load of a blast delivered as momentum, bit-identical reruns,
 //! ragdolls and piles that come to rest and sleep, and a drop that follows the rigid
 //! backend's.
 

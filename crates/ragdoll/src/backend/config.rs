@@ -24,7 +24,7 @@ pub const MAX_FAST_ITERATIONS: usize = 8;
 /// 8 built-in humanoids dropped lying (means of each run's worst values): 16 substeps left
 /// joints 31 mm apart, contacts 46 mm deep and limits 12° past; 24 left 16 mm, 27 mm, 8°;
 /// 32 left 14 mm, 23 mm, 5.5°, where the rigid backend leaves 16 mm, 38 mm, 8.5° (its
-/// solver's reading, before the world's clamp).
+/// solver's reading, before the end-of-step clamp).
 pub const DEFAULT_FAST_SUBSTEPS: usize = 32;
 
 /// Default of [`FastConfig::impact_passes`]: three more passes in an impact, four in all.
@@ -61,6 +61,11 @@ pub struct RigidConfig {
     /// Constraint iterations per solver substep (default 2): joints and contacts of a
     /// 16-body chain converge better with two.
     pub iterations: usize,
+    /// Whether joints are also held inside their limits on positions after every world
+    /// step (default true; see [`super::limits`]): rapier holds them on velocities, and
+    /// a torso landing on an arm still pushed a joint tens of degrees past its limit for
+    /// a few frames.
+    pub project_limits: bool,
 }
 
 impl Default for RigidConfig {
@@ -69,6 +74,7 @@ impl Default for RigidConfig {
             collision_substeps: 4,
             substeps: 4,
             iterations: 2,
+            project_limits: true,
         }
     }
 }
@@ -123,6 +129,10 @@ pub struct FastConfig {
     /// move as one until a blow arrives, and cost as one (its level of detail below sleep;
     /// see the guide's Backends page).
     pub freeze_joints: bool,
+    /// Whether joints are also turned back inside their limits on positions after every
+    /// step (default true; see [`super::limits`]): the substeps leave a few degrees past
+    /// a cone in the hardest landings (a spider's legs, up to 6°).
+    pub project_limits: bool,
 }
 
 impl Default for FastConfig {
@@ -132,6 +142,7 @@ impl Default for FastConfig {
             iterations: 1,
             impact_passes: DEFAULT_FAST_IMPACT_PASSES,
             freeze_joints: true,
+            project_limits: true,
         }
     }
 }

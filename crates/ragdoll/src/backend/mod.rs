@@ -19,6 +19,11 @@
 //! deepest contact, its limits before its own clamp) comes back from [`Backend::step`]
 //! as a [`StepReport`], not through queries the world must know to ask.
 //! `tests/custom_backend.rs` holds a whole backend written against this interface alone.
+//!
+//! The physics stays below the seam: an engine holds its joints inside their limits
+//! itself. An engine whose solver holds limits on velocities only (rapier does) can keep
+//! them on positions with the shared [`limits::LimitProjection`], as `rigid` does; the
+//! world never moves a body to mend what an engine left.
 
 pub(crate) mod broad;
 mod command;
@@ -26,6 +31,7 @@ mod config;
 pub(crate) mod fast;
 pub(crate) mod geom;
 pub(crate) mod hub;
+pub mod limits;
 pub(crate) mod particle;
 pub(crate) mod rigid;
 pub(crate) mod tree;
@@ -146,11 +152,11 @@ pub struct PinId(pub usize);
 pub struct StepReport {
     /// Deepest contact penetration its contacts saw in the step, metres (0 when none).
     pub max_penetration_m: f32,
-    /// For an engine that keeps joints inside their limits on positions itself, clamping
-    /// them after solving: the worst limit violation of a joint with a dynamic body,
-    /// radians, as its solver left it, before that clamp. `None` for an engine that leaves
-    /// the clamp to the world: the world then reads the bodies before clamping them itself
-    /// (when [`WorldSettings::project_limits`](crate::world::WorldSettings) asks for it).
+    /// For an engine that keeps joints inside their limits on positions, clamping them
+    /// after solving (its own way, or with the shared [`limits::LimitProjection`]): the
+    /// worst limit violation of a joint with a dynamic body, radians, as its solver left
+    /// it, before that clamp. `None` for an engine that does not clamp: the world then
+    /// reads the bodies as they are.
     pub limit_violation_before_clamp_rad: Option<f32>,
     /// Whether a body's state went non-finite in a way [`Backend::body_states`] does not
     /// show: rapier rolls such a body back, zeroes its velocities and disables it (its

@@ -9,6 +9,7 @@ use std::collections::HashSet;
 use glam::Vec3;
 use rapier3d::prelude::*;
 
+use super::limits::{BodyRole, LimitProjection};
 use super::{
     Backend, BodyDesc, BodyId, BodyState, Command, JointDesc, JointId, OneAtATime, PinId,
     RigidConfig, StepReport, Surroundings, apply_each,
@@ -62,8 +63,8 @@ impl PhysicsHooks for PairFilter {
 pub struct RigidBackend {
     world: PhysicsWorld,
     joints: Vec<ImpulseJointHandle>,
-    /// Each pin's kinematic anchor and joint (`None` once released).
-    pins: Vec<(RigidBodyHandle, Option<ImpulseJointHandle>)>,
+    /// Each pin's kinematic anchor, joint (`None` once released) and the body it holds.
+    pins: Vec<(RigidBodyHandle, Option<ImpulseJointHandle>, usize)>,
     bodies: Vec<RigidBodyHandle>,
     filter: PairFilter,
     /// Each joint's drive (powered mode), a second joint between the same two bodies with
@@ -71,8 +72,16 @@ pub struct RigidBackend {
     drives: Vec<Option<ImpulseJointHandle>>,
     /// Whether rapier has quarantined a body (its state went non-finite; rapier froze it).
     quarantined: bool,
-    /// Whether there is a ground (a box [`GROUND_HALF_EXTENT_M`] each way).
-    has_ground: bool,
+    /// The ground's height, if there is one (a box [`GROUND_HALF_EXTENT_M`] each way).
+    ground: Option<f32>,
+    /// The joints as the limit projection sees them; `None` when the projection is off
+    /// ([`RigidConfig::project_limits`]).
+    limits: Option<LimitProjection>,
+    /// How many calls of [`Backend::step`] make one world step (the collision substeps),
+    /// and how many of the current one have been made: the projection runs after the
+    /// last, where the world's step ends.
+    world_substeps: usize,
+    calls_this_step: usize,
 }
 
 fn pose(t: &Transform) -> Pose {
@@ -132,7 +141,10 @@ impl RigidBackend {
             },
             drives: Vec::new(),
             quarantined: false,
-            has_ground: surroundings.ground.is_some(),
+            ground: surroundings.ground,
+            limits: config.project_limits.then(LimitProjection::default),
+            world_substeps: config.collision_substeps.max(1),
+            calls_this_step: 0,
         }
     }
 
@@ -195,7 +207,42 @@ impl RigidBackend {
             let (a, b) = ((first + a) as u32, (first + b) as u32);
             self.filter.disabled.insert((a.min(b), a.max(b)));
         }
+        if let Some(limits) = &mut self.limits {
+            limits.add_ragdoll(first, bodies, joints);
+        }
         first
+    }
+
+    /// Turns every joint rapier left past its limits back inside them (see
+    /// [`LimitProjection`]); returns the worst violation before, radians.
+    fn project_limits(&mut self) -> Option<f32> {
+        let limits = self.limits.as_ref()?;
+        let mut poses = Vec::with_capacity(self.bodies.len());
+        let mut roles = Vec::with_capacity(self.bodies.len());
+        for &h in &self.bodies {
+            let rb = &self.world.bodies[h];
+            let p = rb.position();
+            poses.push(Transform::new(p.translation, p.rotation));
+            let dynamic = rb.is_dynamic() && rb.is_enabled();
+            // A kinematic body of a ragdoll that is otherwise physical is a root kept on
+            // its clip: held.
+            roles.push(BodyRole {
+                dynamic,
+                held: !dynamic,
+            });
+        }
+        for &(_, joint, body) in &self.pins {
+            if joint.is_some()
+                && let Some(r) = roles.get_mut(body)
+            {
+                r.held = true;
+            }
+        }
+        let before = limits.worst_violation(&poses, &roles);
+        for b in limits.project(&mut poses, &roles, self.ground) {
+            self.world.bodies[self.bodies[b]].set_position(pose(&poses[b]), false);
+        }
+        Some(before)
     }
 }
 
@@ -268,6 +315,9 @@ impl Backend for RigidBackend {
         let Some(&ragdoll) = self.filter.ragdoll_of.get(first_body) else {
             return false;
         };
+        if let Some(limits) = &mut self.limits {
+            limits.remove_ragdoll(first_body);
+        }
         for (i, &h) in self.bodies.iter().enumerate().skip(first_body) {
             if self.filter.ragdoll_of[i] != ragdoll {
                 break;
@@ -303,9 +353,18 @@ impl Backend for RigidBackend {
         // rapier rolls a non-finite body back, zeroes and disables it, and says so only
         // here: a frozen body would otherwise pass for a finite result.
         self.quarantined |= !self.world.quarantine().is_empty();
+        let max_penetration_m = self.max_penetration();
+        self.calls_this_step += 1;
+        let mut limit_violation_before_clamp_rad = None;
+        if self.calls_this_step >= self.world_substeps {
+            self.calls_this_step = 0;
+            if !self.quarantined {
+                limit_violation_before_clamp_rad = self.project_limits();
+            }
+        }
         StepReport {
-            max_penetration_m: self.max_penetration(),
-            limit_violation_before_clamp_rad: None,
+            max_penetration_m,
+            limit_violation_before_clamp_rad,
             went_non_finite: self.quarantined,
         }
     }
@@ -324,7 +383,7 @@ impl Backend for RigidBackend {
     }
 
     fn ground_half_extent(&self) -> Option<f32> {
-        self.has_ground.then_some(GROUND_HALF_EXTENT_M)
+        self.ground.map(|_| GROUND_HALF_EXTENT_M)
     }
 
     fn cast_ray(&self, origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(BodyId, f32)> {
@@ -357,7 +416,7 @@ impl Backend for RigidBackend {
         }
         let body = self.bodies[index];
         let handle = self.world.impulse_joints.insert(anchor, body, joint, true);
-        self.pins.push((anchor, Some(handle)));
+        self.pins.push((anchor, Some(handle), index));
         PinId(self.pins.len() - 1)
     }
 
@@ -509,12 +568,18 @@ impl OneAtATime for RigidBackend {
     }
 
     fn set_joint_parent_frame(&mut self, JointId(index): JointId, frame: &Transform) {
+        if let Some(limits) = &mut self.limits {
+            limits.set_parent_frame(JointId(index), frame);
+        }
         if let Some(joint) = self.world.impulse_joints.get_mut(self.joints[index], true) {
             joint.data.set_local_frame1(pose(frame));
         }
     }
 
     fn set_joint_child_frame(&mut self, JointId(index): JointId, frame: &Transform) {
+        if let Some(limits) = &mut self.limits {
+            limits.set_child_frame(JointId(index), frame);
+        }
         if let Some(joint) = self.world.impulse_joints.get_mut(self.joints[index], true) {
             joint.data.set_local_frame2(pose(frame));
         }
@@ -525,6 +590,9 @@ impl OneAtATime for RigidBackend {
     }
 
     fn set_joint_limits(&mut self, JointId(index): JointId, kind: &JointKind) {
+        if let Some(limits) = &mut self.limits {
+            limits.set_limits(JointId(index), kind);
+        }
         let Some(joint) = self.world.impulse_joints.get_mut(self.joints[index], true) else {
             return;
         };

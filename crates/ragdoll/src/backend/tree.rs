@@ -1,4 +1,4 @@
-//! A ragdoll's bodies as a tree through its joints, for the limit projections of the world
+//! A ragdoll's bodies as a tree through its joints, for the limit projections of the engines
 //! and of the particle backend: joints parents first, and each joint's subtree as one run
 //! of a depth-first order, so a long chain (a 2,000-link tail) costs linear memory and
 //! time instead of a list per joint and a walk to the root per body.

@@ -30,8 +30,8 @@ pub struct Metrics {
     /// counts too), in what is recorded: after any positional clamp that turns joints back
     /// (see [`Metrics::max_limit_violation_solver_deg`]).
     pub max_limit_violation_deg: f32,
-    /// The same, read before any positional clamp: what the solver itself left (the world's
-    /// projection for the rigid backend, the particle backend's own end-of-step pass). A
+    /// The same, read before any positional clamp: what the solver itself left (the rigid
+    /// engine's limit projection, the particle engine's own end-of-step pass). A
     /// clamp only ever lowers a violation, so this is at least
     /// [`Metrics::max_limit_violation_deg`]; the gap between them is how much the clamp,
     /// not the solver, held the limits.

@@ -34,7 +34,6 @@ pub use settings::{DEFAULT_JOINT_DAMPING, MAX_JOINT_DAMPING, StartPose, WorldSet
 pub use start::MAX_COORDINATE_M;
 use start::{beyond_world, within_world};
 
-use crate::backend::tree::JointTree;
 use crate::backend::{
     AnyBackend, Backend, BodyImpulse, BodyState, Command, StepReport, Surroundings,
 };
@@ -90,8 +89,6 @@ struct Instance {
     name: String,
     body_names: Vec<String>,
     first_body: usize,
-    /// Joints parents first, and the bodies each joint's child carries.
-    tree: JointTree,
     /// Each body's shape.
     shapes: Vec<Shape>,
     /// Each body's extra shapes, each at its place in the body frame.
@@ -175,7 +172,8 @@ impl World {
     /// `settings` as for its own engines but for `backend`, and steps the engine once per
     /// step (`dt`): its substeps are its own. The engine must simulate the same `gravity`
     /// and `ground` (the world lifts ragdolls onto that ground and measures energy with
-    /// that gravity).
+    /// that gravity), and holds its joints' limits itself (the world measures them, it
+    /// does not clamp them: see [`crate::backend::limits`]).
     ///
     /// # Example
     ///
@@ -352,8 +350,8 @@ impl World {
         }
         self.time += self.settings.dt as f64;
         self.blast_after_step();
-        // What the solver left, before any clamp: the backend's own reading where it clamps
-        // itself, else the bodies as they are before the world's projection.
+        // What the solver left, before any clamp: the engine's own reading where it clamps
+        // limits on positions, else the bodies as they are (nothing clamped them).
         let solver = match self.step_report.limit_violation_before_clamp_rad {
             Some(v) => v,
             None => self.limit_violation_now(),
@@ -361,10 +359,6 @@ impl World {
         let m = &mut self.metrics;
         m.max_limit_violation_solver_deg =
             m.max_limit_violation_solver_deg.max(solver.to_degrees());
-        let engine_clamps = self.step_report.limit_violation_before_clamp_rad.is_some();
-        if self.settings.project_limits && !engine_clamps {
-            self.project_limits();
-        }
         self.measure_step();
         self.record_frames_until(self.time);
     }

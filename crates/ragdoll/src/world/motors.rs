@@ -187,8 +187,8 @@ impl World {
     /// clip pose from now on, and its root goes kinematic when it stays on the clip.
     ///
     /// The limits were fitted to the starting pose only; a motor pulling toward a pose
-    /// outside them would fight both rapier's limits and the position projection
-    /// ([`super::WorldSettings::project_limits`]) every step. The performer held those
+    /// outside them would fight both rapier's limits and its position projection
+    /// ([`crate::backend::RigidConfig::project_limits`]) every step. The performer held those
     /// poses, so the limits give way to them, as they do at a hand-over.
     fn engage_motors(&mut self, c: usize, t0: f64) {
         let inst = &mut self.instances[c];

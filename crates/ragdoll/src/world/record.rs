@@ -1,23 +1,12 @@
-//! Recording and measuring: output frames from the bodies' states, the rigid backend's
-//! limit projection, and the quality metrics (the guide's report reference).
+//! Recording and measuring: output frames from the bodies' states and the quality
+//! metrics (the guide's report reference).
 
-use crate::backend::BodyId;
-use crate::backend::Command;
 use glam::Vec3;
 
 use crate::backend::{Backend, BodyState};
 use crate::math::Transform;
 use crate::spec::ResolvedJoint;
 use rayon::prelude::*;
-
-/// Violations smaller than this are left to rapier's own (velocity-level) limits, degrees.
-/// Projecting every tiny excess made limbs resting against a limit creep (about 1 cm/s):
-/// each step the solver let them sink a little and the projection turned them back about
-/// the anchor, a ratchet against the floor's friction.
-const PROJECTION_TOLERANCE_DEG: f32 = 1.0;
-
-/// How far below the ground the limit projection may move a body that was above it, metres.
-const PROJECTION_GROUND_SLACK_M: f32 = 0.005;
 
 impl super::World {
     pub(super) fn record_frames_until(&mut self, t: f64) {
@@ -76,127 +65,6 @@ impl super::World {
                 self.active_joints.push(n.min(u32::MAX as usize) as u32);
             }
             self.measure_frame_energy();
-        }
-    }
-
-    /// Clamps every joint back into its limits (see [`WorldSettings::project_limits`](super::WorldSettings::project_limits)).
-    ///
-    /// Where turning a subtree would sink one of its bodies below the ground (deeper than
-    /// it already was, beyond [`PROJECTION_GROUND_SLACK_M`]), the whole ragdoll is lifted
-    /// by that much instead: left to the contacts, such a sink came back as 3-6 cm
-    /// penetrations in our runs; the lift is a few millimetres, once in a while.
-    pub(super) fn project_limits(&mut self) {
-        let ground = self.settings.ground;
-        // Bodies something outside the ragdoll holds (a pin, a drag, a root kept on its
-        // clip): turning one of them would tear it from its holder, whose constraint then
-        // yanks it back, a fight that flung a pinned dragon's chain tens of metres. The
-        // projection turns the other side of the joint instead.
-        let mut held = vec![false; self.states.len()];
-        for p in self.pins.iter().filter(|p| !p.released) {
-            if let Some(h) = held.get_mut(p.body) {
-                *h = true;
-            }
-        }
-        for inst in &self.instances {
-            if let Some(m) = &inst.motors
-                && m.engaged
-                && m.motors.root_on_clip
-            {
-                held[inst.first_body + m.root] = true;
-            }
-        }
-        // Most ragdolls, most steps, have no joint to turn back: find those that do in
-        // parallel (reading only their own states), then turn them one at a time.
-        let tolerance = PROJECTION_TOLERANCE_DEG.to_radians();
-        let states = &self.states;
-        let past: Vec<bool> = self
-            .instances
-            .par_iter()
-            .map(|inst| {
-                let s = &states[inst.first_body..inst.first_body + inst.masses.len()];
-                inst.active
-                    && !inst.removed
-                    && inst.joints.iter().any(|j| {
-                        // As the loop below: only a violation known to be small is
-                        // skipped.
-                        let v = j.violation(&s[j.parent].pose, &s[j.child].pose);
-                        v >= tolerance || v.is_nan()
-                    })
-            })
-            .collect();
-        let to_project = self
-            .instances
-            .iter()
-            .zip(past)
-            .filter(|(_, past)| *past)
-            .map(|(inst, _)| inst);
-        for inst in to_project {
-            let base = inst.first_body;
-            for &k in &inst.tree.order {
-                let j = &inst.joints[k];
-                let parent = self.states[base + j.parent].pose;
-                let child = self.states[base + j.child].pose;
-                if j.violation(&parent, &child) < tolerance {
-                    continue;
-                }
-                let Some(rotation) = j.clamp_child_rotation(&parent, &child) else {
-                    continue;
-                };
-                let full = rotation * child.rotation.conjugate();
-                let anchor = child.transform_point(j.frame_child.translation);
-                let moved = |p: &Transform, delta: glam::Quat| {
-                    Transform::new(
-                        anchor + delta * (p.translation - anchor),
-                        (delta * p.rotation).normalize(),
-                    )
-                };
-                let subtree = inst.tree.subtree(k);
-                let (turned, delta) = if subtree.iter().all(|&b| !held[base + b]) {
-                    (subtree.to_vec(), full)
-                } else {
-                    let rest: Vec<usize> = (0..inst.shapes.len())
-                        .filter(|&b| !inst.tree.in_subtree(k, b))
-                        .collect();
-                    if rest.iter().any(|&b| held[base + b]) {
-                        // Held on both sides: the holders decide.
-                        continue;
-                    }
-                    (rest, full.conjugate())
-                };
-                // How far the turned bodies would sink below the ground beyond the slack
-                // (and beyond where they already were): the whole ragdoll is lifted by
-                // that much, so the limit wins without pushing a body into the floor.
-                let mut lift = 0.0f32;
-                if let Some(g) = ground {
-                    for &b in &turned {
-                        let shape = &inst.shapes[b];
-                        let before = shape.lowest_y(&self.states[base + b].pose);
-                        let after = shape.lowest_y(&moved(&self.states[base + b].pose, delta));
-                        let floor = (g - PROJECTION_GROUND_SLACK_M).min(before);
-                        lift = lift.max(floor - after);
-                    }
-                }
-                for &b in &turned {
-                    let pose = moved(&self.states[base + b].pose, delta);
-                    self.states[base + b].pose = pose;
-                    self.backend.apply(&[Command::Pose {
-                        body: BodyId(base + b),
-                        pose,
-                    }]);
-                }
-                // A held ragdoll is not lifted: its holder would pull it straight back.
-                let any_held = (0..inst.shapes.len()).any(|b| held[base + b]);
-                if lift > 0.0 && !any_held {
-                    for b in 0..inst.shapes.len() {
-                        self.states[base + b].pose.translation.y += lift;
-                        let pose = self.states[base + b].pose;
-                        self.backend.apply(&[Command::Pose {
-                            body: BodyId(base + b),
-                            pose,
-                        }]);
-                    }
-                }
-            }
         }
     }
 

@@ -33,17 +33,9 @@ pub struct WorldSettings {
     pub ground: Option<f32>,
     /// Starting pose (default: the first clip frame).
     pub start: StartPose,
-    /// Whether joint limits are also enforced on positions after every step (default true).
-    ///
-    /// rapier enforces limits on velocities; a hard impact (a torso landing on an arm) can
-    /// still push a joint tens of degrees past its limit for a few frames. The projection
-    /// clamps each joint's swing and twist back into range, turning the child's whole
-    /// subtree about the joint anchor, parents first, as position-based solvers do.
-    pub project_limits: bool,
     /// Which engine moves the bodies, with its own settings (default the rigid engine,
     /// [`BackendConfig::Rigid`], at its defaults). `BackendKind::Fast.into()` picks an
-    /// engine at its defaults. The particle engine keeps limits itself
-    /// (`project_limits` is then not needed).
+    /// engine at its defaults.
     pub backend: BackendConfig,
     /// Passive joint damping, per second (default [`DEFAULT_JOINT_DAMPING`], off): how
     /// fast a limp limb swinging from a still body loses its speed relative to it, so its
@@ -72,7 +64,6 @@ impl Default for WorldSettings {
             gravity: Vec3::new(0.0, -STANDARD_GRAVITY, 0.0),
             ground: Some(0.0),
             start: StartPose::FirstFrame,
-            project_limits: true,
             backend: BackendConfig::default(),
             joint_damping: DEFAULT_JOINT_DAMPING,
         }

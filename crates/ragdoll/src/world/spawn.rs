@@ -9,7 +9,6 @@ use glam::Vec3;
 use super::overlap::Solid;
 use super::playback::{self, Activation};
 use super::{Instance, RagdollId, Rider, StartPose, World, start};
-use crate::backend::tree::JointTree;
 use crate::backend::{Backend, BodyDesc, JointDesc, SkinPointDesc};
 use crate::error::Result;
 use crate::math::Transform;
@@ -107,7 +106,6 @@ impl World {
         let playback = playback_of(character, &resolved, placement, lift);
         let joints = resolved.joints;
         let links: Vec<(usize, usize)> = joints.iter().map(|j| (j.parent, j.child)).collect();
-        let tree = JointTree::new(spec.bodies.len(), &links);
         let first_joint = self.instances.iter().map(|i| i.joints.len()).sum();
         self.instances.push(Instance {
             joint_labels: (0..skeleton.len())
@@ -125,7 +123,6 @@ impl World {
             name: character.name.clone(),
             body_names: spec.bodies.iter().map(|b| b.name.clone()).collect(),
             first_body,
-            tree,
             shapes: spec.bodies.iter().map(|b| b.shape).collect(),
             extras: bodies.iter().map(|b| b.extra_shapes.clone()).collect(),
             exempt_pairs,

@@ -34,6 +34,7 @@
 mod body;
 mod box_box;
 mod box_capsule;
+mod clamp;
 mod contact;
 mod extras;
 mod freeze;
@@ -49,6 +50,7 @@ use std::collections::HashSet;
 
 use glam::{Quat, Vec3};
 
+use super::limits::LimitProjection;
 use super::{
     Backend, BodyDesc, BodyId, BodyState, Command, FastConfig, JointDesc, JointId, OneAtATime,
     PinId, SkinPointDesc, StepReport, Surroundings, apply_each,
@@ -258,19 +260,24 @@ pub struct FastBackend {
     /// Skin points (`skin.rs`), and the ones that touched the ground in this substep.
     skin: Vec<skin::SkinPoint>,
     skin_touching: Vec<u32>,
+    /// The end-of-step limit projection (`clamp.rs`); `None` when it is off, and in an
+    /// island's solver (the world's solver projects once the islands are back).
+    limits: Option<LimitProjection>,
 }
 
 impl FastBackend {
     /// An empty fast world in `surroundings`.
     pub fn new(config: &FastConfig, surroundings: &Surroundings) -> Self {
-        Self::with_settings(FastSettings {
+        let mut engine = Self::with_settings(FastSettings {
             gravity: surroundings.gravity,
             ground: surroundings.ground,
             substeps: config.substeps,
             iterations: config.iterations,
             impact_passes: config.impact_passes,
             freeze_joints: config.freeze_joints,
-        })
+        });
+        engine.limits = config.project_limits.then(LimitProjection::default);
+        engine
     }
 
     /// An empty solver with these settings: the world's, or one island's.
@@ -316,6 +323,7 @@ impl FastBackend {
             extras: extras::Extras::default(),
             skin: Vec::new(),
             skin_touching: Vec::new(),
+            limits: None,
         }
     }
 }
@@ -394,6 +402,9 @@ impl Backend for FastBackend {
         for &(a, b) in disabled_pairs {
             self.disabled.insert(pair(a, b));
         }
+        if let Some(limits) = &mut self.limits {
+            limits.add_ragdoll(first, bodies, joints);
+        }
         self.ragdolls.push(Ragdoll {
             bodies: first..first + bodies.len(),
             joints: self.joints.len() - joints.len()..self.joints.len(),
@@ -428,6 +439,9 @@ impl Backend for FastBackend {
         let rd = &mut self.ragdolls[r];
         rd.asleep = true;
         rd.removed = true;
+        if let Some(limits) = &mut self.limits {
+            limits.remove_ragdoll(first_body);
+        }
         true
     }
 
@@ -440,7 +454,7 @@ impl Backend for FastBackend {
         self.step_impl(dt);
         StepReport {
             max_penetration_m: self.collide.max_penetration,
-            limit_violation_before_clamp_rad: None,
+            limit_violation_before_clamp_rad: self.project_limits(),
             went_non_finite: false,
         }
     }
@@ -579,6 +593,9 @@ impl OneAtATime for FastBackend {
     }
 
     fn set_joint_parent_frame(&mut self, JointId(index): JointId, frame: &Transform) {
+        if let Some(limits) = &mut self.limits {
+            limits.set_parent_frame(JointId(index), frame);
+        }
         let j = &mut self.joints[index];
         j.frame_a = *frame;
         let b = j.b;
@@ -587,6 +604,9 @@ impl OneAtATime for FastBackend {
     }
 
     fn set_joint_child_frame(&mut self, JointId(index): JointId, frame: &Transform) {
+        if let Some(limits) = &mut self.limits {
+            limits.set_child_frame(JointId(index), frame);
+        }
         let j = &mut self.joints[index];
         j.frame_b = *frame;
         let b = j.b;
@@ -599,6 +619,9 @@ impl OneAtATime for FastBackend {
     fn set_solver_substeps(&mut self, _substeps: usize) {}
 
     fn set_joint_limits(&mut self, JointId(index): JointId, kind: &JointKind) {
+        if let Some(limits) = &mut self.limits {
+            limits.set_limits(JointId(index), kind);
+        }
         let j = &mut self.joints[index];
         j.limits = Limits::of(kind);
         let b = j.b;

@@ -309,7 +309,7 @@ impl FastBackend {
     /// The joint's angular constraints: alignment for a hinge or a weld, then the limits.
     /// At a light hub the alignment takes the joint's relaxed share, as its anchor does;
     /// the limits, which act only once crossed, take the full correction: relaxed too,
-    /// they left a spider's legs 6° past their cones, and the world's clamp that turned
+    /// they left a spider's legs 6° past their cones, and the end-of-step clamp that turned
     /// them back gained 41 % energy on landing (1.4 % unrelaxed).
     fn solve_angles(&mut self, k: usize) {
         let Joint {

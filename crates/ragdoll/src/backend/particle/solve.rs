@@ -16,7 +16,7 @@ const HINGE_SLACK: f32 = 1.0e-3;
 /// each of its turns, positions only, costs the next step some energy.
 const PROJECT_TOLERANCE: f32 = 3.0 * std::f32::consts::PI / 180.0;
 /// How far a projection may push a body below the ground before the ragdoll is lifted,
-/// metres (as the world's projection for the rigid backend).
+/// metres (as the shared limit projection of `rigid` and `fast`).
 const PROJECT_GROUND_SLACK_M: f32 = 0.005;
 
 /// Farthest a hard pin moves its point in one substep, metres (0.5 m at the default 720
@@ -400,8 +400,8 @@ impl ParticleBackend {
     /// about the joint, or the rest of the ragdoll the other way when the subtree is held or
     /// would sink into the floor; when both would, the joint is left to the next step. A
     /// hard landing bends a straight knee past its stop within one step, more than the
-    /// solver's passes take back. The world's projection for the rigid backend
-    /// (`WorldSettings::project_limits`) cannot serve here: it sets each body's particles
+    /// solver's passes take back. The shared projection of `rigid` and `fast`
+    /// (`backend::limits`) cannot serve here: it sets each body's particles
     /// from its frame, snapping away small distortions that the next step's distances turn
     /// into velocity (1.5 % energy in a flat drop).
     fn project_limits(&mut self) {
