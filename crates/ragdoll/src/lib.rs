@@ -52,6 +52,7 @@ pub mod error;
 pub mod events;
 pub mod export;
 pub mod files;
+pub(crate) mod geometry;
 pub mod import;
 pub mod math;
 pub mod report;

@@ -25,11 +25,9 @@
 //! them on positions with the shared [`limits::LimitProjection`], as `rigid` does; the
 //! world never moves a body to mend what an engine left.
 
-pub(crate) mod broad;
 mod command;
 mod config;
 pub(crate) mod fast;
-pub(crate) mod geom;
 pub(crate) mod hub;
 pub mod limits;
 pub(crate) mod particle;
@@ -51,7 +49,6 @@ pub use rigid::RigidBackend;
 use glam::Vec3;
 
 use crate::math::Transform;
-use crate::spec::Shape;
 
 /// The state of one body after a step: world pose of its centre frame and velocities.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -323,36 +320,6 @@ pub trait Backend: Send {
         stiffness: f32,
         damping: f32,
     ) -> bool;
-}
-
-/// Body-frame capsule of a shape, segment ends and radius: the shape itself for a capsule,
-/// the capsule inside a box along its longest edge (radius the smaller of the other two
-/// half edges), so it never reaches past the box.
-pub(crate) fn capsule_of(shape: &Shape) -> ([Vec3; 2], f32) {
-    match *shape {
-        Shape::Capsule { radius_m, length_m } => {
-            let h = Vec3::Y * (0.5 * length_m);
-            ([-h, h], radius_m)
-        }
-        Shape::Box { size_m } => {
-            let s = Vec3::from_array(size_m) * 0.5;
-            let axis = if s.x >= s.y && s.x >= s.z {
-                0
-            } else if s.y >= s.z {
-                1
-            } else {
-                2
-            };
-            let (long, r) = match axis {
-                0 => (s.x, s.y.min(s.z)),
-                1 => (s.y, s.x.min(s.z)),
-                _ => (s.z, s.x.min(s.y)),
-            };
-            let mut h = Vec3::ZERO;
-            h[axis] = (long - r).max(0.0);
-            ([-h, h], r)
-        }
-    }
 }
 
 /// A body to create, in world space.

@@ -169,9 +169,9 @@ impl RigidBackend {
                 collider_of(&b.shape, key).mass(b.mass).build()
             } else {
                 // The mass spread over every shape, its centre at the own shape's (as the
-                // other backends have it: `geom::body_inertia`), set on the body; the
+                // other backends have it: `geometry::body_inertia`), set on the body; the
                 // colliders then carry none.
-                let inertia = crate::backend::geom::body_inertia(&b.shape, &b.extra_shapes, b.mass);
+                let inertia = crate::geometry::body_inertia(&b.shape, &b.extra_shapes, b.mass);
                 rb.set_additional_mass_properties(
                     MassProperties::new(Vec3::ZERO, b.mass, inertia.diagonal()),
                     false,

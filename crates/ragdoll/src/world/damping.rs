@@ -54,7 +54,7 @@ impl World {
                         principal_inertia(&inst.shapes[b], inst.masses[b])
                     } else {
                         let (shape, extras) = (&inst.shapes[b], &inst.extras[b]);
-                        crate::backend::geom::body_inertia(shape, extras, inst.masses[b]).diagonal()
+                        crate::geometry::body_inertia(shape, extras, inst.masses[b]).diagonal()
                     };
                     inertia_about(&states[b].pose, own, inst.masses[b], anchor, n)
                 };

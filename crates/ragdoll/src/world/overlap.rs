@@ -24,8 +24,8 @@ use std::collections::HashMap;
 
 use glam::Vec3;
 
-use crate::backend::broad::BroadPhase;
-use crate::backend::capsule_of;
+use crate::geometry::broad::BroadPhase;
+use crate::geometry::capsule_of;
 use crate::math::Transform;
 use crate::spec::Shape;
 
@@ -243,27 +243,6 @@ impl StartIndex {
             None => self.large.push(index),
         }
     }
-}
-
-/// A box around a shape at `pose` and everything [`crate::spec::shapes_overlap`] counts as
-/// part of it (its capsule round a box reaches past the box's ends), for a broad phase
-/// in front of that test.
-pub(super) fn loose_bounds(pose: &Transform, shape: &Shape) -> (Vec3, Vec3) {
-    let reach = match *shape {
-        Shape::Capsule { radius_m, length_m } => {
-            let half = pose.rotation * Vec3::Y * (0.5 * length_m);
-            return (
-                pose.translation - half.abs() - radius_m,
-                pose.translation + half.abs() + radius_m,
-            );
-        }
-        // The half diagonal plus the longest half edge holds any capsule round the box.
-        Shape::Box { size_m } => {
-            let h = Vec3::from_array(size_m) * 0.5;
-            h.length() + h.max_element()
-        }
-    };
-    (pose.translation - reach, pose.translation + reach)
 }
 
 /// Pairs of one ragdoll's bodies (indices in its spec, `a < b`) that start overlapping

@@ -383,10 +383,10 @@ impl super::World {
         let boxes: Vec<_> = poses
             .iter()
             .zip(&inst.shapes)
-            .map(|(p, s)| super::overlap::loose_bounds(p, s))
+            .map(|(p, s)| crate::geometry::loose_bounds(p, s))
             .collect();
         let mut pairs = Vec::new();
-        crate::backend::broad::BroadPhase::default().find(&boxes, |a, b| {
+        crate::geometry::broad::BroadPhase::default().find(&boxes, |a, b| {
             let (pa, pb) = (&poses[a], &poses[b]);
             if crate::spec::shapes_overlap(pa, &inst.shapes[a], pb, &inst.shapes[b], 0.0) {
                 pairs.push((a, b));

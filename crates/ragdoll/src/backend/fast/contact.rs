@@ -8,8 +8,8 @@ use glam::Vec3;
 use super::narrow::{CLOSING_MARGIN_M, Found, ends};
 use super::solve::turn_rate;
 use super::{FRICTION, FastBackend};
-use crate::backend::broad::BroadPhase;
-use crate::backend::geom::box_corners;
+use crate::geometry::box_corners;
+use crate::geometry::broad::BroadPhase;
 use crate::spec::Shape;
 
 /// Closer than this counts as touching another ragdoll, metres (as the other backends).

@@ -348,7 +348,7 @@ mod tests {
                 Vec3::new(0.0, v, 0.2),
                 Vec3::new(0.0, 0.0, spin),
                 2.0 + x,
-                crate::backend::geom::inertia_of(&shape, 2.0 + x).diagonal(),
+                crate::geometry::shapes::inertia_of(&shape, 2.0 + x).diagonal(),
                 0,
             );
             w.shape.push(shape);

@@ -346,7 +346,7 @@ impl Backend for FastBackend {
         let r = self.ragdolls.len();
         for b in bodies {
             let mass = b.mass.max(1.0e-6);
-            let i = crate::backend::geom::body_inertia(&b.shape, &b.extra_shapes, mass);
+            let i = crate::geometry::body_inertia(&b.shape, &b.extra_shapes, mass);
             let inertia =
                 Vec3::new(i.x_axis.x, i.y_axis.y, i.z_axis.z).max(Vec3::splat(MIN_INERTIA));
             self.pos.push(b.pose.translation);

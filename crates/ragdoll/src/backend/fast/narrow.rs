@@ -9,7 +9,7 @@ use super::FastBackend;
 use super::box_box::box_box;
 use super::box_capsule;
 use super::contact::TOUCH_M;
-use crate::backend::geom::{nearest_hit, ray_shape};
+use crate::geometry::{nearest_hit, ray_shape};
 use crate::spec::Shape;
 
 /// Extra room around every box of the broad phase, metres: what a step's constraints may

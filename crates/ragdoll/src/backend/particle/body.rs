@@ -5,7 +5,8 @@
 use glam::{Mat3, Mat4, Vec3, Vec4};
 
 use super::{Affine, Body, Distance, ParticleBackend, triad_frame};
-use crate::backend::{BodyDesc, capsule_of};
+use crate::backend::BodyDesc;
+use crate::geometry::capsule_of;
 use crate::math::Transform;
 
 /// Shortest stick, metres: a leaf whose capsule barely reaches past its anchor gets a tip
@@ -272,7 +273,7 @@ impl ParticleBackend {
         let mut rest: Vec<Vec3> = list.iter().map(|&i| rest_of(self, i)).collect();
         rest.extend(tip.map(|t| inv.transform_point(t)));
         let stick = Stick::of(&rest);
-        let inertia = crate::backend::geom::body_inertia(&desc.shape, &desc.extra_shapes, mass);
+        let inertia = crate::geometry::body_inertia(&desc.shape, &desc.extra_shapes, mass);
         let rule = stick
             .line
             .then(|| ThreePoint::of(rest[0], &stick, inertia, mass));

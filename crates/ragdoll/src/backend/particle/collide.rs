@@ -6,8 +6,8 @@
 use glam::Vec3;
 
 use super::{FRICTION, ParticleBackend};
-use crate::backend::broad::BroadPhase;
-use crate::backend::geom::{box_corners, nearest_hit, ray_shape};
+use crate::geometry::broad::BroadPhase;
+use crate::geometry::{box_corners, nearest_hit, ray_shape};
 use crate::spec::Shape;
 
 /// Closer than this counts as touching another ragdoll, metres (as the rigid backend).

@@ -7,8 +7,8 @@
 use glam::{Quat, Vec3};
 
 use super::ParticleBackend;
-use crate::backend::capsule_of;
-use crate::backend::geom::box_corners;
+use crate::geometry::box_corners;
+use crate::geometry::capsule_of;
 use crate::math::Transform;
 use crate::spec::Shape;
 
@@ -173,7 +173,7 @@ impl ParticleBackend {
                 let (pos, rot) = self.extra_pose(b, k, frame);
                 // A box's segment is not read: it is met as a box.
                 let ([e0, e1], _) = self.extra_capsule(b, k, frame);
-                crate::backend::geom::ray_shape(origin, dir, &body.extras[k].0, pos, rot, (e0, e1))
+                crate::geometry::ray_shape(origin, dir, &body.extras[k].0, pos, rot, (e0, e1))
             })
             .reduce(f32::min)
     }

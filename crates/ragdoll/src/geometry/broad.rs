@@ -1,6 +1,6 @@
 //! Which axis-aligned boxes overlap, with memory proportional to the number of boxes
-//! whatever their sizes and positions: the broad phase of the particle backend and of the
-//! world's start checks.
+//! whatever their sizes and positions: the broad phase of the particle and fast engines
+//! and of the world's start checks and overlap readings.
 //!
 //! Usually a uniform hash grid whose cell is the largest box (at most 2 m), each box in
 //! the few cells it touches: the particle backend's grid since it was written, kept so

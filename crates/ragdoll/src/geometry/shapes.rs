@@ -1,5 +1,5 @@
-//! Shape geometry every backend of ours shares: inertia tensors and ray casts against the
-//! bodies' own shapes.
+//! What a body's shapes weigh and where rays meet them: inertia tensors, ray casts against
+//! capsules and boxes, and a box's corners.
 
 use glam::{Mat3, Vec3};
 
