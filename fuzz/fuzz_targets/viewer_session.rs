@@ -14,7 +14,6 @@ use ragdoll::world::WorldSettings;
 use ragdoll_fuzz::WORLD_STEPS;
 use ragdoll_view::headless::HeadlessSession;
 use ragdoll_view::protocol::ClientMsg;
-use ragdoll_view::single_character_scene;
 
 /// Messages read per input: each may rebuild and replay the world, which costs
 /// milliseconds.
@@ -25,7 +24,7 @@ fn start_scene() -> &'static Scene {
     SCENE.get_or_init(|| {
         let character = humanoid();
         let spec = build_spec(&character, &BuildOptions::default()).expect("humanoid spec");
-        single_character_scene(character, spec, "built-in", WorldSettings::default())
+        Scene::single(character, spec, "built-in", 0.0, WorldSettings::default())
     })
 }
 
