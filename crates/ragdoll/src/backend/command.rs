@@ -91,6 +91,16 @@ pub enum Command {
     ReleasePin(PinId),
     /// Stops two bodies from colliding with each other.
     DisablePair(BodyId, BodyId),
+    /// How fast the joints of the ragdoll whose first body is `first_body` lose their
+    /// relative spin, per second (0: not at all): passive joint damping, the losses of
+    /// real joints (see [`super::damping`]). The world sends its setting for each ragdoll
+    /// it adds, and 0 for one its motors power.
+    JointDamping {
+        /// The ragdoll's first body.
+        first_body: BodyId,
+        /// Per second.
+        rate_per_s: f32,
+    },
 }
 
 /// The commands one at a time: how our engines take a batch. Each method is one
@@ -110,6 +120,8 @@ pub(crate) trait OneAtATime {
     fn move_pin(&mut self, pin: PinId, target: Vec3);
     fn release_pin(&mut self, pin: PinId);
     fn disable_pair(&mut self, a: BodyId, b: BodyId);
+    /// Engines without joint damping pass over it.
+    fn set_joint_damping(&mut self, _first_body: BodyId, _rate_per_s: f32) {}
 }
 
 /// Applies `commands` to `engine` one at a time, in order.
@@ -144,6 +156,10 @@ pub(crate) fn apply_each(engine: &mut impl OneAtATime, commands: &[Command]) {
             Command::MovePin { pin, target } => engine.move_pin(pin, target),
             Command::ReleasePin(pin) => engine.release_pin(pin),
             Command::DisablePair(a, b) => engine.disable_pair(a, b),
+            Command::JointDamping {
+                first_body,
+                rate_per_s,
+            } => engine.set_joint_damping(first_body, rate_per_s),
         }
     }
 }

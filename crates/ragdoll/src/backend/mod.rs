@@ -27,6 +27,7 @@
 
 mod command;
 mod config;
+pub mod damping;
 pub(crate) mod fast;
 pub(crate) mod hub;
 pub mod limits;

@@ -9,6 +9,7 @@ use std::collections::HashSet;
 use glam::Vec3;
 use rapier3d::prelude::*;
 
+use super::damping::JointDamping;
 use super::limits::{BodyRole, LimitProjection};
 use super::{
     Backend, BodyDesc, BodyId, BodyState, Command, JointDesc, JointId, OneAtATime, PinId,
@@ -82,6 +83,11 @@ pub struct RigidBackend {
     /// last, where the world's step ends.
     world_substeps: usize,
     calls_this_step: usize,
+    /// Passive joint damping, applied at the start of each step.
+    damping: JointDamping,
+    /// Scratch: the bodies' states and the damping's impulses.
+    scratch_states: Vec<BodyState>,
+    scratch_impulses: Vec<super::BodyImpulse>,
 }
 
 fn pose(t: &Transform) -> Pose {
@@ -145,6 +151,9 @@ impl RigidBackend {
             limits: config.project_limits.then(LimitProjection::default),
             world_substeps: config.collision_substeps.max(1),
             calls_this_step: 0,
+            damping: JointDamping::default(),
+            scratch_states: Vec::new(),
+            scratch_impulses: Vec::new(),
         }
     }
 
@@ -210,7 +219,30 @@ impl RigidBackend {
         if let Some(limits) = &mut self.limits {
             limits.add_ragdoll(first, bodies, joints);
         }
+        self.damping.add_ragdoll(first, bodies, joints);
         first
+    }
+
+    /// Gives every damped ragdoll's joints their couples for a step of `h` (see
+    /// [`JointDamping`]).
+    fn damp_joints(&mut self, h: f32) {
+        if !self.damping.is_on() {
+            return;
+        }
+        let mut states = std::mem::take(&mut self.scratch_states);
+        let mut impulses = std::mem::take(&mut self.scratch_impulses);
+        self.body_states(&mut states);
+        impulses.clear();
+        let (world, handles) = (&self.world, &self.bodies);
+        let dynamic = |b: usize| {
+            let rb = &world.bodies[handles[b]];
+            rb.is_dynamic() && rb.is_enabled()
+        };
+        self.damping.impulses(&states, dynamic, h, &mut impulses);
+        let commands: Vec<Command> = impulses.iter().map(|&i| Command::Impulse(i)).collect();
+        apply_each(self, &commands);
+        self.scratch_states = states;
+        self.scratch_impulses = impulses;
     }
 
     /// Turns every joint rapier left past its limits back inside them (see
@@ -318,6 +350,7 @@ impl Backend for RigidBackend {
         if let Some(limits) = &mut self.limits {
             limits.remove_ragdoll(first_body);
         }
+        self.damping.remove_ragdoll(first_body);
         for (i, &h) in self.bodies.iter().enumerate().skip(first_body) {
             if self.filter.ragdoll_of[i] != ragdoll {
                 break;
@@ -331,6 +364,7 @@ impl Backend for RigidBackend {
     }
 
     fn step(&mut self, dt: f32) -> StepReport {
+        self.damp_joints(dt);
         {
             self.world.integration_parameters.dt = dt;
             let w = &mut self.world;
@@ -580,6 +614,7 @@ impl OneAtATime for RigidBackend {
         if let Some(limits) = &mut self.limits {
             limits.set_child_frame(JointId(index), frame);
         }
+        self.damping.set_child_frame(JointId(index), frame);
         if let Some(joint) = self.world.impulse_joints.get_mut(self.joints[index], true) {
             joint.data.set_local_frame2(pose(frame));
         }
@@ -634,6 +669,10 @@ impl OneAtATime for RigidBackend {
         if let Some(joint) = self.pins[pin].1.take() {
             self.world.impulse_joints.remove(joint, true);
         }
+    }
+
+    fn set_joint_damping(&mut self, first_body: BodyId, rate_per_s: f32) {
+        self.damping.set_rate(first_body, rate_per_s);
     }
 
     fn disable_pair(&mut self, BodyId(a): BodyId, BodyId(b): BodyId) {

@@ -3,6 +3,7 @@
 
 use glam::{Mat3, Vec3};
 
+use crate::math::Transform;
 use crate::spec::Shape;
 
 /// Inertia tensor of a shape about its centre, body frame, kg·m².
@@ -15,11 +16,7 @@ use crate::spec::Shape;
 /// of mass stays the own shape's centre, and the products of inertia are left out (the
 /// diagonal of any inertia tensor is a valid set of moments); without extras this is
 /// [`inertia_of`].
-pub(crate) fn body_inertia(
-    shape: &Shape,
-    extras: &[(Shape, crate::math::Transform)],
-    mass: f32,
-) -> Mat3 {
+pub(crate) fn body_inertia(shape: &Shape, extras: &[(Shape, Transform)], mass: f32) -> Mat3 {
     if extras.is_empty() {
         return inertia_of(shape, mass);
     }
@@ -167,6 +164,57 @@ pub(crate) fn box_corners(half: Vec3) -> [Vec3; 8] {
         let sign = |bit: usize| if k & bit == 0 { -1.0 } else { 1.0 };
         half * Vec3::new(sign(1), sign(2), sign(4))
     })
+}
+
+/// A body's principal moments of inertia about its centre, in its own frame (long axis
+/// Y), kg·m². A capsule counts as a cylinder of its whole length: close enough for sizing
+/// a motor, and it keeps the small moment about the long axis, which is what a twist
+/// turns (sizing a twist for the tumbling moment overshot it tenfold).
+pub(crate) fn principal_inertia(shape: &Shape, mass: f32) -> Vec3 {
+    match *shape {
+        Shape::Capsule { radius_m, length_m } => {
+            let l = length_m + 2.0 * radius_m;
+            let across = mass * (3.0 * radius_m * radius_m + l * l) / 12.0;
+            Vec3::new(across, 0.5 * mass * radius_m * radius_m, across)
+        }
+        Shape::Box { size_m } => {
+            let [x, y, z] = size_m.map(|s| s * s);
+            Vec3::new(y + z, x + z, x + y) * (mass / 12.0)
+        }
+    }
+}
+
+/// Moment of inertia of a body about the axis `n` (unit, world) through `anchor`, kg·m².
+pub(crate) fn inertia_about(
+    pose: &Transform,
+    principal: Vec3,
+    mass: f32,
+    anchor: Vec3,
+    n: Vec3,
+) -> f32 {
+    let local = pose.rotation.conjugate() * n;
+    let own = (local * local).dot(principal);
+    let r = pose.translation - anchor;
+    own + mass * (r.length_squared() - r.dot(n).powi(2)).max(0.0)
+}
+
+/// Inertia a motor turns, kg·m²: the child body's about the joint anchor along the
+/// torque's axis (its own plus m·r²) and the parent's about the same point, combined as a reduced inertia (the motor
+/// turns both against each other); the child's alone when the parent is a root held on the
+/// clip.
+///
+/// Only the two bodies count, not the child's whole subtree, although the subtree is what
+/// the motor ends up turning: a torque impulse reaches the child body alone within a
+/// substep (the joints below pass it on only through their own motors, one substep
+/// later), so sizing it for the subtree made the child overshoot several times over and
+/// the chain blew up. Sized for the two bodies, each motor is stable on its own; the load
+/// of the bodies below (their weight, their swing) is then held with a lower stiffness
+/// than designed, which the high frequency keeps to a degree or two.
+pub(crate) fn effective_inertia(child: f32, parent: Option<f32>) -> f32 {
+    match parent {
+        Some(p) if p > 0.0 => child * p / (child + p),
+        _ => child,
+    }
 }
 
 #[cfg(test)]

@@ -10,7 +10,6 @@
 use glam::Vec3;
 
 mod blast;
-mod damping;
 mod depth;
 mod forces;
 mod motors;
@@ -325,9 +324,6 @@ impl World {
                 .any(|inst| inst.active && inst.motors.is_some())
             {
                 self.apply_motors(t0, h);
-            }
-            if self.settings.joint_damping > 0.0 {
-                self.apply_joint_damping(h);
             }
             self.flush_impulses();
             let report = self.backend.step(h);

@@ -18,8 +18,9 @@ use glam::{Quat, Vec3};
 use super::{HANDOVER_LIMIT_MARGIN_DEG, Instance, World, setting_error};
 use crate::backend::Backend;
 use crate::error::Result;
+use crate::geometry::shapes::{effective_inertia, inertia_about, principal_inertia};
 use crate::math::Transform;
-use crate::spec::{JointKind, Shape};
+use crate::spec::JointKind;
 
 /// Natural frequency of the motors' spring at strength 1, Hz.
 ///
@@ -111,38 +112,6 @@ pub(crate) struct MotorState {
     pub root: usize,
 }
 
-/// A body's principal moments of inertia about its centre, in its own frame (long axis
-/// Y), kg·m². A capsule counts as a cylinder of its whole length: close enough for sizing
-/// a motor, and it keeps the small moment about the long axis, which is what a twist
-/// turns (sizing a twist for the tumbling moment overshot it tenfold).
-pub(super) fn principal_inertia(shape: &Shape, mass: f32) -> Vec3 {
-    match *shape {
-        Shape::Capsule { radius_m, length_m } => {
-            let l = length_m + 2.0 * radius_m;
-            let across = mass * (3.0 * radius_m * radius_m + l * l) / 12.0;
-            Vec3::new(across, 0.5 * mass * radius_m * radius_m, across)
-        }
-        Shape::Box { size_m } => {
-            let [x, y, z] = size_m.map(|s| s * s);
-            Vec3::new(y + z, x + z, x + y) * (mass / 12.0)
-        }
-    }
-}
-
-/// Moment of inertia of a body about the axis `n` (unit, world) through `anchor`, kg·m².
-pub(super) fn inertia_about(
-    pose: &Transform,
-    principal: Vec3,
-    mass: f32,
-    anchor: Vec3,
-    n: Vec3,
-) -> f32 {
-    let local = pose.rotation.conjugate() * n;
-    let own = (local * local).dot(principal);
-    let r = pose.translation - anchor;
-    own + mass * (r.length_squared() - r.dot(n).powi(2)).max(0.0)
-}
-
 /// Turns rotation `q` into a rotation vector (axis · angle, radians), the short way round.
 fn rotation_vector(mut q: Quat) -> Vec3 {
     if q.w < 0.0 {
@@ -180,6 +149,13 @@ impl World {
             engaged: false,
             root,
         });
+        // Its motors damp it: the passive damping is for limp ragdolls.
+        if self.settings.joint_damping > 0.0 {
+            self.backend.apply(&[Command::JointDamping {
+                first_body: BodyId(inst.first_body),
+                rate_per_s: 0.0,
+            }]);
+        }
         Ok(())
     }
 
@@ -418,24 +394,5 @@ fn torque_impulses(
                 impulse,
             ));
         }
-    }
-}
-
-/// Inertia a motor turns, kg·m²: the child body's about the joint anchor along the
-/// torque's axis (its own plus m·r²) and the parent's about the same point, combined as a reduced inertia (the motor
-/// turns both against each other); the child's alone when the parent is a root held on the
-/// clip.
-///
-/// Only the two bodies count, not the child's whole subtree, although the subtree is what
-/// the motor ends up turning: a torque impulse reaches the child body alone within a
-/// substep (the joints below pass it on only through their own motors, one substep
-/// later), so sizing it for the subtree made the child overshoot several times over and
-/// the chain blew up. Sized for the two bodies, each motor is stable on its own; the load
-/// of the bodies below (their weight, their swing) is then held with a lower stiffness
-/// than designed, which the high frequency keeps to a degree or two.
-pub(super) fn effective_inertia(child: f32, parent: Option<f32>) -> f32 {
-    match parent {
-        Some(p) if p > 0.0 => child * p / (child + p),
-        _ => child,
     }
 }

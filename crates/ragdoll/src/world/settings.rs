@@ -39,7 +39,8 @@ pub struct WorldSettings {
     pub backend: BackendConfig,
     /// Passive joint damping, per second (default [`DEFAULT_JOINT_DAMPING`], off): how
     /// fast a limp limb swinging from a still body loses its speed relative to it, so its
-    /// swing's amplitude decays as `exp(-c t / 2)`. Rigid and fast backends for now.
+    /// swing's amplitude decays as `exp(-c t / 2)`. Rigid and fast backends for now (the
+    /// world hands it to the engine for each ragdoll: [`crate::backend::damping`]).
     pub joint_damping: f32,
 }
 

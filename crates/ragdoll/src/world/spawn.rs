@@ -9,7 +9,7 @@ use glam::Vec3;
 use super::overlap::Solid;
 use super::playback::{self, Activation};
 use super::{Instance, RagdollId, Rider, StartPose, World, start};
-use crate::backend::{Backend, BodyDesc, JointDesc, SkinPointDesc};
+use crate::backend::{Backend, BodyDesc, Command, JointDesc, SkinPointDesc};
 use crate::error::Result;
 use crate::math::Transform;
 use crate::skeleton::Character;
@@ -88,6 +88,12 @@ impl World {
             .collect();
         let first_body = self.backend.add_ragdoll(&bodies, &joint_descs, &disabled).0;
         self.backend.add_skin_points(BodyId(first_body), &skin);
+        if self.settings.joint_damping > 0.0 {
+            self.backend.apply(&[Command::JointDamping {
+                first_body: BodyId(first_body),
+                rate_per_s: self.settings.joint_damping,
+            }]);
+        }
         let mut exempt_pairs: Vec<(usize, usize)> = disabled
             .iter()
             .map(|&(a, b)| (a.min(b), a.max(b)))

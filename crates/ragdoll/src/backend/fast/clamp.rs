@@ -1,12 +1,29 @@
-//! The end-of-step limit projection on the fast engine: the shared
-//! [`LimitProjection`](crate::backend::limits::LimitProjection) over this engine's bodies.
+//! The engine services the fast engine shares with `rigid`, over its own bodies: the
+//! end-of-step limit projection ([`LimitProjection`](crate::backend::limits::LimitProjection))
+//! and passive joint damping ([`JointDamping`](crate::backend::damping::JointDamping)).
 
 use super::FastBackend;
 use crate::backend::limits::BodyRole;
-use crate::backend::{BodyId, OneAtATime};
+use crate::backend::{Backend, BodyId, Command, OneAtATime, apply_each};
 use crate::math::Transform;
 
 impl FastBackend {
+    /// Gives every damped ragdoll's joints their couples for a step of `h`, from the
+    /// velocities the world sees (the step's average motion).
+    pub(super) fn damp_joints(&mut self, h: f32) {
+        if !self.damping.is_on() {
+            return;
+        }
+        let mut states = Vec::new();
+        self.body_states(&mut states);
+        let mut impulses = Vec::new();
+        let kinematic = &self.kinematic;
+        let dynamic = |b: usize| kinematic[b].is_none();
+        self.damping.impulses(&states, dynamic, h, &mut impulses);
+        let commands: Vec<Command> = impulses.into_iter().map(Command::Impulse).collect();
+        apply_each(self, &commands);
+    }
+
     /// Turns every joint the substeps left past its limits back inside them; returns the
     /// worst violation before, radians (`None` when the projection is off).
     pub(super) fn project_limits(&mut self) -> Option<f32> {

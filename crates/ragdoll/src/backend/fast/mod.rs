@@ -50,6 +50,7 @@ use std::collections::HashSet;
 
 use glam::{Quat, Vec3};
 
+use super::damping::JointDamping;
 use super::limits::LimitProjection;
 use super::{
     Backend, BodyDesc, BodyId, BodyState, Command, FastConfig, JointDesc, JointId, OneAtATime,
@@ -263,6 +264,8 @@ pub struct FastBackend {
     /// The end-of-step limit projection (`clamp.rs`); `None` when it is off, and in an
     /// island's solver (the world's solver projects once the islands are back).
     limits: Option<LimitProjection>,
+    /// Passive joint damping, applied at the start of each step (`clamp.rs`).
+    damping: JointDamping,
 }
 
 impl FastBackend {
@@ -324,6 +327,7 @@ impl FastBackend {
             skin: Vec::new(),
             skin_touching: Vec::new(),
             limits: None,
+            damping: JointDamping::default(),
         }
     }
 }
@@ -405,6 +409,7 @@ impl Backend for FastBackend {
         if let Some(limits) = &mut self.limits {
             limits.add_ragdoll(first, bodies, joints);
         }
+        self.damping.add_ragdoll(first, bodies, joints);
         self.ragdolls.push(Ragdoll {
             bodies: first..first + bodies.len(),
             joints: self.joints.len() - joints.len()..self.joints.len(),
@@ -442,6 +447,7 @@ impl Backend for FastBackend {
         if let Some(limits) = &mut self.limits {
             limits.remove_ragdoll(first_body);
         }
+        self.damping.remove_ragdoll(first_body);
         true
     }
 
@@ -451,6 +457,7 @@ impl Backend for FastBackend {
     }
 
     fn step(&mut self, dt: f32) -> StepReport {
+        self.damp_joints(dt);
         self.step_impl(dt);
         StepReport {
             max_penetration_m: self.collide.max_penetration,
@@ -607,6 +614,7 @@ impl OneAtATime for FastBackend {
         if let Some(limits) = &mut self.limits {
             limits.set_child_frame(JointId(index), frame);
         }
+        self.damping.set_child_frame(JointId(index), frame);
         let j = &mut self.joints[index];
         j.frame_b = *frame;
         let b = j.b;
@@ -627,6 +635,10 @@ impl OneAtATime for FastBackend {
         let b = j.b;
         self.wake_body(b);
         self.thaw(self.ragdoll_of[b]);
+    }
+
+    fn set_joint_damping(&mut self, first_body: BodyId, rate_per_s: f32) {
+        self.damping.set_rate(first_body, rate_per_s);
     }
 
     fn set_gravity(&mut self, gravity: Vec3) {
