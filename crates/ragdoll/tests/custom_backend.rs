@@ -24,12 +24,16 @@ struct Log {
     steps: usize,
     /// The deepest any body went under the ground before the engine stopped it, metres.
     deepest: f32,
+    /// How many bodies the world moved (`Command::Pose`) once stepping had begun.
+    poses_while_stepping: usize,
 }
 
 struct Ballistic {
     gravity: Vec3,
     ground: Option<f32>,
     bodies: Vec<(BodyState, f32, bool)>,
+    /// The spin every other body of a ragdoll starts with, rad/s.
+    spin: Vec3,
     log: Arc<Mutex<Log>>,
 }
 
@@ -39,6 +43,7 @@ impl Ballistic {
             gravity: settings.gravity,
             ground: settings.ground,
             bodies: Vec::new(),
+            spin: Vec3::ZERO,
             log,
         }
     }
@@ -52,11 +57,11 @@ impl Backend for Ballistic {
         _: &[(usize, usize)],
     ) -> BodyId {
         let first = self.bodies.len();
-        for b in bodies {
+        for (i, b) in bodies.iter().enumerate() {
             let state = BodyState {
                 pose: b.pose,
                 linvel: b.linvel,
-                angvel: b.angvel,
+                angvel: b.angvel + if i % 2 == 1 { self.spin } else { Vec3::ZERO },
             };
             self.bodies.push((state, b.mass, false));
         }
@@ -95,9 +100,17 @@ impl Backend for Ballistic {
             .iter()
             .filter(|c| matches!(c, Command::Impulse(_)))
             .count();
+        let mut log = self.log.lock().unwrap();
         if impulses > 0 {
-            self.log.lock().unwrap().batches.push(impulses);
+            log.batches.push(impulses);
         }
+        if log.steps > 0 {
+            log.poses_while_stepping += commands
+                .iter()
+                .filter(|c| matches!(c, Command::Pose { .. }))
+                .count();
+        }
+        drop(log);
         for command in commands {
             match *command {
                 Command::Impulse(BodyImpulse::AtPoint {
@@ -292,6 +305,36 @@ fn each_steps_impulses_arrive_in_one_call_and_add_up_to_the_events() {
         ((-momentum.x as f64) - shot).abs() < 1e-3 * shot,
         "{momentum} vs shot {shot}"
     );
+}
+
+/// Joint limits are the engine's to hold: this one has no joints, and as its bodies spin
+/// apart the world measures how far past their limits they go, but moves no body to mend
+/// them (it sends no pose once stepping has begun) and reads no clamp.
+#[test]
+fn the_world_measures_limits_and_never_clamps_them() {
+    let settings = WorldSettings {
+        ground: None,
+        gravity: Vec3::ZERO,
+        ..Default::default()
+    };
+    let log = Arc::new(Mutex::new(Log::default()));
+    let mut engine = Ballistic::new(&settings, log.clone());
+    engine.spin = Vec3::new(0.0, 0.0, 3.0);
+    let mut world = World::with_backend(&settings, Box::new(engine)).unwrap();
+    let character = ragdoll::skeleton::humanoid();
+    let spec = build_spec(&character, &BuildOptions::default()).unwrap();
+    world
+        .add_ragdoll(&character, &spec, Transform::IDENTITY)
+        .unwrap();
+    world.run(0.5);
+    let m = world.metrics();
+    // Half a second at 3 rad/s turns every other body 86° against its neighbours.
+    assert!(m.max_limit_violation_deg > 20.0, "{m:?}");
+    assert_eq!(
+        m.max_limit_violation_solver_deg, m.max_limit_violation_deg,
+        "{m:?}"
+    );
+    assert_eq!(log.lock().unwrap().poses_while_stepping, 0);
 }
 
 #[test]
