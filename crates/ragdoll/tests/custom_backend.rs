@@ -182,9 +182,8 @@ impl Backend for Ballistic {
         out.resize(self.bodies.len(), false);
     }
 
-    fn drive_joint(&mut self, _: JointId, _: Quat, _: Vec3, _: f32, _: f32) -> bool {
-        false
-    }
+    /// No drives: a powered ragdoll goes limp here.
+    fn drive_joint(&mut self, _: JointId, _: Quat, _: Vec3, _: f32, _: f32) {}
 }
 
 fn world_with(settings: &WorldSettings) -> (World, Arc<Mutex<Log>>) {

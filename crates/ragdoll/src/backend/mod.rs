@@ -28,6 +28,7 @@
 mod command;
 mod config;
 pub mod damping;
+pub mod drive;
 pub(crate) mod fast;
 pub(crate) mod hub;
 pub mod limits;
@@ -307,12 +308,15 @@ pub trait Backend: Send {
     /// `target` (the child body's rotation in the parent body's frame) turning at
     /// `target_angvel` (rad/s, child relative to parent, in the parent body's frame), as a
     /// damped spring of `stiffness` (1/s²) and `damping` (1/s) per unit of inertia.
-    /// `stiffness` 0 removes the drive. Returns false when the backend cannot drive joints
-    /// in its solver; the world then applies motor torques itself.
+    /// `stiffness` and `damping` 0 remove the drive. The world calls it every step for
+    /// every joint of a powered ragdoll; drives are the engine's (an engine without
+    /// them leaves the ragdoll limp: the world applies no torques on its behalf).
     ///
     /// A solver drive sees the whole chain at once: a torque applied from outside reaches
     /// only the child body within a substep, so it cannot be sized for what the joint
-    /// carries, and the arms and head lagged the clip by tens of degrees that way.
+    /// carries, and the arms and head lagged the clip by tens of degrees that way. An
+    /// engine with no drives in its solver can still drive with torques, softer, with the
+    /// shared [`drive::TorqueDrives`] (as `particle` does).
     fn drive_joint(
         &mut self,
         joint: JointId,
@@ -320,7 +324,7 @@ pub trait Backend: Send {
         target_angvel: Vec3,
         stiffness: f32,
         damping: f32,
-    ) -> bool;
+    );
 }
 
 /// A body to create, in world space.
@@ -424,7 +428,7 @@ impl Backend for AnyBackend {
         ref fn kinetic_energy() -> f64;
         ref fn active_joints() -> Option<usize>;
         ref fn cast_ray(origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(BodyId, f32)>;
-        mut fn drive_joint(joint: JointId, target: glam::Quat, target_angvel: Vec3, stiffness: f32, damping: f32) -> bool;
+        mut fn drive_joint(joint: JointId, target: glam::Quat, target_angvel: Vec3, stiffness: f32, damping: f32);
         mut fn add_pin(body: BodyId, local: Vec3, target: Vec3, soft: Option<(f32, f32)>) -> PinId;
         ref fn bodies_touching_other_ragdolls(out: &mut Vec<bool>);
     }

@@ -494,9 +494,9 @@ impl Backend for RigidBackend {
         target_angvel: Vec3,
         stiffness: f32,
         damping: f32,
-    ) -> bool {
+    ) {
         if index >= self.joints.len() {
-            return false;
+            return;
         }
         if self.drives.len() < self.joints.len() {
             self.drives.resize(self.joints.len(), None);
@@ -507,13 +507,13 @@ impl Backend for RigidBackend {
             if let Some(h) = self.drives[index].take() {
                 self.world.impulse_joints.remove(h, true);
             }
-            return true;
+            return;
         }
         let handle = match self.drives[index] {
             Some(h) => h,
             None => {
                 let Some(joint) = self.world.impulse_joints.get(self.joints[index]) else {
-                    return false;
+                    return;
                 };
                 let (b1, b2) = (joint.body1(), joint.body2());
                 let drive = GenericJointBuilder::new(JointAxesMask::empty())
@@ -525,7 +525,7 @@ impl Backend for RigidBackend {
             }
         };
         let Some(joint) = self.world.impulse_joints.get_mut(handle, true) else {
-            return false;
+            return;
         };
         // rapier's angular motors measure each axis of frame 1 (here the parent body's
         // own axes) from the relative rotation of the two frames: with frame 2 turned by
@@ -545,7 +545,6 @@ impl Backend for RigidBackend {
                 .set_motor_model(axis, MotorModel::AccelerationBased)
                 .set_motor(axis, 0.0, vel, stiffness, damping);
         }
-        true
     }
 
     // rapier puts resting islands to sleep too: a joint is active while either body is

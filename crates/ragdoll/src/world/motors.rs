@@ -1,24 +1,23 @@
 //! Powered mode: joint motors make a physical ragdoll track its
 //! animation clip, with a strength keyed over time; a strength fading to 0 leaves it limp.
 //!
-//! Where the backend can ([`Backend::drive_joint`], rapier), each joint gets a drive inside
-//! the solver: a damped spring toward the relative rotation and angular velocity the clip
-//! has at that moment, solved together with the joints and contacts, so a shoulder drive
-//! knows it carries the whole arm. Elsewhere every joint gets the same spring as a torque
-//! applied equal and opposite to the child and the parent, sized for those two bodies only.
+//! Each joint gets a drive from the engine ([`Backend::drive_joint`]): a damped spring
+//! toward the relative rotation and angular velocity the clip has at that moment. `rigid`
+//! and `fast` solve it together with the joints and contacts, so a shoulder drive knows it
+//! carries the whole arm; `particle` applies it as a softer torque equal and opposite on
+//! the child and the parent ([`crate::backend::drive`]). The world only says where each
+//! joint should be.
 //!
 //! When the motors take hold, the ragdoll is fitted to the clip it must follow: limits
 //! widen to take in every clip pose, each hinge turns to the axis the clip's own elbow or
 //! knee bends about, and parts the clip passes through each other stop colliding.
 
 use crate::backend::{BodyId, Command, JointId};
-use crate::backend::{BodyImpulse, BodyState};
 use glam::{Quat, Vec3};
 
 use super::{HANDOVER_LIMIT_MARGIN_DEG, Instance, World, setting_error};
 use crate::backend::Backend;
 use crate::error::Result;
-use crate::geometry::shapes::{effective_inertia, inertia_about, principal_inertia};
 use crate::math::Transform;
 use crate::spec::JointKind;
 
@@ -28,11 +27,6 @@ use crate::spec::JointKind;
 /// with the drives in the solver, 60 Hz left a pirouette's arms 10-20° behind at times,
 /// 90 Hz 5.1°, 120 Hz 4.5°; with the solver substeps below ω·h ≈ 0.2, far from unstable.
 const MOTOR_FREQUENCY_HZ: f32 = 120.0;
-
-/// Natural frequency of the motors where the backend has no drives in its solver and the
-/// world applies them as torques (the particle backend), Hz: the value the torques were
-/// measured stable at (a torque reaches only its two bodies within a substep).
-const TORQUE_MOTOR_FREQUENCY_HZ: f32 = 15.0;
 
 /// Solver substeps once a ragdoll is powered (a limp one needs 4).
 ///
@@ -110,16 +104,6 @@ pub(crate) struct MotorState {
     pub engaged: bool,
     /// The root body (no joint has it as child), within the ragdoll.
     pub root: usize,
-}
-
-/// Turns rotation `q` into a rotation vector (axis · angle, radians), the short way round.
-fn rotation_vector(mut q: Quat) -> Vec3 {
-    if q.w < 0.0 {
-        q = -q;
-    }
-    let (axis, angle) = q.normalize().to_axis_angle();
-    let v = axis * angle;
-    if v.is_finite() { v } else { Vec3::ZERO }
 }
 
 impl World {
@@ -274,11 +258,7 @@ impl World {
             velocities: &clip_velocities,
             strength: s,
         };
-        if drive_in_solver(&mut self.backend, inst, &aim) || s <= 0.0 {
-            return;
-        }
-        let states = &self.states[inst.first_body..inst.first_body + inst.shapes.len()];
-        torque_impulses(inst, state, states, &aim, h, &mut self.impulses);
+        drive_joints(&mut self.backend, inst, &aim);
     }
 }
 
@@ -313,9 +293,8 @@ fn gains(strength: f32, frequency_hz: f32) -> (f32, f32) {
     )
 }
 
-/// Drives every joint of `inst` toward the clip inside the backend's solver; false where
-/// the backend has no drives (the caller then applies torques).
-fn drive_in_solver(backend: &mut impl Backend, inst: &Instance, aim: &Aim) -> bool {
+/// Drives every joint of `inst` toward the clip, with the engine's drives.
+fn drive_joints(backend: &mut impl Backend, inst: &Instance, aim: &Aim) {
     let (kp, kd) = gains(aim.strength, MOTOR_FREQUENCY_HZ);
     for (k, j) in inst.joints.iter().enumerate() {
         if matches!(j.kind, JointKind::Fixed) {
@@ -330,69 +309,6 @@ fn drive_in_solver(backend: &mut impl Backend, inst: &Instance, aim: &Aim) -> bo
         } else {
             (Quat::IDENTITY, Vec3::ZERO)
         };
-        if !backend.drive_joint(JointId(inst.first_joint + k), target, target_vel, kp, kd) {
-            return false;
-        }
-    }
-    true
-}
-
-/// Torque impulses toward the clip between each joint's two bodies of `inst` (at
-/// `states`), for a backend without drives.
-fn torque_impulses(
-    inst: &Instance,
-    state: &MotorState,
-    states: &[BodyState],
-    aim: &Aim,
-    h: f32,
-    out: &mut Vec<BodyImpulse>,
-) {
-    let (kp, kd) = gains(aim.strength, TORQUE_MOTOR_FREQUENCY_HZ);
-    let base = inst.first_body;
-    let own: Vec<Vec3> = inst
-        .shapes
-        .iter()
-        .zip(&inst.masses)
-        .map(|(shape, &m)| principal_inertia(shape, m))
-        .collect();
-    for j in &inst.joints {
-        if matches!(j.kind, JointKind::Fixed) {
-            continue;
-        }
-        let (parent, child) = (&states[j.parent], &states[j.child]);
-        let (pt, ct) = (&aim.targets[j.parent], &aim.targets[j.child]);
-        // Where the child should be turned, the parent where it is.
-        let relative = pt.rotation.conjugate() * ct.rotation;
-        let wanted = parent.pose.rotation * relative;
-        let theta = rotation_vector(wanted * child.pose.rotation.conjugate());
-        // The clip's relative angular velocity, turned from the clip's parent frame into
-        // the current one.
-        let to_now = parent.pose.rotation * pt.rotation.conjugate();
-        let target_rel = to_now * (aim.velocities[j.child].1 - aim.velocities[j.parent].1);
-        let error_velocity = child.angvel - parent.angvel - target_rel;
-        let anchor = child.pose.transform_point(j.frame_child.translation);
-        // Implicit ("stable") PD: the damping and the spring act on the velocity at the
-        // end of the substep, so the spring cannot overshoot within one substep whatever
-        // the gains; an error in the inertia estimate only changes how fast a joint gets
-        // there.
-        let accel = (theta * kp - error_velocity * (kd + h * kp)) / (1.0 + h * kd + h * h * kp);
-        let Some(n) = accel.try_normalize() else {
-            continue;
-        };
-        let about_anchor =
-            |b: usize| inertia_about(&states[b].pose, own[b], inst.masses[b], anchor, n);
-        let held = state.motors.root_on_clip && j.parent == state.root;
-        let inertia = effective_inertia(
-            about_anchor(j.child),
-            (!held).then(|| about_anchor(j.parent)),
-        );
-        let impulse = accel * inertia * h;
-        if impulse.is_finite() {
-            out.extend(BodyImpulse::joint_pair(
-                BodyId(base + j.child),
-                BodyId(base + j.parent),
-                impulse,
-            ));
-        }
+        backend.drive_joint(JointId(inst.first_joint + k), target, target_vel, kp, kd);
     }
 }

@@ -538,9 +538,9 @@ impl Backend for FastBackend {
         target_angvel: Vec3,
         stiffness: f32,
         damping: f32,
-    ) -> bool {
+    ) {
         let Some(j) = self.joints.get_mut(index) else {
-            return false;
+            return;
         };
         let had = j.drive.is_some();
         j.drive = (stiffness > 0.0 || damping > 0.0).then_some(Drive {
@@ -552,7 +552,6 @@ impl Backend for FastBackend {
         if had != j.drive.is_some() {
             self.update_held();
         }
-        true
     }
 
     fn apply(&mut self, commands: &[Command]) {

@@ -67,6 +67,7 @@ mod solve;
 
 use glam::{Mat3, Quat, Vec3, Vec4};
 
+use super::drive::TorqueDrives;
 use super::tree::JointTree;
 use super::{
     Backend, BodyDesc, BodyId, BodyState, Command, JointDesc, JointId, OneAtATime, ParticleConfig,
@@ -242,6 +243,9 @@ pub struct ParticleBackend {
     scratch: Vec<f32>,
     /// Which bodies an active pin holds (see `project_limits`).
     pinned: Vec<bool>,
+    /// Powered ragdolls' drives, as torques at the start of each step: the position
+    /// solver has no drives of its own.
+    drives: TorqueDrives,
 }
 
 /// The orthonormal frame of three points: X along `x1 − x0`, Y toward `x2` in their plane.
@@ -253,6 +257,21 @@ pub(super) fn triad_frame(x0: Vec3, x1: Vec3, x2: Vec3) -> Quat {
 }
 
 impl ParticleBackend {
+    /// Gives every driven joint its torque for a step of `h` (see [`TorqueDrives`]).
+    fn drive_joints(&mut self, h: f32) {
+        if !self.drives.is_on() {
+            return;
+        }
+        let mut states = Vec::new();
+        self.body_states(&mut states);
+        let mut impulses = Vec::new();
+        let bodies = &self.bodies;
+        self.drives
+            .impulses(&states, |b| bodies[b].kinematic, h, &mut impulses);
+        let commands: Vec<Command> = impulses.into_iter().map(Command::Impulse).collect();
+        apply_each(self, &commands);
+    }
+
     /// An empty particle world in `surroundings`.
     pub fn new(config: &ParticleConfig, surroundings: &Surroundings) -> Self {
         ParticleBackend {
@@ -302,6 +321,7 @@ impl ParticleBackend {
             last_dt: 0.0,
             scratch: Vec::new(),
             pinned: Vec::new(),
+            drives: TorqueDrives::default(),
         }
     }
 }
@@ -314,6 +334,7 @@ impl Backend for ParticleBackend {
         disabled_pairs: &[(usize, usize)],
     ) -> BodyId {
         let first = self.add_ragdoll_impl(bodies, joints, disabled_pairs);
+        self.drives.add_ragdoll(first, bodies, joints);
         for (k, b) in bodies.iter().enumerate() {
             if b.linvel != Vec3::ZERO || b.angvel != Vec3::ZERO {
                 self.set_body_velocity(BodyId(first + k), b.linvel, b.angvel);
@@ -328,6 +349,7 @@ impl Backend for ParticleBackend {
         let Some(ragdoll) = self.bodies.get(first_body).map(|b| b.ragdoll) else {
             return false;
         };
+        self.drives.remove_ragdoll(first_body);
         for b in first_body..self.bodies.len() {
             if self.bodies[b].ragdoll != ragdoll {
                 break;
@@ -350,6 +372,7 @@ impl Backend for ParticleBackend {
     }
 
     fn step(&mut self, dt: f32) -> StepReport {
+        self.drive_joints(dt);
         self.step_impl(dt);
         StepReport {
             max_penetration_m: self.penetration,
@@ -422,16 +445,18 @@ impl Backend for ParticleBackend {
         apply_each(self, commands);
     }
 
-    /// No drives inside the position solver yet: the world applies the motors as torques.
+    /// No drives inside the position solver yet: torques at the start of each step,
+    /// softer ([`TorqueDrives`]).
     fn drive_joint(
         &mut self,
-        _: JointId,
-        _target: glam::Quat,
-        _target_angvel: Vec3,
-        _stiffness: f32,
-        _damping: f32,
-    ) -> bool {
-        false
+        joint: JointId,
+        target: glam::Quat,
+        target_angvel: Vec3,
+        stiffness: f32,
+        damping: f32,
+    ) {
+        self.drives
+            .set(joint, target, target_angvel, stiffness, damping);
     }
 }
 
@@ -479,10 +504,11 @@ impl OneAtATime for ParticleBackend {
 
     fn set_joint_child_frame(&mut self, JointId(index): JointId, frame: &Transform) {
         self.joints[index].frame_child = *frame;
+        self.drives.set_child_frame(JointId(index), frame);
     }
 
     /// The particle solver's substeps come from the world's settings; powered mode's
-    /// motors act as torques here (see `drive_joint`), so they need no more.
+    /// motors act as torques here (`TorqueDrives`), so they need no more.
     fn set_solver_substeps(&mut self, _substeps: usize) {}
 
     fn set_joint_limits(&mut self, JointId(index): JointId, kind: &JointKind) {
