@@ -12,6 +12,7 @@
 
 use glam::Vec3;
 
+use super::ragdolls::Ragdolls;
 use super::{BodyDesc, BodyId, BodyImpulse, BodyState, JointDesc, JointId};
 use crate::geometry::body_inertia;
 use crate::geometry::shapes::{effective_inertia, inertia_about, principal_inertia};
@@ -20,7 +21,6 @@ use crate::spec::JointKind;
 /// One ragdoll's joints and bodies as the damping sees them.
 #[derive(Clone, Debug)]
 struct Damped {
-    first_body: usize,
     /// Each joint: parent, child, the anchor in the child's frame, and whether it is fixed
     /// (no relative motion to damp).
     joints: Vec<(usize, usize, Vec3, bool)>,
@@ -29,25 +29,19 @@ struct Damped {
     inertia: Vec<(Vec3, f32)>,
     /// Per second; 0 is off.
     rate: f32,
-    removed: bool,
 }
 
 /// The damping of every ragdoll an engine holds, in the order added.
 #[derive(Clone, Debug, Default)]
 pub struct JointDamping {
-    ragdolls: Vec<Damped>,
-    /// Each joint added: its ragdoll and its index there.
-    joint_at: Vec<(usize, usize)>,
+    ragdolls: Ragdolls<Damped>,
 }
 
 impl JointDamping {
     /// Takes in a ragdoll whose first body has the engine's index `first_body`, undamped
     /// until [`JointDamping::set_rate`].
     pub fn add_ragdoll(&mut self, first_body: usize, bodies: &[BodyDesc], joints: &[JointDesc]) {
-        let r = self.ragdolls.len();
-        self.joint_at.extend((0..joints.len()).map(|k| (r, k)));
-        self.ragdolls.push(Damped {
-            first_body,
+        let damped = Damped {
             joints: joints
                 .iter()
                 .map(|j| {
@@ -67,42 +61,32 @@ impl JointDamping {
                 })
                 .collect(),
             rate: 0.0,
-            removed: false,
-        });
+        };
+        self.ragdolls.add(first_body, joints.len(), damped);
     }
 
     /// Leaves out the ragdoll whose first body is `first_body` from now on.
     pub fn remove_ragdoll(&mut self, first_body: usize) {
-        if let Some(r) = self
-            .ragdolls
-            .iter_mut()
-            .find(|r| r.first_body == first_body)
-        {
-            r.removed = true;
-        }
+        self.ragdolls.remove(first_body);
     }
 
     /// The damping rate of the ragdoll whose first body is `first_body`, per second.
     pub fn set_rate(&mut self, BodyId(first_body): BodyId, rate_per_s: f32) {
-        if let Some(r) = self
-            .ragdolls
-            .iter_mut()
-            .find(|r| r.first_body == first_body)
-        {
+        if let Some(r) = self.ragdolls.get_mut(first_body) {
             r.rate = rate_per_s.max(0.0);
         }
     }
 
     /// A joint's new frame in its child body (its anchor moves with it).
-    pub fn set_child_frame(&mut self, JointId(index): JointId, frame: &crate::math::Transform) {
-        if let Some(&(r, k)) = self.joint_at.get(index) {
-            self.ragdolls[r].joints[k].2 = frame.translation;
+    pub fn set_child_frame(&mut self, joint: JointId, frame: &crate::math::Transform) {
+        if let Some((r, k)) = self.ragdolls.joint_mut(joint) {
+            r.joints[k].2 = frame.translation;
         }
     }
 
     /// Whether any ragdoll is damped.
     pub fn is_on(&self) -> bool {
-        self.ragdolls.iter().any(|r| r.rate > 0.0 && !r.removed)
+        self.ragdolls.live().any(|r| r.rate > 0.0)
     }
 
     /// The couples of every damped ragdoll with a dynamic body (`dynamic(body)`) over a
@@ -121,9 +105,9 @@ impl JointDamping {
         h: f32,
         out: &mut Vec<BodyImpulse>,
     ) {
-        for r in &self.ragdolls {
+        for r in self.ragdolls.live() {
             let bodies = r.first_body..r.first_body + r.inertia.len();
-            if r.rate <= 0.0 || r.removed || !bodies.clone().any(&dynamic) {
+            if r.rate <= 0.0 || !bodies.clone().any(&dynamic) {
                 continue;
             }
             let share = r.rate * h / (1.0 + r.rate * h);

@@ -10,6 +10,7 @@
 
 use glam::{Quat, Vec3};
 
+use super::ragdolls::Ragdolls;
 use super::{BodyDesc, BodyId, BodyImpulse, BodyState, JointDesc, JointId};
 use crate::geometry::shapes::{effective_inertia, inertia_about, principal_inertia};
 use crate::math::Transform;
@@ -30,29 +31,22 @@ struct Drive {
 /// One ragdoll's joints and bodies as the drives see them.
 #[derive(Clone, Debug)]
 struct Driven {
-    first_body: usize,
     /// Each joint: parent, child, the anchor in the child's frame, and its drive.
     joints: Vec<(usize, usize, Vec3, Option<Drive>)>,
     /// Each body's principal moments about its centre, and its mass.
     inertia: Vec<(Vec3, f32)>,
-    removed: bool,
 }
 
 /// The torque drives of every ragdoll an engine holds, in the order added.
 #[derive(Clone, Debug, Default)]
 pub struct TorqueDrives {
-    ragdolls: Vec<Driven>,
-    /// Each joint added: its ragdoll and its index there.
-    joint_at: Vec<(usize, usize)>,
+    ragdolls: Ragdolls<Driven>,
 }
 
 impl TorqueDrives {
     /// Takes in a ragdoll whose first body has the engine's index `first_body`, undriven.
     pub fn add_ragdoll(&mut self, first_body: usize, bodies: &[BodyDesc], joints: &[JointDesc]) {
-        let r = self.ragdolls.len();
-        self.joint_at.extend((0..joints.len()).map(|k| (r, k)));
-        self.ragdolls.push(Driven {
-            first_body,
+        let driven = Driven {
             joints: joints
                 .iter()
                 .map(|j| (j.parent, j.child, j.frame_child.translation, None))
@@ -61,42 +55,36 @@ impl TorqueDrives {
                 .iter()
                 .map(|b| (principal_inertia(&b.shape, b.mass), b.mass))
                 .collect(),
-            removed: false,
-        });
+        };
+        self.ragdolls.add(first_body, joints.len(), driven);
     }
 
     /// Leaves out the ragdoll whose first body is `first_body` from now on.
     pub fn remove_ragdoll(&mut self, first_body: usize) {
-        if let Some(r) = self
-            .ragdolls
-            .iter_mut()
-            .find(|r| r.first_body == first_body)
-        {
-            r.removed = true;
-        }
+        self.ragdolls.remove(first_body);
     }
 
     /// A joint's new frame in its child body (its anchor moves with it).
-    pub fn set_child_frame(&mut self, JointId(index): JointId, frame: &Transform) {
-        if let Some(&(r, k)) = self.joint_at.get(index) {
-            self.ragdolls[r].joints[k].2 = frame.translation;
+    pub fn set_child_frame(&mut self, joint: JointId, frame: &Transform) {
+        if let Some((r, k)) = self.ragdolls.joint_mut(joint) {
+            r.joints[k].2 = frame.translation;
         }
     }
 
     /// Drives `joint` as [`super::Backend::drive_joint`] says (no gains remove the drive).
     pub fn set(
         &mut self,
-        JointId(index): JointId,
+        joint: JointId,
         target: Quat,
         target_angvel: Vec3,
         stiffness: f32,
         damping: f32,
     ) {
-        let Some(&(r, k)) = self.joint_at.get(index) else {
+        let Some((r, k)) = self.ragdolls.joint_mut(joint) else {
             return;
         };
         let off = stiffness <= 0.0 && damping <= 0.0;
-        self.ragdolls[r].joints[k].3 = (!off).then_some(Drive {
+        r.joints[k].3 = (!off).then_some(Drive {
             target,
             target_angvel,
             stiffness,
@@ -107,8 +95,8 @@ impl TorqueDrives {
     /// Whether any joint is driven.
     pub fn is_on(&self) -> bool {
         self.ragdolls
-            .iter()
-            .any(|r| !r.removed && r.joints.iter().any(|j| j.3.is_some()))
+            .live()
+            .any(|r| r.joints.iter().any(|j| j.3.is_some()))
     }
 
     /// The torque impulses of every drive over a step of `h` seconds, from the bodies'
@@ -126,7 +114,7 @@ impl TorqueDrives {
         out: &mut Vec<BodyImpulse>,
     ) {
         let f = TORQUE_FREQUENCY_SHARE;
-        for r in self.ragdolls.iter().filter(|r| !r.removed) {
+        for r in self.ragdolls.live() {
             let base = r.first_body;
             let states = &states[base..base + r.inertia.len()];
             for &(p, c, anchor_in_child, drive) in &r.joints {

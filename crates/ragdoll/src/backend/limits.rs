@@ -11,6 +11,7 @@
 
 use glam::Quat;
 
+use super::ragdolls::{Held, Ragdolls};
 use super::tree::JointTree;
 use super::{BodyDesc, JointDesc, JointId};
 use crate::math::Transform;
@@ -41,11 +42,9 @@ pub struct BodyRole {
 /// One ragdoll's joints as the projection sees them.
 #[derive(Clone, Debug)]
 struct Ragdoll {
-    first_body: usize,
     joints: Vec<ResolvedJoint>,
     tree: JointTree,
     shapes: Vec<Shape>,
-    removed: bool,
 }
 
 /// The joints of every ragdoll an engine holds, in the order added (so a [`JointId`] and a
@@ -91,20 +90,15 @@ struct Ragdoll {
 /// ```
 #[derive(Clone, Debug, Default)]
 pub struct LimitProjection {
-    ragdolls: Vec<Ragdoll>,
-    /// Each joint added: its ragdoll and its index there.
-    joint_at: Vec<(usize, usize)>,
+    ragdolls: Ragdolls<Ragdoll>,
 }
 
 impl LimitProjection {
     /// Takes in a ragdoll whose first body has the engine's index `first_body`, with its
     /// joints (indices within the ragdoll, as [`super::Backend::add_ragdoll`] has them).
     pub fn add_ragdoll(&mut self, first_body: usize, bodies: &[BodyDesc], joints: &[JointDesc]) {
-        let r = self.ragdolls.len();
         let links: Vec<(usize, usize)> = joints.iter().map(|j| (j.parent, j.child)).collect();
-        self.joint_at.extend((0..joints.len()).map(|k| (r, k)));
-        self.ragdolls.push(Ragdoll {
-            first_body,
+        let ragdoll = Ragdoll {
             joints: joints
                 .iter()
                 .map(|j| ResolvedJoint {
@@ -117,24 +111,18 @@ impl LimitProjection {
                 .collect(),
             tree: JointTree::new(bodies.len(), &links),
             shapes: bodies.iter().map(|b| b.shape).collect(),
-            removed: false,
-        });
+        };
+        self.ragdolls.add(first_body, joints.len(), ragdoll);
     }
 
     /// Leaves out the ragdoll whose first body is `first_body` from now on.
     pub fn remove_ragdoll(&mut self, first_body: usize) {
-        if let Some(r) = self
-            .ragdolls
-            .iter_mut()
-            .find(|r| r.first_body == first_body)
-        {
-            r.removed = true;
-        }
+        self.ragdolls.remove(first_body);
     }
 
-    fn joint_mut(&mut self, JointId(index): JointId) -> Option<&mut ResolvedJoint> {
-        let &(r, k) = self.joint_at.get(index)?;
-        self.ragdolls[r].joints.get_mut(k)
+    fn joint_mut(&mut self, joint: JointId) -> Option<&mut ResolvedJoint> {
+        let (r, k) = self.ragdolls.joint_mut(joint)?;
+        r.joints.get_mut(k)
     }
 
     /// A joint's new limits (a hand-over widening them to the clip's poses).
@@ -158,12 +146,13 @@ impl LimitProjection {
         }
     }
 
-    /// Whether the ragdoll takes part: in the engine and moved by its solver.
-    fn physical(r: &Ragdoll, roles: &[BodyRole]) -> bool {
-        !r.removed
-            && roles
+    /// The ragdolls that take part: in the engine and moved by its solver.
+    fn physical<'a>(&'a self, roles: &'a [BodyRole]) -> impl Iterator<Item = &'a Held<Ragdoll>> {
+        self.ragdolls.live().filter(|r| {
+            roles
                 .get(r.first_body..r.first_body + r.shapes.len())
                 .is_some_and(|roles| roles.iter().any(|b| b.dynamic))
+        })
     }
 
     /// The worst limit violation of the joints of ragdolls with a dynamic body, radians,
@@ -171,7 +160,7 @@ impl LimitProjection {
     /// [`LimitProjection::project`].
     pub fn worst_violation(&self, poses: &[Transform], roles: &[BodyRole]) -> f32 {
         let mut worst = 0.0f32;
-        for r in self.ragdolls.iter().filter(|r| Self::physical(r, roles)) {
+        for r in self.physical(roles) {
             let p = &poses[r.first_body..r.first_body + r.shapes.len()];
             for j in &r.joints {
                 worst = worst.max(j.violation(&p[j.parent], &p[j.child]));
@@ -196,7 +185,7 @@ impl LimitProjection {
     ) -> Vec<usize> {
         let tolerance = PROJECTION_TOLERANCE_DEG.to_radians();
         let mut moved = vec![false; poses.len()];
-        for r in self.ragdolls.iter().filter(|r| Self::physical(r, roles)) {
+        for r in self.physical(roles) {
             let base = r.first_body;
             let p = &poses[base..base + r.shapes.len()];
             // As below: only a violation known to be small is skipped.
@@ -217,7 +206,7 @@ impl LimitProjection {
 
 /// Turns joint `k` of ragdoll `r` back into its limits, if it is past them.
 fn project_joint(
-    r: &Ragdoll,
+    r: &Held<Ragdoll>,
     k: usize,
     poses: &mut [Transform],
     roles: &[BodyRole],

@@ -33,6 +33,7 @@ pub(crate) mod fast;
 pub(crate) mod hub;
 pub mod limits;
 pub(crate) mod particle;
+mod ragdolls;
 pub(crate) mod rigid;
 pub(crate) mod tree;
 
