@@ -518,3 +518,41 @@ fn passes_added_in_impacts_hold_landings_together() {
         );
     }
 }
+
+#[test]
+fn a_pile_of_sixteen_runs_the_same_on_one_thread_or_two() {
+    // Sixteen across each other are one island, which the backend cuts in two so that two
+    // threads share it (the halves side by side, the contacts between them after each
+    // pass): the run must not depend on the threads, and the pile must land as piles do,
+    // nothing gaining energy or sinking through the floor, the joints together.
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let (mut world, ids, spec) = pile(16, &fast());
+            world.run(3.0);
+            let lowest = ids
+                .iter()
+                .flat_map(|&id| {
+                    let poses = world.body_poses(id);
+                    spec.bodies
+                        .iter()
+                        .zip(poses)
+                        .map(|(b, p)| b.shape.lowest_y(&p))
+                        .collect::<Vec<_>>()
+                })
+                .fold(f32::INFINITY, f32::min);
+            (world.metrics(), lowest, world.into_tracks())
+        })
+    };
+    let (m, lowest, one) = run(1);
+    let (_, _, two) = run(2);
+    assert!(one == two, "one thread and two ran differently");
+    // The bounds of impacts of the pile of four: contacts 3 cm, joints 1 cm.
+    assert!(!m.nan && m.energy_drift < 0.005, "{m:?}");
+    assert!(lowest > -0.02, "a body rests {lowest} m below the floor");
+    assert!(m.max_penetration_m < 0.03, "{m:?}");
+    assert!(m.max_joint_separation_m < 0.01, "{m:?}");
+}

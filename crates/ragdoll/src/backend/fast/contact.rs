@@ -34,7 +34,7 @@ const SUPPORT_DOWN: f32 = 0.3;
 const SUPPORT_NORMAL_UP: f32 = 0.5;
 /// What holds a body up: nothing, the ground, or (any other value) that body.
 pub(super) const NOTHING: u32 = u32::MAX;
-const GROUND: u32 = u32::MAX - 1;
+pub(super) const GROUND: u32 = u32::MAX - 1;
 /// One contact solved in the current substep, kept for its velocity pass.
 #[derive(Clone, Copy, Debug)]
 struct Contact {
@@ -80,6 +80,8 @@ pub(super) struct Collide {
     pub max_penetration: f32,
     /// Up, against gravity (unit; zero in zero gravity, where nothing is held up).
     pub up: Vec3,
+    /// Per ragdoll: the distance tests its shapes took part in this step.
+    pub tests: Vec<u32>,
 }
 
 impl Collide {
@@ -88,6 +90,11 @@ impl Collide {
         self.touching.clear();
         self.touching.resize(shapes, false);
         self.max_penetration = 0.0;
+    }
+
+    /// Drops the contacts kept for the velocity pass: a new pass finds them again.
+    pub(super) fn forget_contacts(&mut self) {
+        self.contacts.clear();
     }
 }
 
@@ -129,7 +136,11 @@ impl FastBackend {
     /// ground, with static friction.
     pub(super) fn solve_contacts(&mut self) {
         self.collide.contacts.clear();
-        self.holder.fill(NOTHING);
+        if self.seam_holder.is_empty() {
+            self.holder.fill(NOTHING);
+        } else {
+            self.holder.copy_from_slice(&self.seam_holder);
+        }
         if let Some(g) = self.settings.ground {
             for c in 0..self.shape.len() {
                 if self.inv_mass[self.owner[c] as usize] > 0.0 {
@@ -138,6 +149,13 @@ impl FastBackend {
             }
             self.solve_skin_points(g);
         }
+        self.solve_pair_contacts();
+    }
+
+    /// The candidate pairs' contacts of this substep: all of [`FastBackend::solve_contacts`]
+    /// for the solver that holds the contacts between two parts of an island (`split.rs`),
+    /// which has no ground of its own.
+    pub(super) fn solve_pair_contacts(&mut self) {
         for k in 0..self.collide.pairs.len() {
             let (a, b) = self.collide.pairs[k];
             let (a, b) = (a as usize, b as usize);
@@ -151,6 +169,11 @@ impl FastBackend {
                     .is_some_and(|&t| t > self.collide.elapsed)
             {
                 continue;
+            }
+            for o in [oa, ob] {
+                if let Some(t) = self.collide.tests.get_mut(self.ragdoll_of[o]) {
+                    *t += 1;
+                }
             }
             if let Some(f) = self.pair_contact_rescheduled(k, a, b) {
                 if f.depth > -TOUCH_M && self.ragdoll_of[oa] != self.ragdoll_of[ob] {

@@ -8,6 +8,7 @@
 
 use rayon::prelude::*;
 
+use super::split::{Seam, choose_cut, order_along_spread, worth_cutting};
 use super::{FastBackend, Pin, Ragdoll};
 use crate::math::Transform;
 
@@ -57,9 +58,16 @@ impl FastBackend {
     /// One step of every awake ragdoll, island by island.
     pub(super) fn step_islands(&mut self, dt: f32) {
         let count = self.assign_islands();
+        let first = self.assign_solvers(count);
+        let solvers = first[count];
         let mut subs = std::mem::take(&mut self.island_pool);
-        while subs.len() < count {
+        while subs.len() < solvers {
             subs.push(FastBackend::with_settings(self.settings));
+        }
+        let mut seams = std::mem::take(&mut self.seam_pool);
+        let cut = (0..count).filter(|&i| first[i + 1] - first[i] > 1).count();
+        while seams.len() < cut {
+            seams.push(Seam::new(self.settings));
         }
         // Each island takes the substeps its most demanding ragdoll needs, and the passes
         // of an impact where one of its ragdolls may strike something hard this step.
@@ -72,20 +80,127 @@ impl FastBackend {
                     ragdoll.closing_mps > super::impact::IMPACT_MPS;
             }
         }
-        for ((sub, f), hit) in subs[..count].iter_mut().zip(&factor).zip(&impact) {
-            sub.settings = self.settings;
-            sub.settings.substeps = (self.settings.substeps as f32 * f).ceil() as usize;
-            if *hit {
-                sub.settings.iterations = self.settings.iterations + self.settings.impact_passes;
+        for i in 0..count {
+            for sub in &mut subs[first[i]..first[i + 1]] {
+                sub.settings = self.settings;
+                sub.settings.substeps = (self.settings.substeps as f32 * factor[i]).ceil() as usize;
+                if impact[i] {
+                    sub.settings.iterations =
+                        self.settings.iterations + self.settings.impact_passes;
+                }
+                sub.clear_bodies();
             }
-            sub.clear_bodies();
         }
-        self.gather(&mut subs[..count], dt);
-        subs[..count]
-            .par_iter_mut()
-            .for_each(|sub| sub.solve_step(dt));
-        self.scatter(&subs[..count], dt);
+        for seam in &mut seams[..cut] {
+            seam.pairs.clear();
+        }
+        self.gather(&mut subs[..solvers], &first, &mut seams[..cut], dt);
+        // Each island's solvers, and the seam between them where it has two.
+        let mut work = Vec::with_capacity(count);
+        let (mut rest, mut seam_rest) = (&mut subs[..solvers], seams[..cut].iter_mut());
+        for i in 0..count {
+            let (parts, tail) = std::mem::take(&mut rest).split_at_mut(first[i + 1] - first[i]);
+            rest = tail;
+            let seam = if parts.len() > 1 {
+                seam_rest.next()
+            } else {
+                None
+            };
+            work.push((parts, seam));
+        }
+        work.par_iter_mut().for_each(|(parts, seam)| match seam {
+            Some(seam) => seam.solve(parts, dt),
+            None => parts[0].solve_step(dt),
+        });
+        self.scatter(&subs[..solvers], dt);
         self.island_pool = subs;
+        self.seam_pool = seams;
+    }
+
+    /// Numbers the solvers of the `count` islands into `solver_of`: one for an island,
+    /// two for one [`worth_cutting`] (its halves). Returns the first solver of each
+    /// island, and after them the number of solvers.
+    fn assign_solvers(&mut self, count: usize) -> Vec<usize> {
+        let mut size = vec![0usize; count];
+        for &island in self.island_of.iter().filter(|&&i| i != NO_ISLAND) {
+            size[island as usize] += 1;
+        }
+        let awake = size.iter().sum::<usize>();
+        let mut first = Vec::with_capacity(count + 1);
+        // Each island cut in two: its place among them, and its ragdolls.
+        let mut cut_of = vec![u32::MAX; count];
+        let mut members = Vec::new();
+        let mut next = 0;
+        for (i, &n) in size.iter().enumerate() {
+            first.push(next);
+            next += 1;
+            if worth_cutting(n, awake) {
+                cut_of[i] = members.len() as u32;
+                members.push(Vec::with_capacity(n));
+                next += 1;
+            }
+        }
+        first.push(next);
+        let mut solver_of = std::mem::take(&mut self.solver_of);
+        solver_of.clear();
+        solver_of.extend(self.island_of.iter().map(|&i| match i {
+            NO_ISLAND => NO_ISLAND,
+            i => first[i as usize] as u32,
+        }));
+        for (r, &island) in self.island_of.iter().enumerate() {
+            if let Some(m) = cut_of
+                .get(island as usize)
+                .and_then(|&c| members.get_mut(c as usize))
+            {
+                m.push(r);
+            }
+        }
+        let crossing = self.order_cut_islands(&mut members, &cut_of);
+        for (m, crossing) in members.iter().zip(&crossing) {
+            for &r in &m[choose_cut(self, m, crossing)..] {
+                solver_of[r] += 1;
+            }
+        }
+        self.solver_of = solver_of;
+        first
+    }
+
+    /// Orders the ragdolls of each island to cut in two (`members`; `cut_of` gives each
+    /// island's place among them) along its spread, and counts for each place it could be
+    /// cut the candidate pairs the cut would cross.
+    fn order_cut_islands(&self, members: &mut [Vec<usize>], cut_of: &[u32]) -> Vec<Vec<i32>> {
+        let mut crossing = Vec::with_capacity(members.len());
+        if members.is_empty() {
+            return crossing;
+        }
+        let mut rank = vec![0u32; self.ragdolls.len()];
+        for m in members.iter_mut() {
+            order_along_spread(self, m);
+            for (k, &r) in m.iter().enumerate() {
+                rank[r] = k as u32;
+            }
+            crossing.push(vec![0; m.len() + 1]);
+        }
+        // Each pair crosses the cuts between its two ragdolls: a difference array.
+        for &(a, b) in &self.collide.pairs {
+            let ra = self.ragdoll_of[self.body_of_shape(a as usize)];
+            let rb = self.ragdoll_of[self.body_of_shape(b as usize)];
+            let island = self.island_of[ra];
+            if island == NO_ISLAND || island != self.island_of[rb] || ra == rb {
+                continue;
+            }
+            if let Some(c) = crossing.get_mut(cut_of[island as usize] as usize) {
+                let (p, q) = (rank[ra].min(rank[rb]), rank[ra].max(rank[rb]));
+                c[p as usize + 1] += 1;
+                c[q as usize + 1] -= 1;
+            }
+        }
+        for c in &mut crossing {
+            for k in 1..c.len() {
+                c[k] += c[k - 1];
+            }
+        }
+        crossing
     }
 
     /// Numbers the islands of awake ragdolls into `island_of` (in the order of their
@@ -125,13 +240,21 @@ impl FastBackend {
     }
 
     /// Empties a pooled island solver, keeping its buffers.
-    fn clear_bodies(&mut self) {
+    pub(super) fn clear_bodies(&mut self) {
         macro_rules! clear {
             ($($f:ident),*) => { $( self.$f.clear(); )* };
         }
         per_body!(clear);
         clear!(
-            owner, attach, ragdoll_of, ragdolls, joints, pins, compounds, skin
+            owner,
+            attach,
+            ragdoll_of,
+            ragdolls,
+            joints,
+            pins,
+            compounds,
+            skin,
+            seam_holder
         );
         self.collide.pairs.clear();
         self.collide.wait.clear();
@@ -141,16 +264,16 @@ impl FastBackend {
     /// Copies each island's ragdolls, joints, pins and pairs into its solver, with body
     /// indices renumbered from 0 in each; the bodies a ragdoll's frozen joints link become
     /// one compound body there (`freeze.rs`).
-    fn gather(&mut self, subs: &mut [FastBackend], dt: f32) {
+    fn gather(&mut self, subs: &mut [FastBackend], first: &[usize], seams: &mut [Seam], dt: f32) {
         let mut local = std::mem::take(&mut self.local_of);
         local.clear();
         local.resize(self.world_shapes(), u32::MAX);
         for r in 0..self.ragdolls.len() {
-            let island = self.island_of[r];
-            if island == NO_ISLAND {
+            let solver = self.solver_of[r];
+            if solver == NO_ISLAND {
                 continue;
             }
-            let sub = &mut subs[island as usize];
+            let sub = &mut subs[solver as usize];
             let first = sub.pos.len();
             if self.ragdolls[r].frozen == 0 {
                 for i in self.ragdolls[r].bodies.clone() {
@@ -176,9 +299,9 @@ impl FastBackend {
             }
         }
         for p in self.pins.iter().filter(|p| p.active) {
-            let island = self.island_of[self.ragdoll_of[p.body]];
-            if island != NO_ISLAND {
-                let sub = &mut subs[island as usize];
+            let solver = self.solver_of[self.ragdoll_of[p.body]];
+            if solver != NO_ISLAND {
+                let sub = &mut subs[solver as usize];
                 let (body, at) =
                     sub.on_owner(local[p.body], Transform::new(p.local, glam::Quat::IDENTITY));
                 sub.pins.push(Pin {
@@ -188,14 +311,27 @@ impl FastBackend {
                 });
             }
         }
+        // The seam of each island cut in two, by its first solver.
+        let mut seam_of = vec![0; subs.len()];
+        let cut = first.windows(2).filter(|w| w[1] - w[0] > 1);
+        for (k, w) in cut.enumerate() {
+            seam_of[w[0]] = k;
+        }
         for &(i, j) in &self.collide.pairs {
-            let island = self.island_of[self.ragdoll_of[self.body_of_shape(i as usize)]];
-            if island != NO_ISLAND {
-                subs[island as usize]
-                    .collide
-                    .pairs
-                    .push((local[i as usize], local[j as usize]));
+            let si = self.solver_of[self.ragdoll_of[self.body_of_shape(i as usize)]];
+            let sj = self.solver_of[self.ragdoll_of[self.body_of_shape(j as usize)]];
+            if si == NO_ISLAND || sj == NO_ISLAND {
+                continue;
             }
+            let (li, lj) = (local[i as usize], local[j as usize]);
+            if si == sj {
+                subs[si as usize].collide.pairs.push((li, lj));
+                continue;
+            }
+            // Two halves of one island: the lower-numbered half is the first.
+            let low = si.min(sj);
+            let (pi, pj) = (si - low, sj - low);
+            seams[seam_of[low as usize]].pairs.push([pi, li, pj, lj]);
         }
         self.gather_skin(subs, &local, dt);
         self.local_of = local;
@@ -227,11 +363,11 @@ impl FastBackend {
     /// Copies the islands' bodies back, with what their contacts saw.
     fn scatter(&mut self, subs: &[FastBackend], dt: f32) {
         for r in 0..self.ragdolls.len() {
-            let island = self.island_of[r];
-            if island == NO_ISLAND {
+            let solver = self.solver_of[r];
+            if solver == NO_ISLAND {
                 continue;
             }
-            let sub = &subs[island as usize];
+            let sub = &subs[solver as usize];
             for i in self.ragdolls[r].bodies.clone() {
                 let c = self.local_of[i] as usize;
                 self.collide.touching[i] = sub.collide.touching[c]
@@ -262,6 +398,7 @@ impl FastBackend {
             let k = sub.ragdoll_of
                 [sub.owner[self.local_of[self.ragdolls[r].bodies.start] as usize] as usize];
             self.ragdolls[r].jolted |= sub.ragdolls[k].jolted;
+            self.ragdolls[r].tests = sub.collide.tests.get(k).copied().unwrap_or(0);
         }
         for sub in subs {
             self.collide.max_penetration = self

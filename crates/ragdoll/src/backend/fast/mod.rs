@@ -43,9 +43,11 @@ mod impact;
 mod island;
 mod limits;
 mod narrow;
+mod relay;
 mod skin;
 mod sleep;
 mod solve;
+mod split;
 
 use std::collections::HashSet;
 
@@ -163,6 +165,9 @@ struct Ragdoll {
     /// The fastest one of its parts may strike the ground or another body in the coming
     /// step, m/s (`impact.rs`).
     closing_mps: f32,
+    /// The distance tests its shapes took part in over the last step: where its island
+    /// is cut in two, its share of the work (`split.rs`).
+    tests: u32,
     /// Taken out of the simulation ([`Backend::remove_ragdoll`]): asleep for good, met by
     /// nothing.
     removed: bool,
@@ -238,6 +243,10 @@ pub struct FastBackend {
     /// What holds each shape up in this substep's contacts (see
     /// [`FastBackend::support_along`]).
     holder: Vec<u32>,
+    /// In one half of an island cut in two (`split.rs`): what holds each shape from the
+    /// other half, as of the seam's last pass, which each pass starts from; empty
+    /// elsewhere.
+    seam_holder: Vec<u32>,
     kinematic: Vec<Option<Kinematic>>,
     ragdoll_of: Vec<usize>,
     ragdolls: Vec<Ragdoll>,
@@ -255,6 +264,10 @@ pub struct FastBackend {
     island_of: Vec<u32>,
     local_of: Vec<u32>,
     island_pool: Vec<FastBackend>,
+    /// Each ragdoll's solver among them (an island cut in two has two, `split.rs`), and
+    /// the solvers of the contacts between two halves.
+    solver_of: Vec<u32>,
+    seam_pool: Vec<split::Seam>,
     /// An island solver's compounds of bodies linked by frozen joints (`freeze.rs`).
     compounds: Vec<freeze::Compound>,
     /// The whole world's bodies' extra shapes (`extras.rs`).
@@ -311,6 +324,7 @@ impl FastBackend {
             owner: Vec::new(),
             attach: Vec::new(),
             holder: Vec::new(),
+            seam_holder: Vec::new(),
             kinematic: Vec::new(),
             ragdoll_of: Vec::new(),
             ragdolls: Vec::new(),
@@ -323,6 +337,8 @@ impl FastBackend {
             island_of: Vec::new(),
             local_of: Vec::new(),
             island_pool: Vec::new(),
+            solver_of: Vec::new(),
+            seam_pool: Vec::new(),
             compounds: Vec::new(),
             extras: extras::Extras::default(),
             skin: Vec::new(),
@@ -421,6 +437,7 @@ impl Backend for FastBackend {
             frozen: 0,
             jolted: false,
             closing_mps: 0.0,
+            tests: 0,
             removed: false,
         });
         BodyId(first)

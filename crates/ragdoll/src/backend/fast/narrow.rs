@@ -189,6 +189,14 @@ impl FastBackend {
     /// blast struck, so neither their relative velocity nor a body's own bounds where it
     /// goes (a relative bound let a pile's bodies 46 mm into each other, 5.6 before).
     pub(super) fn cull_pairs(&mut self, dt: f32) {
+        self.cull_pairs_with(dt, true);
+    }
+
+    /// [`FastBackend::cull_pairs`], with `Collide::ragdoll_speed` measured here or
+    /// (`measure` false) given: the solver of the contacts between two parts of an island
+    /// holds only some of each ragdoll's shapes, so it takes the parts' speeds
+    /// (`split.rs`).
+    pub(super) fn cull_pairs_with(&mut self, dt: f32, measure: bool) {
         let mut pairs = std::mem::take(&mut self.collide.pairs);
         let (mut wait, mut closing) = (
             std::mem::take(&mut self.collide.wait),
@@ -196,7 +204,9 @@ impl FastBackend {
         );
         wait.clear();
         closing.clear();
-        self.measure_ragdoll_speeds(dt);
+        if measure {
+            self.measure_ragdoll_speeds(dt);
+        }
         pairs.retain(|&(a, b)| {
             let (a, b) = (a as usize, b as usize);
             let (speed, travel) = self.closing_speed(a, b);

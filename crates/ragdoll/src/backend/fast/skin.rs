@@ -76,7 +76,7 @@ impl FastBackend {
         };
         let fall = self.settings.gravity.length() * dt * dt;
         for s in &self.skin {
-            let island = self.island_of[self.ragdoll_of[s.parts[0].0 as usize]];
+            let island = self.solver_of[self.ragdoll_of[s.parts[0].0 as usize]];
             if island == NO_ISLAND {
                 continue;
             }

@@ -47,6 +47,11 @@ pub(super) fn rotation_vector(q: Quat) -> Vec3 {
     v * (2.0 * s.atan2(q.w) / s)
 }
 
+/// Where substep `s` of `n` starts and ends, as fractions of the step.
+pub(super) fn substep_fractions(s: usize, n: usize) -> (f32, f32) {
+    (s as f32 / n as f32, (s + 1) as f32 / n as f32)
+}
+
 impl FastBackend {
     pub(super) fn step_impl(&mut self, dt: f32) {
         self.find_pairs(dt);
@@ -67,32 +72,68 @@ impl FastBackend {
 
     /// The substeps of one step of everything in this solver (one island's), and the
     /// velocities the world sees. An island holds awake ragdolls only, so nothing here
-    /// asks whether a body sleeps.
+    /// asks whether a body sleeps. An island cut in two runs the same phases on each part
+    /// and the contacts between them after each (`split.rs`).
     pub(super) fn solve_step(&mut self, dt: f32) {
-        let n = self.settings.substeps.max(1);
+        let n = self.begin_solve(dt);
         let h = dt / n as f32;
+        for s in 0..n {
+            let (frac0, frac) = substep_fractions(s, n);
+            self.begin_substep(h, frac, dt);
+            for pass in 0..self.passes() {
+                self.solve_pass(pass, h, frac0, frac);
+            }
+            self.end_substep(h);
+        }
+        self.end_solve(dt);
+    }
+
+    /// Readies the step of `dt`: this step's pairs culled, the poses it starts from kept.
+    /// Returns the number of substeps.
+    pub(super) fn begin_solve(&mut self, dt: f32) -> usize {
         self.collide
             .begin_step(self.shape.len(), self.settings.gravity);
         self.cull_pairs(dt);
+        self.collide.tests.clear();
+        self.collide.tests.resize(self.ragdolls.len(), 0);
         self.step_pos.clone_from(&self.pos);
         self.step_rot.clone_from(&self.rot);
-        for s in 0..n {
-            let (frac0, frac) = (s as f32 / n as f32, (s + 1) as f32 / n as f32);
-            self.collide.elapsed = frac * dt;
-            self.apply_drives(h);
-            self.integrate(h, frac);
-            for pass in 0..self.settings.iterations.max(1) {
-                self.solve_joints();
-                // Once a substep: a soft pin's compliance is per pass (no multiplier is
-                // kept between passes), so a second pass would stiffen its spring.
-                if pass == 0 {
-                    self.solve_pins(h, frac0, frac);
-                }
-                self.solve_contacts();
-            }
-            self.update_velocities(h);
-            self.solve_contact_velocities();
+        self.settings.substeps.max(1)
+    }
+
+    /// Passes of the joints and contacts each substep.
+    pub(super) fn passes(&self) -> usize {
+        self.settings.iterations.max(1)
+    }
+
+    /// A substep of `h` ending `frac` of the way through the step of `dt`: drives, then
+    /// every body's predicted pose.
+    pub(super) fn begin_substep(&mut self, h: f32, frac: f32, dt: f32) {
+        self.collide.elapsed = frac * dt;
+        self.apply_drives(h);
+        self.integrate(h, frac);
+    }
+
+    /// One pass of the joints, the pins (the first pass only) and the contacts.
+    pub(super) fn solve_pass(&mut self, pass: usize, h: f32, frac0: f32, frac: f32) {
+        self.solve_joints();
+        // Once a substep: a soft pin's compliance is per pass (no multiplier is kept
+        // between passes), so a second pass would stiffen its spring.
+        if pass == 0 {
+            self.solve_pins(h, frac0, frac);
         }
+        self.solve_contacts();
+    }
+
+    /// The substep's velocities, read back from its motion, less the contacts' normal
+    /// velocity.
+    pub(super) fn end_substep(&mut self, h: f32) {
+        self.update_velocities(h);
+        self.solve_contact_velocities();
+    }
+
+    /// The velocities the world sees, and which compounds took a blow.
+    pub(super) fn end_solve(&mut self, dt: f32) {
         self.observe_velocities(dt);
         self.check_jolts(dt);
     }
