@@ -16,10 +16,18 @@
 //! cells at each larger level in use.
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 /// Most cells one box is filed under per axis: 2 when its longest side fits a cell, the
 /// third absorbs rounding in the division. A box is in at most 27 cells.
 const MAX_CELLS_PER_AXIS: i64 = 3;
+
+/// Grid entries from which a search is shared among threads: below it the hand-over costs
+/// more than the search (a pile of four humanoids files about 200).
+const PARALLEL_ENTRIES: usize = 4096;
+/// Shares of the search per thread, so that a thread whose cells hold more pairs does
+/// not hold up the rest.
+const SHARES_PER_THREAD: usize = 4;
 
 /// Smallest base cell, metres: finer cells only add levels.
 const MIN_CELL_M: f32 = 1.0e-3;
@@ -53,12 +61,27 @@ pub(crate) struct BroadPhase {
     inv_base: f32,
     /// Whether every box is on level 0 (the uniform grid; no cap on its cells).
     uniform: bool,
+    /// Each thread share's pairs, in a search shared among threads.
+    found: Vec<Vec<(u32, u32)>>,
 }
 
 /// The cells from `a` to `b` (inclusive corners), x outermost.
 fn span(a: [i64; 3], b: [i64; 3]) -> impl Iterator<Item = [i64; 3]> {
     (a[0]..=b[0])
         .flat_map(move |x| (a[1]..=b[1]).flat_map(move |y| (a[2]..=b[2]).map(move |z| [x, y, z])))
+}
+
+/// The lowest corner of the overlap of boxes `a` and `b`, if they overlap or touch.
+#[inline]
+fn overlap(boxes: &[(Vec3, Vec3)], a: usize, b: usize) -> Option<Vec3> {
+    let (lo, hi) = (boxes[a].0.max(boxes[b].0), boxes[a].1.min(boxes[b].1));
+    (!lo.cmpgt(hi).any()).then_some(lo)
+}
+
+/// Share `k` of `count` of the indices `0..len`, in order.
+fn share_of(len: usize, count: usize, k: usize) -> std::ops::Range<usize> {
+    let per = len.div_ceil(count);
+    (k * per).min(len)..((k + 1) * per).min(len)
 }
 
 /// The uniform grid's hash (level 0 adds nothing to it).
@@ -121,50 +144,90 @@ impl BroadPhase {
     /// Memory: at most [`MAX_CELLS_PER_AXIS`]³ entries per box and twice as many hash
     /// buckets, whatever the boxes. Time: linear in the boxes and the levels in use, plus
     /// the pairs that share a cell (boxes piled on one spot all meet, as they should).
+    ///
+    /// Large searches are shared among the threads of the current rayon pool, each
+    /// taking a share of the cells; the pairs still come in the order one thread finds
+    /// them, so whatever uses them runs the same on any number of threads.
     pub(crate) fn find(&mut self, boxes: &[(Vec3, Vec3)], mut emit: impl FnMut(usize, usize)) {
         self.place(boxes);
         self.fill(boxes);
         if self.entries.is_empty() {
             return;
         }
-        let overlap = |a: usize, b: usize| {
-            let (lo, hi) = (boxes[a].0.max(boxes[b].0), boxes[a].1.min(boxes[b].1));
-            (!lo.cmpgt(hi).any()).then_some(lo)
-        };
-        // Boxes of one level that share a cell; each pair once, in the cell holding the
-        // lowest corner of their overlap.
-        for h in 0..=self.mask {
-            let bucket = &self.sorted[self.starts[h] as usize..self.starts[h + 1] as usize];
-            for (i, &(ka, a)) in bucket.iter().enumerate() {
-                for &(kb, b) in &bucket[i + 1..] {
-                    if ka != kb || a == b {
-                        continue;
-                    }
-                    let (a, b) = (a.min(b) as usize, a.max(b) as usize);
-                    if let Some(lo) = overlap(a, b)
-                        && self.cell_of(lo, ka.0) == ka.1
-                    {
-                        emit(a, b);
-                    }
+        let threads = rayon::current_num_threads();
+        if threads == 1 || self.entries.len() < PARALLEL_ENTRIES {
+            for h in 0..=self.mask {
+                self.bucket_pairs(boxes, h, &mut emit);
+            }
+            for a in 0..boxes.len() {
+                self.larger_pairs(boxes, a, &mut emit);
+            }
+            return;
+        }
+        let mut found = std::mem::take(&mut self.found);
+        found.resize_with(threads * SHARES_PER_THREAD, Vec::new);
+        let (buckets, count) = (self.mask + 1, found.len());
+        let this = &*self;
+        found.par_iter_mut().enumerate().for_each(|(k, out)| {
+            out.clear();
+            let mut push = |a: usize, b: usize| out.push((a as u32, b as u32));
+            for h in share_of(buckets, count, k) {
+                this.bucket_pairs(boxes, h, &mut push);
+            }
+        });
+        for &(a, b) in found.iter().flatten() {
+            emit(a as usize, b as usize);
+        }
+        if self.levels.len() > 1 {
+            found.par_iter_mut().enumerate().for_each(|(k, out)| {
+                out.clear();
+                let mut push = |a: usize, b: usize| out.push((a as u32, b as u32));
+                for a in share_of(boxes.len(), count, k) {
+                    this.larger_pairs(boxes, a, &mut push);
+                }
+            });
+            for &(a, b) in found.iter().flatten() {
+                emit(a as usize, b as usize);
+            }
+        }
+        self.found = found;
+    }
+
+    /// Pairs of boxes of one level that share a cell of bucket `h`; each pair once, in the
+    /// cell holding the lowest corner of their overlap.
+    fn bucket_pairs(&self, boxes: &[(Vec3, Vec3)], h: usize, emit: &mut impl FnMut(usize, usize)) {
+        let bucket = &self.sorted[self.starts[h] as usize..self.starts[h + 1] as usize];
+        for (i, &(ka, a)) in bucket.iter().enumerate() {
+            for &(kb, b) in &bucket[i + 1..] {
+                if ka != kb || a == b {
+                    continue;
+                }
+                let (a, b) = (a.min(b) as usize, a.max(b) as usize);
+                if let Some(lo) = overlap(boxes, a, b)
+                    && self.cell_of(lo, ka.0) == ka.1
+                {
+                    emit(a, b);
                 }
             }
         }
-        // Each box against the larger ones, through its own cells at their levels.
-        for (a, &(lo, hi)) in boxes.iter().enumerate() {
-            let la = self.level[a];
-            if la == u8::MAX {
-                continue;
-            }
-            for &m in self.levels.iter().filter(|&&m| m > la) {
-                for cell in self.cells(lo, hi, m) {
-                    let key = (m, cell);
-                    for b in self.bucket(key) {
-                        let b = b as usize;
-                        if let Some(lo) = overlap(a, b)
-                            && self.cell_of(lo, m) == cell
-                        {
-                            emit(a.min(b), a.max(b));
-                        }
+    }
+
+    /// Box `a` against the larger ones, through its own cells at their levels.
+    fn larger_pairs(&self, boxes: &[(Vec3, Vec3)], a: usize, emit: &mut impl FnMut(usize, usize)) {
+        let la = self.level[a];
+        if la == u8::MAX {
+            return;
+        }
+        let (lo, hi) = boxes[a];
+        for &m in self.levels.iter().filter(|&&m| m > la) {
+            for cell in self.cells(lo, hi, m) {
+                let key = (m, cell);
+                for b in self.bucket(key) {
+                    let b = b as usize;
+                    if let Some(lo) = overlap(boxes, a, b)
+                        && self.cell_of(lo, m) == cell
+                    {
+                        emit(a.min(b), a.max(b));
                     }
                 }
             }
@@ -334,6 +397,44 @@ mod tests {
         dedup.dedup();
         assert_eq!(got.len(), dedup.len(), "a pair was reported twice");
         assert_eq!(got, brute(&boxes));
+    }
+
+    #[test]
+    fn a_search_shared_among_threads_finds_the_same_pairs_in_the_same_order() {
+        // Enough boxes to share the search, on a uniform grid and (a few huge boxes
+        // among them) on levels: one thread and three must emit the very same sequence,
+        // and it must be the exact set of overlapping pairs.
+        for huge in [false, true] {
+            let mut rng = Lcg(if huge { 5 } else { 3 });
+            let boxes: Vec<(Vec3, Vec3)> = (0..2500)
+                .map(|k| {
+                    let c = Vec3::new(rng.next(), rng.next(), rng.next()) * 12.0;
+                    let size = if huge && k % 100 == 0 { 40.0 } else { 0.3 };
+                    let half = Vec3::new(rng.next(), rng.next(), rng.next()) * size;
+                    (c - half, c + half)
+                })
+                .collect();
+            let run = |threads: usize| {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let mut grid = BroadPhase::default();
+                let mut out = Vec::new();
+                pool.install(|| grid.find(&boxes, |a, b| out.push((a, b))));
+                assert!(
+                    grid.footprint().0 >= PARALLEL_ENTRIES,
+                    "too few entries to share"
+                );
+                assert_eq!(grid.uniform, !huge);
+                out
+            };
+            let one = run(1);
+            assert_eq!(one, run(3), "huge boxes: {huge}");
+            let mut sorted = one;
+            sorted.sort_unstable();
+            assert_eq!(sorted, brute(&boxes), "huge boxes: {huge}");
+        }
     }
 
     #[test]
