@@ -28,7 +28,7 @@ impl OneAtATime for FastBackend {
         });
         self.set_mass_of(index, kinematic);
         self.thaw(self.ragdoll_of[index]);
-        self.update_held();
+        self.update_held(self.ragdoll_of[index]);
         self.wake_body(index);
     }
 
@@ -104,8 +104,8 @@ impl OneAtATime for FastBackend {
 
     fn release_pin(&mut self, PinId(pin): PinId) {
         self.pins[pin].active = false;
-        self.update_held();
         let b = self.pins[pin].body;
+        self.update_held(self.ragdoll_of[b]);
         self.wake_body(b);
     }
 

@@ -539,7 +539,7 @@ impl Backend for FastBackend {
             soft,
             active: true,
         });
-        self.update_held();
+        self.update_held(self.ragdoll_of[index]);
         PinId(self.pins.len() - 1)
     }
 
@@ -568,7 +568,8 @@ impl Backend for FastBackend {
             damping: damping.max(0.0),
         });
         if had != j.drive.is_some() {
-            self.update_held();
+            let b = j.b;
+            self.update_held(self.ragdoll_of[b]);
         }
     }
 
