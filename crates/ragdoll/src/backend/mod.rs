@@ -280,6 +280,17 @@ pub trait Backend: Send {
     fn apply(&mut self, commands: &[Command]);
     /// Writes the state of every body of every ragdoll, in insertion order.
     fn body_states(&self, out: &mut Vec<BodyState>);
+    /// Writes the states of the bodies from `first` on, one into each entry of `out`: the
+    /// world reads one ragdoll's as it adds it or sets it playing its clip, where reading
+    /// the whole world for each of a crowd's characters was quadratic. The default reads
+    /// every body and copies the range; an engine overrides it to read only the range.
+    fn body_states_of(&self, first: BodyId, out: &mut [BodyState]) {
+        let mut all = Vec::new();
+        self.body_states(&mut all);
+        if let Some(range) = all.get(first.0..first.0 + out.len()) {
+            out.copy_from_slice(range);
+        }
+    }
     /// Kinetic energy of everything, joules.
     fn kinetic_energy(&self) -> f64;
     /// How many joints the solver works on now: those of ragdolls that are not asleep.
@@ -426,6 +437,7 @@ impl Backend for AnyBackend {
         ref fn ground_half_extent() -> Option<f32>;
         mut fn apply(commands: &[Command]);
         ref fn body_states(out: &mut Vec<BodyState>);
+        ref fn body_states_of(first: BodyId, out: &mut [BodyState]);
         ref fn kinetic_energy() -> f64;
         ref fn active_joints() -> Option<usize>;
         ref fn cast_ray(origin: Vec3, dir: Vec3, max_dist: f32) -> Option<(BodyId, f32)>;

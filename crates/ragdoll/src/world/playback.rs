@@ -243,7 +243,7 @@ impl super::World {
             .collect();
         self.backend.apply(&commands);
         // The poses read before the first step are the clip's.
-        self.backend.body_states(&mut self.states);
+        self.read_states_of(id.0);
         Ok(())
     }
 

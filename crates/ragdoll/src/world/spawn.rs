@@ -9,7 +9,7 @@ use glam::Vec3;
 use super::overlap::Solid;
 use super::playback::{self, Activation};
 use super::{Instance, RagdollId, Rider, StartPose, World, start};
-use crate::backend::{Backend, BodyDesc, Command, JointDesc, SkinPointDesc};
+use crate::backend::{Backend, BodyDesc, BodyState, Command, JointDesc, SkinPointDesc};
 use crate::error::Result;
 use crate::math::Transform;
 use crate::skeleton::Character;
@@ -141,8 +141,25 @@ impl World {
             },
         });
         // The bodies' states are readable (body_poses, joint_errors) before the first step.
-        self.backend.body_states(&mut self.states);
+        self.read_states_of(self.instances.len() - 1);
         Ok(RagdollId(self.instances.len() - 1))
+    }
+
+    /// Reads the states of ragdoll `index`'s bodies from the engine, the only ones adding
+    /// or setting up that ragdoll changed.
+    pub(super) fn read_states_of(&mut self, index: usize) {
+        let inst = &self.instances[index];
+        let range = inst.first_body..inst.first_body + inst.masses.len();
+        if self.states.len() < range.end {
+            let still = BodyState {
+                pose: Transform::IDENTITY,
+                linvel: Vec3::ZERO,
+                angvel: Vec3::ZERO,
+            };
+            self.states.resize(range.end, still);
+        }
+        self.backend
+            .body_states_of(BodyId(range.start), &mut self.states[range]);
     }
 
     /// Files every ragdoll's bodies where they are now, for the start check of a ragdoll

@@ -349,6 +349,17 @@ impl FastBackend {
     }
 }
 
+impl FastBackend {
+    /// Body `i` as the world reads it.
+    fn state_of(&self, i: usize) -> BodyState {
+        BodyState {
+            pose: Transform::new(self.pos[i], self.rot[i]),
+            linvel: self.seen_vel[i],
+            angvel: self.seen_angvel[i],
+        }
+    }
+}
+
 /// Largest single turn of a body in the position pass, radians.
 const MAX_TURN_RAD: f32 = 0.5;
 
@@ -486,11 +497,14 @@ impl Backend for FastBackend {
 
     fn body_states(&self, out: &mut Vec<BodyState>) {
         out.clear();
-        out.extend((0..self.pos.len()).map(|i| BodyState {
-            pose: Transform::new(self.pos[i], self.rot[i]),
-            linvel: self.seen_vel[i],
-            angvel: self.seen_angvel[i],
-        }));
+        out.extend((0..self.pos.len()).map(|i| self.state_of(i)));
+    }
+
+    fn body_states_of(&self, BodyId(first): BodyId, out: &mut [BodyState]) {
+        let n = self.pos.len();
+        for (o, i) in out.iter_mut().zip(first..n) {
+            *o = self.state_of(i);
+        }
     }
 
     // Of the solver's own velocities, at the end of the step where the poses are: the

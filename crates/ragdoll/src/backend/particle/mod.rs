@@ -326,6 +326,30 @@ impl ParticleBackend {
     }
 }
 
+impl ParticleBackend {
+    /// Body `b` as the world reads it: its frame particles' velocity, and the turn of its
+    /// last step.
+    fn state_of(&self, b: usize) -> BodyState {
+        let body = &self.bodies[b];
+        let mut linvel = Vec3::ZERO;
+        for (k, &i) in self.parts[self.body_parts(b)].iter().enumerate() {
+            linvel += self.v[i as usize] * self.beta_o[body.first as usize + k];
+        }
+        let turn = (body.rot * body.rot_prev.conjugate()).normalize();
+        let turn = if turn.w < 0.0 { -turn } else { turn };
+        let angvel = if self.last_dt > 0.0 {
+            turn.to_scaled_axis() / self.last_dt
+        } else {
+            Vec3::ZERO
+        };
+        BodyState {
+            pose: Transform::new(body.pos, body.rot),
+            linvel,
+            angvel,
+        }
+    }
+}
+
 impl Backend for ParticleBackend {
     fn add_ragdoll(
         &mut self,
@@ -383,25 +407,14 @@ impl Backend for ParticleBackend {
 
     fn body_states(&self, out: &mut Vec<BodyState>) {
         out.clear();
-        let dt = self.last_dt;
-        out.extend(self.bodies.iter().enumerate().map(|(b, body)| {
-            let mut linvel = Vec3::ZERO;
-            for (k, &i) in self.parts[self.body_parts(b)].iter().enumerate() {
-                linvel += self.v[i as usize] * self.beta_o[body.first as usize + k];
-            }
-            let turn = (body.rot * body.rot_prev.conjugate()).normalize();
-            let turn = if turn.w < 0.0 { -turn } else { turn };
-            let angvel = if dt > 0.0 {
-                turn.to_scaled_axis() / dt
-            } else {
-                Vec3::ZERO
-            };
-            BodyState {
-                pose: Transform::new(body.pos, body.rot),
-                linvel,
-                angvel,
-            }
-        }));
+        out.extend((0..self.bodies.len()).map(|b| self.state_of(b)));
+    }
+
+    fn body_states_of(&self, BodyId(first): BodyId, out: &mut [BodyState]) {
+        let n = self.bodies.len();
+        for (o, b) in out.iter_mut().zip(first..n) {
+            *o = self.state_of(b);
+        }
     }
 
     fn kinetic_energy(&self) -> f64 {

@@ -97,6 +97,17 @@ fn pose(t: &Transform) -> Pose {
 }
 
 impl RigidBackend {
+    /// The body of handle `h` as the world reads it.
+    fn state_of(&self, h: RigidBodyHandle) -> BodyState {
+        let rb = &self.world.bodies[h];
+        let p = rb.position();
+        BodyState {
+            pose: Transform::new(p.translation, p.rotation),
+            linvel: rb.linvel(),
+            angvel: rb.angvel(),
+        }
+    }
+
     /// Deepest contact penetration of the last step, metres: between bodies that may
     /// collide, and with the ground.
     fn max_penetration(&self) -> f32 {
@@ -407,15 +418,14 @@ impl Backend for RigidBackend {
 
     fn body_states(&self, out: &mut Vec<BodyState>) {
         out.clear();
-        out.extend(self.bodies.iter().map(|&h| {
-            let rb = &self.world.bodies[h];
-            let p = rb.position();
-            BodyState {
-                pose: Transform::new(p.translation, p.rotation),
-                linvel: rb.linvel(),
-                angvel: rb.angvel(),
-            }
-        }));
+        out.extend(self.bodies.iter().map(|&h| self.state_of(h)));
+    }
+
+    fn body_states_of(&self, BodyId(first): BodyId, out: &mut [BodyState]) {
+        let handles = self.bodies.get(first..).unwrap_or_default();
+        for (o, &h) in out.iter_mut().zip(handles) {
+            *o = self.state_of(h);
+        }
     }
 
     fn ground_half_extent(&self) -> Option<f32> {
