@@ -152,9 +152,9 @@ impl FastBackend {
         self.solve_pair_contacts();
     }
 
-    /// The candidate pairs' contacts of this substep: all of [`FastBackend::solve_contacts`]
-    /// for the solver that holds the contacts between two parts of an island (`split.rs`),
-    /// which has no ground of its own.
+    /// The candidate pairs' contacts of this substep: the share of
+    /// [`FastBackend::solve_contacts`] that the seam between the two halves of an island
+    /// (`split.rs`), which has no ground of its own, runs alone.
     pub(super) fn solve_pair_contacts(&mut self) {
         for k in 0..self.collide.pairs.len() {
             let (a, b) = self.collide.pairs[k];
