@@ -380,17 +380,22 @@ fn a_drop_follows_the_rigid_backend() {
     );
 }
 
+/// Runs `f` on a rayon pool of `threads`.
+fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(f)
+}
+
 #[test]
 fn islands_give_the_same_run_on_one_thread_or_two() {
     // Four humanoids far apart are four islands, solved in parallel: the tracks must not
     // depend on how many threads there are or which island runs first.
     let (character, spec) = humanoid();
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
+        on_threads(threads, || {
             let mut world = World::new(&fast()).unwrap();
             for k in 0..4 {
                 let place = Transform::from_translation(Vec3::new(3.0 * k as f32, 0.0, 0.0));
@@ -526,11 +531,7 @@ fn a_pile_of_sixteen_runs_the_same_on_one_thread_or_two() {
     // pass): the run must not depend on the threads, and the pile must land as piles do,
     // nothing gaining energy or sinking through the floor, the joints together.
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
+        on_threads(threads, || {
             let (mut world, ids, spec) = pile(16, &fast());
             world.run(3.0);
             let lowest = ids

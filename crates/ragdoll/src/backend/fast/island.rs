@@ -13,32 +13,11 @@ use super::{FastBackend, Pin, Ragdoll};
 use crate::math::Transform;
 
 /// Calls the macro `$m` with every array of the solver that holds one entry per body of
-/// the world (per body or shape in an island's solver), so clearing and copying a body
-/// name them in one place.
+/// the world (per body or shape in an island's solver: its state, shape and holder), so
+/// clearing and copying a body name them in one place.
 macro_rules! per_body {
     ($m:ident) => {
-        $m!(
-            pos,
-            rot,
-            prev_pos,
-            prev_rot,
-            moved,
-            pred_rot,
-            vel,
-            angvel,
-            step_pos,
-            step_rot,
-            seen_vel,
-            seen_angvel,
-            mass,
-            inv_mass,
-            inertia,
-            inv_inertia,
-            inv_inertia_world,
-            shape,
-            holder,
-            kinematic
-        )
+        body_state!($m, shape, holder)
     };
 }
 

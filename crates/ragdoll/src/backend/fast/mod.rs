@@ -31,6 +31,36 @@
 //! solver until a blow arrives (`freeze.rs`): a ragdoll in flight or settling costs a
 //! fraction of one whose every joint moves.
 
+/// Calls the macro `$m` with every array of the solver that holds one entry per body
+/// (its state: pose, motion, mass, kinematic target), then with `$extra`: copying a body
+/// into an island's solver (`island.rs`) or the seam between two halves (`split.rs`)
+/// names them in one place.
+macro_rules! body_state {
+    ($m:ident $(, $extra:ident)*) => {
+        $m!(
+            pos,
+            rot,
+            prev_pos,
+            prev_rot,
+            moved,
+            pred_rot,
+            vel,
+            angvel,
+            step_pos,
+            step_rot,
+            seen_vel,
+            seen_angvel,
+            mass,
+            inv_mass,
+            inertia,
+            inv_inertia,
+            inv_inertia_world,
+            kinematic
+            $(, $extra)*
+        )
+    };
+}
+
 mod body;
 mod box_box;
 mod box_capsule;

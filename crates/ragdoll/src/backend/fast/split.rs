@@ -233,26 +233,7 @@ impl Seam {
         macro_rules! copy {
             ($($f:ident),*) => { $( s.$f.push(part.$f[i]); )* };
         }
-        copy!(
-            pos,
-            rot,
-            prev_pos,
-            prev_rot,
-            moved,
-            pred_rot,
-            vel,
-            angvel,
-            step_pos,
-            step_rot,
-            seen_vel,
-            seen_angvel,
-            mass,
-            inv_mass,
-            inertia,
-            inv_inertia,
-            inv_inertia_world,
-            kinematic
-        );
+        body_state!(copy);
         s.ragdoll_of.push(self.ragdoll_here[p][r] as usize);
         let here = s.pos.len() as u32 - 1;
         self.body_from.push((p as u32, i as u32));
