@@ -14,7 +14,8 @@ use ragdoll::skeleton;
 use ragdoll::spec::{self, BuildOptions};
 use ragdoll::track::Metrics;
 use ragdoll::world::{
-    BackendKind, DEFAULT_FAST_IMPACT_PASSES, MAX_FAST_ITERATIONS, Motors, World, WorldSettings,
+    BackendKind, DEFAULT_FAST_IMPACT_PASSES, DEFAULT_FAST_SUBSTEPS, MAX_FAST_ITERATIONS,
+    MAX_SUBSTEPS, Motors, World, WorldSettings,
 };
 use rayon::prelude::*;
 use serde_json::json;
@@ -66,6 +67,15 @@ pub struct BenchArgs {
     /// below sleep), to measure what freezing saves and costs.
     #[arg(long)]
     no_freeze: bool,
+    /// Substeps of the fast backend per 1/60 s step (1 to 100; default 32): fewer trade
+    /// penetration, joint gaps and limits for speed (the benchmarks page has the table).
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        default_value_t = DEFAULT_FAST_SUBSTEPS,
+        value_name = "N"
+    )]
+    fast_substeps: usize,
     /// Passes of the fast backend's joints and contacts per substep (1 to 8; default 1):
     /// two hold limits and joints tighter for about 1.5 times the time.
     #[arg(
@@ -193,6 +203,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
         for &t in &threads {
             let mut engine = crate::commands::engine(backend, !a.no_freeze);
             if let Some(f) = engine.fast_mut() {
+                f.substeps = a.fast_substeps;
                 f.iterations = a.fast_iterations;
                 f.impact_passes = a.impact_passes;
             }
@@ -253,6 +264,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             let mut run = run_json(&row, backend, a.steps);
             let fast = settings.backend.fast();
             run["freeze_joints"] = json!(fast.is_some_and(|f| f.freeze_joints));
+            run["fast_substeps"] = json!(fast.map(|f| f.substeps));
             run["fast_iterations"] = json!(fast.map(|f| f.iterations));
             run["fast_impact_passes"] = json!(fast.map(|f| f.impact_passes));
             run["pile_height"] = json!(piles.height);
@@ -295,6 +307,12 @@ fn check_args(a: &BenchArgs) -> Result<Vec<usize>> {
         a.steps,
         threads.len() * (1 + usize::from(a.compare) + usize::from(a.reference)),
     )?;
+    if !(1..=MAX_SUBSTEPS).contains(&a.fast_substeps) {
+        bail!(
+            "--fast-substeps: must be between 1 and {MAX_SUBSTEPS}, not {}",
+            a.fast_substeps
+        );
+    }
     if !(1..=MAX_FAST_ITERATIONS).contains(&a.fast_iterations) {
         bail!(
             "--fast-iterations: must be between 1 and {MAX_FAST_ITERATIONS}, not {}",

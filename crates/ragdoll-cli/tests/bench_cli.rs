@@ -67,6 +67,23 @@ fn bench_measures_a_settled_pile_apart_from_its_impacts() {
     assert!((0.0..=0.01).contains(&overlap), "{run}");
 }
 
+/// The fast engine's substeps are the bench's to set, so the trade of speed for fidelity
+/// can be reproduced: the run says what it used, and a count out of range is refused.
+#[test]
+fn bench_sets_the_fast_substeps() {
+    let run = bench_run("fast --ragdolls 2 --steps 5 --threads 1 --fast-substeps 8");
+    assert_eq!(run["fast_substeps"], 8, "{run}");
+    let run = bench_run("fast --ragdolls 2 --steps 5 --threads 1");
+    assert_eq!(run["fast_substeps"], 32, "{run}");
+    let tmp = tempfile::tempdir().unwrap();
+    let o = ragdoll(
+        tmp.path(),
+        &["bench", "--backend", "fast", "--fast-substeps", "0"],
+    );
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--fast-substeps"), "{}", stderr(&o));
+}
+
 /// The first run of `ragdoll bench --json --backend ARGS` (a backend, then the rest of the
 /// arguments, space-separated).
 fn bench_run(args: &str) -> Value {
