@@ -76,6 +76,11 @@ pub struct BenchArgs {
         value_name = "N"
     )]
     fast_substeps: usize,
+    /// Let the fast backend carry a contact over its substeps while the two shapes move
+    /// less than half a millimetre against each other, instead of finding it again (off
+    /// by default; the benchmarks page has what it saves and costs).
+    #[arg(long)]
+    keep_contacts: bool,
     /// Passes of the fast backend's joints and contacts per substep (1 to 8; default 1):
     /// two hold limits and joints tighter for about 1.5 times the time.
     #[arg(
@@ -204,6 +209,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             let mut engine = crate::commands::engine(backend, !a.no_freeze);
             if let Some(f) = engine.fast_mut() {
                 f.substeps = a.fast_substeps;
+                f.keep_contacts = a.keep_contacts;
                 f.iterations = a.fast_iterations;
                 f.impact_passes = a.impact_passes;
             }
@@ -265,6 +271,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             let fast = settings.backend.fast();
             run["freeze_joints"] = json!(fast.is_some_and(|f| f.freeze_joints));
             run["fast_substeps"] = json!(fast.map(|f| f.substeps));
+            run["keep_contacts"] = json!(fast.is_some_and(|f| f.keep_contacts));
             run["fast_iterations"] = json!(fast.map(|f| f.iterations));
             run["fast_impact_passes"] = json!(fast.map(|f| f.impact_passes));
             run["pile_height"] = json!(piles.height);

@@ -211,6 +211,14 @@ fn bench_no_freeze(_: &Path, o: &Output) {
     let v: serde_json::Value = serde_json::from_str(&out(o)).unwrap();
     assert_eq!(v["runs"][0]["freeze_joints"], false);
 }
+fn bench_eight_substeps(_: &Path, o: &Output) {
+    let v: serde_json::Value = serde_json::from_str(&out(o)).unwrap();
+    assert_eq!(v["runs"][0]["fast_substeps"], 8);
+}
+fn bench_kept_contacts(_: &Path, o: &Output) {
+    let v: serde_json::Value = serde_json::from_str(&out(o)).unwrap();
+    assert_eq!(v["runs"][0]["keep_contacts"], true);
+}
 fn bench_two_passes(_: &Path, o: &Output) {
     let v: serde_json::Value = serde_json::from_str(&out(o)).unwrap();
     assert_eq!(v["runs"][0]["fast_iterations"], 2);
@@ -469,6 +477,8 @@ fn bench() -> Vec<Case> {
         case("bench", "--json", base, &["--json"], Some(bench_json), &["--json=yes"], "--json"),
         case("bench", "--backend", base, &["--backend", "particle"], Some(bench_particle), &["--backend", "soft"], "--backend"),
         case("bench", "--no-freeze", &[&base[..], &["--backend", "fast", "--json"]].concat(), &["--no-freeze"], Some(bench_no_freeze), &["--no-freeze=yes"], "--no-freeze"),
+        case("bench", "--fast-substeps", &[&base[..], &["--backend", "fast", "--json"]].concat(), &["--fast-substeps", "8"], Some(bench_eight_substeps), &["--fast-substeps", "0"], "--fast-substeps"),
+        case("bench", "--keep-contacts", &[&base[..], &["--backend", "fast", "--json"]].concat(), &["--keep-contacts"], Some(bench_kept_contacts), &["--keep-contacts=yes"], "--keep-contacts"),
         case("bench", "--fast-iterations", &[&base[..], &["--backend", "fast", "--json"]].concat(), &["--fast-iterations", "2"], Some(bench_two_passes), &["--fast-iterations", "0"], "--fast-iterations"),
         case("bench", "--impact-passes", &[&base[..], &["--backend", "fast", "--json"]].concat(), &["--impact-passes", "0"], Some(bench_no_impact_passes), &["--impact-passes", "9"], "--impact-passes"),
         case("bench", "--pile-height", &[&base[..], &["--json"]].concat(), &["--pile-height", "2"], Some(bench_pile_of_two), &["--pile-height", "0"], "--pile-height"),

@@ -5,6 +5,7 @@
 
 use glam::Vec3;
 
+use super::kept::Kept;
 use super::narrow::{CLOSING_MARGIN_M, Found, ends};
 use super::solve::turn_rate;
 use super::{FRICTION, FastBackend};
@@ -65,6 +66,9 @@ pub(super) struct Collide {
     pub wait: Vec<f32>,
     /// Per pair: the fastest the two may close on each other in this step, m/s.
     pub closing: Vec<f32>,
+    /// Per pair: its contact as last found, touching or apart, with
+    /// `FastConfig::keep_contacts` on (`kept.rs`).
+    pub kept: Vec<Option<Kept>>,
     /// Per ragdoll: the fastest any point of it moves at the step's start, m/s, and the
     /// farthest one may go in the step, metres.
     pub ragdoll_speed: Vec<(f32, f32)>,
@@ -187,16 +191,32 @@ impl FastBackend {
         }
     }
 
-    /// [`FastBackend::pair_contact`] of candidate pair `k` (shapes `a` and `b`); when the
-    /// two are farther apart, the pair's next test waits for as long as they need to
-    /// close the gap (`Collide::wait`), for the rest of the step when they cannot.
+    /// [`FastBackend::pair_contact`] of candidate pair `k` (shapes `a` and `b`), or its
+    /// last one carried along while the two have barely moved against each other
+    /// (`kept.rs`); when the two are farther apart, the pair's next test waits for as
+    /// long as they need to close the gap (`Collide::wait`), for the rest of the step
+    /// when they cannot.
     fn pair_contact_rescheduled(&mut self, k: usize, a: usize, b: usize) -> Option<Found> {
         let c = &self.collide;
         let Some(&speed) = c.closing.get(k) else {
             return self.pair_contact(a, b);
         };
+        let carried = c
+            .kept
+            .get(k)
+            .and_then(Option::as_ref)
+            .and_then(|kept| self.carry_contact(a, b, kept));
         let left = (c.dt - c.elapsed).max(0.0);
-        let found = self.pair_contact_within(a, b, TOUCH_M + speed * left + CLOSING_MARGIN_M);
+        let found = carried.or_else(|| {
+            let found = self.pair_contact_within(a, b, TOUCH_M + speed * left + CLOSING_MARGIN_M);
+            if self.settings.keep_contacts {
+                let kept = found.as_ref().map(|f| self.keep_contact(a, b, f));
+                if let Some(slot) = self.collide.kept.get_mut(k) {
+                    *slot = kept;
+                }
+            }
+            found
+        });
         let c = &mut self.collide;
         match found {
             Some(f) if f.depth > -TOUCH_M => Some(f),

@@ -337,6 +337,7 @@ mod tests {
             iterations: 1,
             impact_passes: 0,
             freeze_joints: true,
+            keep_contacts: false,
         });
         let shape = crate::spec::Shape::Capsule {
             radius_m: 0.05,

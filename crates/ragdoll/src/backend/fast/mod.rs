@@ -71,6 +71,7 @@ mod extras;
 mod freeze;
 mod impact;
 mod island;
+mod kept;
 mod limits;
 mod narrow;
 mod relay;
@@ -123,6 +124,9 @@ pub(crate) struct FastSettings {
     pub impact_passes: usize,
     /// Whether quiet joints freeze (`freeze.rs`).
     pub freeze_joints: bool,
+    /// Whether a pair's contact is carried over the substeps while its shapes barely
+    /// move against each other (`kept.rs`).
+    pub keep_contacts: bool,
 }
 
 /// A drive toward a relative rotation (see [`Backend::drive_joint`]).
@@ -322,6 +326,7 @@ impl FastBackend {
             iterations: config.iterations,
             impact_passes: config.impact_passes,
             freeze_joints: config.freeze_joints,
+            keep_contacts: config.keep_contacts,
         });
         engine.limits = config.project_limits.then(LimitProjection::default);
         engine

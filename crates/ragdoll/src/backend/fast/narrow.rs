@@ -198,12 +198,14 @@ impl FastBackend {
     /// (`split.rs`).
     pub(super) fn cull_pairs_with(&mut self, dt: f32, measure: bool) {
         let mut pairs = std::mem::take(&mut self.collide.pairs);
-        let (mut wait, mut closing) = (
+        let (mut wait, mut closing, mut kept) = (
             std::mem::take(&mut self.collide.wait),
             std::mem::take(&mut self.collide.closing),
+            std::mem::take(&mut self.collide.kept),
         );
         wait.clear();
         closing.clear();
+        kept.clear();
         if measure {
             self.measure_ragdoll_speeds(dt);
         }
@@ -222,9 +224,15 @@ impl FastBackend {
                 0.0
             });
             closing.push(speed);
+            kept.push(
+                self.settings
+                    .keep_contacts
+                    .then(|| self.keep_contact(a, b, &found)),
+            );
             true
         });
         self.collide.pairs = pairs;
+        self.collide.kept = kept;
         self.collide.wait = wait;
         self.collide.closing = closing;
         self.collide.dt = dt;
@@ -382,6 +390,7 @@ mod tests {
             iterations: 1,
             impact_passes: 0,
             freeze_joints: false,
+            keep_contacts: false,
         });
         let body = |pose, shape| BodyDesc {
             pose,

@@ -215,6 +215,7 @@ mod tests {
             iterations: 1,
             impact_passes: 3,
             freeze_joints: freeze,
+            keep_contacts: false,
         });
         let shape = Shape::Capsule {
             radius_m: 0.05,

@@ -364,6 +364,7 @@ mod tests {
             iterations: 1,
             impact_passes: 3,
             freeze_joints: true,
+            keep_contacts: false,
         });
         let shape = Shape::Capsule {
             radius_m: 0.05,
