@@ -50,6 +50,7 @@ fn set_engine(c: &mut BackendConfig, key: &str, v: &Bound<'_, PyAny>) -> PyResul
         (BackendConfig::Fast(c), "fast_iterations") => c.iterations = v.extract()?,
         (BackendConfig::Fast(c), "fast_impact_passes") => c.impact_passes = v.extract()?,
         (BackendConfig::Fast(c), "freeze_joints") => c.freeze_joints = v.extract()?,
+        (BackendConfig::Fast(c), "keep_contacts") => c.keep_contacts = v.extract()?,
         (BackendConfig::Fast(c), "project_limits") => c.project_limits = v.extract()?,
         (c, key) => {
             let owner = match key {
@@ -57,9 +58,8 @@ fn set_engine(c: &mut BackendConfig, key: &str, v: &Bound<'_, PyAny>) -> PyResul
                 "project_limits" => Some("rigid and fast"),
                 "collision_substeps" => Some("rigid and particle"),
                 "particle_substeps" | "particle_iterations" => Some("particle"),
-                "fast_substeps" | "fast_iterations" | "fast_impact_passes" | "freeze_joints" => {
-                    Some("fast")
-                }
+                "fast_substeps" | "fast_iterations" | "fast_impact_passes" | "freeze_joints"
+                | "keep_contacts" => Some("fast"),
                 _ => None,
             };
             return Err(match owner {

@@ -38,7 +38,8 @@ const LOOK_UP: Duration = Duration::from_millis(20);
 /// chosen backend's own: `substeps`, `iterations`, `collision_substeps` and
 /// `project_limits` (rigid), `collision_substeps`, `particle_substeps` and
 /// `particle_iterations` (particle), `fast_substeps`, `fast_iterations`,
-/// `fast_impact_passes`, `freeze_joints` and `project_limits` (fast). Another backend's setting is refused.
+/// `fast_impact_passes`, `freeze_joints`, `keep_contacts` and `project_limits` (fast). Another
+/// backend's setting is refused.
 #[pyclass(module = "ragdoll_sim")]
 pub struct World {
     scene: Arc<Scene>,

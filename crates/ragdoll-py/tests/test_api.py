@@ -149,7 +149,10 @@ def test_errors_are_exceptions_with_their_place(tmp_path):
     with pytest.raises(rd.BoundError) as e:
         rd.World("rigid", fast_iterations=2)
     assert e.value.key == "fast_iterations" and "fast backend" in str(e.value)
-    rd.World("fast", fast_iterations=2, freeze_joints=False)
+    with pytest.raises(rd.BoundError) as e:
+        rd.World("particle", keep_contacts=True)
+    assert e.value.key == "keep_contacts" and "fast backend" in str(e.value)
+    rd.World("fast", fast_iterations=2, freeze_joints=False, keep_contacts=True)
     with pytest.raises(rd.BoundError) as e:
         rd.World("fast", fast_iterations=9)
     assert e.value.key == "fast_iterations"

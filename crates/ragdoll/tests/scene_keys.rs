@@ -355,6 +355,25 @@ fn fast_keys_wait_for_the_fast_engine() {
     assert_eq!(s.settings.backend, BackendKind::Particle.into());
 }
 
+/// `fast_substeps` and `keep_contacts` reach the fast engine's settings (the defaults
+/// unless given); a count out of range is refused at its key's line.
+#[test]
+fn fast_substeps_and_kept_contacts_are_settings_of_the_fast_engine() {
+    let f = fast_engine(&load("backend = \"fast\"\n[[character]]\n"));
+    assert_eq!(f.substeps, ragdoll::world::DEFAULT_FAST_SUBSTEPS);
+    assert!(!f.keep_contacts);
+    let f = fast_engine(&load(
+        "backend = \"fast\"\nfast_substeps = 16\nkeep_contacts = true\n[[character]]\n",
+    ));
+    assert!(f.substeps == 16 && f.keep_contacts, "{f:?}");
+    let (line, m) = failure("fps = 30\nfast_substeps = 0\n[[character]]\n", "");
+    assert_eq!(line, 2, "{m}");
+    assert!(
+        m.contains("fast_substeps") && m.contains("between 1 and 100"),
+        "{m}"
+    );
+}
+
 /// `fast_impact_passes` reaches the world's settings (the default unless given; 0 turns
 /// them off); more than the most passes a substep takes is refused at its key's line.
 #[test]

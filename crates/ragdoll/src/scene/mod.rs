@@ -113,8 +113,8 @@ pub struct Scene {
     pub duration_s: f32,
     /// How the world steps: fps, gravity, ground, start pose, the engine.
     pub settings: WorldSettings,
-    /// The fast engine's settings as the file gives them (`fast_iterations`,
-    /// `fast_impact_passes`, `freeze_joints`), kept whatever its backend, so that
+    /// The fast engine's settings as the file gives them (`fast_substeps`,
+    /// `fast_iterations`, `fast_impact_passes`, `freeze_joints`, `keep_contacts`), kept whatever its backend, so that
     /// switching to the fast engine ([`Scene::set_backend`]) keeps them.
     pub fast: FastConfig,
     /// The characters, in file order (their index is the `character` index in reports).

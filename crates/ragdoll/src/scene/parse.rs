@@ -262,6 +262,9 @@ fn fast_config(top: &Ctx, raw: &RawScene) -> Result<FastConfig> {
     if let Some(f) = &raw.freeze_joints {
         fast.freeze_joints = *f.get_ref();
     }
+    if let Some(k) = &raw.keep_contacts {
+        fast.keep_contacts = *k.get_ref();
+    }
     // Each count is checked as it is read, so the error points at its own key.
     let check = |fast: FastConfig, n: &S<u32>, key: &str| match BackendConfig::Fast(fast).validate()
     {
@@ -270,6 +273,10 @@ fn fast_config(top: &Ctx, raw: &RawScene) -> Result<FastConfig> {
         }
         _ => Ok(()),
     };
+    if let Some(n) = &raw.fast_substeps {
+        fast.substeps = *n.get_ref() as usize;
+        check(fast, n, "fast_substeps")?;
+    }
     if let Some(n) = &raw.fast_iterations {
         fast.iterations = *n.get_ref() as usize;
         check(fast, n, "fast_iterations")?;

@@ -22,6 +22,8 @@ pub(super) struct RawScene {
     pub(super) backend: Option<S<String>>,
     pub(super) joint_damping: Option<S<f32>>,
     pub(super) freeze_joints: Option<S<bool>>,
+    pub(super) keep_contacts: Option<S<bool>>,
+    pub(super) fast_substeps: Option<S<u32>>,
     pub(super) fast_iterations: Option<S<u32>>,
     pub(super) fast_impact_passes: Option<S<u32>>,
     pub(super) start_pose: Option<S<StartPoseName>>,
