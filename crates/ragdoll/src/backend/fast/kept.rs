@@ -116,13 +116,8 @@ mod tests {
     /// Two bodies of the given shapes at the given poses, no ground, no gravity.
     fn two(shapes: [Shape; 2], poses: [Transform; 2]) -> FastBackend {
         let mut b = FastBackend::with_settings(super::super::FastSettings {
-            gravity: Vec3::ZERO,
-            ground: None,
-            substeps: 1,
-            iterations: 1,
-            impact_passes: 0,
-            freeze_joints: false,
             keep_contacts: true,
+            ..super::super::FastSettings::bare()
         });
         let body = |i: usize| BodyDesc {
             pose: poses[i],

@@ -129,6 +129,23 @@ pub(crate) struct FastSettings {
     pub keep_contacts: bool,
 }
 
+#[cfg(test)]
+impl FastSettings {
+    /// One substep of one pass, no gravity, ground, impact passes or freezing: an engine
+    /// whose tests look at its geometry, not its dynamics.
+    pub(super) fn bare() -> Self {
+        FastSettings {
+            gravity: Vec3::ZERO,
+            ground: None,
+            substeps: 1,
+            iterations: 1,
+            impact_passes: 0,
+            freeze_joints: false,
+            keep_contacts: false,
+        }
+    }
+}
+
 /// A drive toward a relative rotation (see [`Backend::drive_joint`]).
 #[derive(Clone, Copy, Debug)]
 struct Drive {

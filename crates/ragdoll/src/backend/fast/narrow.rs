@@ -383,15 +383,7 @@ mod tests {
 
     /// A box body and a capsule body at the given poses, no ground.
     fn box_and_capsule(box_pose: Transform, capsule_pose: Transform) -> FastBackend {
-        let mut b = FastBackend::with_settings(super::super::FastSettings {
-            gravity: Vec3::ZERO,
-            ground: None,
-            substeps: 1,
-            iterations: 1,
-            impact_passes: 0,
-            freeze_joints: false,
-            keep_contacts: false,
-        });
+        let mut b = FastBackend::with_settings(super::super::FastSettings::bare());
         let body = |pose, shape| BodyDesc {
             pose,
             shape,
