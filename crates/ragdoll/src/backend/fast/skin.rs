@@ -165,6 +165,9 @@ impl FastBackend {
                     self.skin_shift(k, &r, -t * (c / wt));
                 }
             }
+            for &(b, _, _) in self.skin[k].parts() {
+                self.collide.on_ground[b as usize] = true;
+            }
             self.skin_touching.push(k as u32);
         }
     }

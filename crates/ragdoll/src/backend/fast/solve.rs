@@ -110,6 +110,7 @@ impl FastBackend {
     /// every body's predicted pose.
     pub(super) fn begin_substep(&mut self, h: f32, frac: f32, dt: f32) {
         self.collide.elapsed = frac * dt;
+        self.collide.h = h;
         self.apply_drives(h);
         self.integrate(h, frac);
     }

@@ -50,7 +50,7 @@ pub(super) fn worth_cutting(ragdolls: usize, awake: usize) -> bool {
 const SEAM_COST: f32 = 1.5;
 
 /// A holder in the other half: the shape is held, by nothing this solver holds.
-const ELSEWHERE: u32 = u32::MAX - 2;
+pub(super) const ELSEWHERE: u32 = u32::MAX - 2;
 /// Not held by this solver.
 const ABSENT: u32 = u32::MAX;
 
@@ -265,7 +265,14 @@ impl Seam {
             s.holder[e] = here;
             self.holder_in[e] = here;
         }
+        s.collide.on_ground.clear();
+        s.collide.on_ground.extend(
+            self.body_from
+                .iter()
+                .map(|&(p, i)| parts[p as usize].collide.on_ground[i as usize]),
+        );
         s.collide.elapsed = elapsed;
+        s.collide.h = parts[0].collide.h;
         s.collide.forget_contacts();
         s.solve_pair_contacts();
         for (e, &(p, i)) in self.body_from.iter().enumerate() {
