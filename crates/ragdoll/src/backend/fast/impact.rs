@@ -1,7 +1,7 @@
 //! Impacts ahead: how fast each ragdoll may strike the ground or another body in the
 //! coming step. A ragdoll about to strike faster than [`IMPACT_MPS`] has its island take
-//! [`crate::world::WorldSettings::fast_impact_passes`] more passes this step; one about to
-//! strike at all thaws (`freeze.rs`).
+//! [`crate::backend::FastConfig::impact_passes`] more passes this step; one about to strike
+//! at all thaws (`freeze.rs`).
 //!
 //! An impact is where one pass a substep falls short: a light part struck by the ground
 //! or a falling body takes a blow the joints behind it have to hand on to the rest of the

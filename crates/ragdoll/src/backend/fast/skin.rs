@@ -1,4 +1,4 @@
-//! Skin points on the ground ([`crate::spec::RagdollSpec::skin_points`]): a point of skin
+//! Skin points on the ground ([`crate::spec::skin_points`]): a point of skin
 //! several bodies carry is where linear blend skinning puts it, `p = Σ wₖ (xₖ + Rₖ lₖ)`,
 //! and its contact with the ground is one XPBD constraint on all of them: `C = p·n − g`,
 //! whose gradient moves body `k` by `wₖ` of the correction, so its generalised inverse

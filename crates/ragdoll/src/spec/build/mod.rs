@@ -17,6 +17,7 @@
 mod attach;
 mod collision;
 mod extras;
+mod fit;
 mod joints;
 mod masses;
 mod order;

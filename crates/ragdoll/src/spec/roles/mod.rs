@@ -1,22 +1,3 @@
-//! Recognising what each joint is (pelvis, thigh, …) from topology and geometry.
-//!
-//! Names are unreliable (CesiumMan has none, mocap rigs disagree on every word), so the
-//! skeleton's shape decides and names are only a tie-breaker for left and right:
-//!
-//! 1. **Pelvis**: a joint with two child chains hanging down to the ground (legs, mirror
-//!    images of each other) and one rising chain (the spine).
-//! 2. **Chest**: along the spine, the joint where two lateral, mirror-image chains branch
-//!    (arms) that do not reach the ground (a quadruped's front legs do). The pelvis→chest
-//!    line must be near vertical; otherwise the creature is not a standing humanoid (Fox).
-//! 3. **Neck, head**: the joints continuing the spine above the chest.
-//! 4. **Limbs**: within each leg or arm chain the two longest consecutive segments are the
-//!    upper and lower limb (thigh/shin, upper arm/forearm); the joint ending the lower one
-//!    is the foot or hand. Collars, buttocks, toes, fingers ride on their neighbours.
-//! 5. **Facing**: from the feet (ankle → toes), else the knees' bend, else left/right in
-//!    the names, else +Z. Left is `up × forward`.
-//!
-//! Anything else becomes a [`Role::Chain`] link (non-humanoids) or rides on its parent.
-
 //! Recognising what each joint is (pelvis, thigh, …), in named passes each testable alone:
 //!
 //! 1. **Name hints** (`names.rs`): what each joint's name says across the naming styles
@@ -53,6 +34,7 @@ mod rig;
 mod role_file;
 mod side;
 mod structure;
+mod thresholds;
 mod upright;
 
 use glam::{Quat, Vec3};
@@ -63,6 +45,7 @@ pub use manual::{roles_for, roles_with_file};
 pub(crate) use names::{NameHint, Part, name_hint};
 pub(crate) use rig::Rig;
 pub use role_file::{MAX_ROLE_FILE_ENTRIES, RoleFile};
+use thresholds::*;
 
 use super::Role;
 use crate::math::Transform;
@@ -463,60 +446,6 @@ fn first_frame(character: &Character) -> Option<Vec<Transform>> {
         .any(|(a, b)| a.translation.distance(b.translation) > 1e-6);
     (moved && world.iter().all(|t| t.translation.is_finite())).then_some(world)
 }
-
-// --- Tuning, as fractions of the standing height H unless said otherwise ----------------
-
-/// A leg's lowest point is within this of the ground: feet stand on it in a rest pose,
-/// with room for a raised foot or a thick sole.
-const LEG_GROUND_TOLERANCE_H: f32 = 0.15;
-/// Legs hang at least this far below the pelvis (about half of H on real people).
-const LEG_MIN_DROP_H: f32 = 0.3;
-/// A limb stood on hangs from a joint at least this fraction of the skeleton's extent
-/// above the ground: a dog's hips (a third of its 1.5 m extent), a dachshund's (0.15 m of
-/// 0.9); a person lying flat has nothing higher than about a tenth.
-const LIMB_MIN_DROP_OF_EXTENT: f32 = 0.12;
-/// A skeleton standing on this many limbs or more is a creature, not a person lying down.
-const STANDING_LIMBS_OF_A_CREATURE: usize = 4;
-/// Joints walked up from a foot (or a fingertip) looking for where its limb branches off:
-/// an arm with its fingers has eight; the bound keeps a 65,536-deep chain linear.
-const MAX_LIMB_WALK: usize = 16;
-/// Legs do not rise more than this above the pelvis joint (CMU's buttock joints sit a
-/// little above it).
-const LEG_MAX_RISE_H: f32 = 0.1;
-/// The spine chain rises at least this far above the pelvis (the head is ~0.45 H above).
-const SPINE_MIN_RISE_H: f32 = 0.25;
-/// Largest angle of the pelvis→chest line from vertical for a standing humanoid; a
-/// quadruped's back is near horizontal.
-const SPINE_MAX_TILT_DEG: f32 = 40.0;
-/// An arm's joints are on average at least this far from the mid-plane (shoulders are
-/// about 0.1 H out).
-const ARM_MIN_LATERAL_H: f32 = 0.06;
-/// Arms stop at least this far above the ground (fingertips hang at ~0.38 H); front legs
-/// of a quadruped reach it.
-const ARM_MIN_CLEARANCE_H: f32 = 0.2;
-/// An arm chain (shoulder to fingertip ≈ 0.4 H) is at least this long.
-const ARM_MIN_LENGTH_H: f32 = 0.2;
-/// Mirror limbs differ in length by at most this fraction.
-const LIMB_LENGTH_TOLERANCE: f32 = 0.25;
-/// The legs' centres are at least this far apart sideways, else there is no left/right.
-const MIN_LEG_SEPARATION_H: f32 = 0.02;
-/// A facing cue (feet, knees) must be at least this big to be trusted.
-const FORWARD_CUE_MIN_H: f32 = 0.01;
-/// Feet must point mostly forward (|forward part| / |horizontal part|) to be a cue;
-/// a sideways foot says nothing.
-const FOOT_CUE_MIN_ALIGNMENT: f32 = 0.5;
-/// Non-humanoid bones shorter than this fraction of the skeleton's extent AND shorter
-/// than [`CHAIN_MIN_MEDIAN_FRACTION`] of the median bone ride on their parent: too short
-/// to be stable bodies (end sites, toe nubs, helper offsets).
-const CHAIN_MIN_EXTENT_FRACTION: f32 = 0.03;
-/// See [`CHAIN_MIN_EXTENT_FRACTION`].
-const CHAIN_MIN_MEDIAN_FRACTION: f32 = 0.25;
-/// A leaf without an end site is assumed to continue its parent bone for this fraction
-/// of the parent's length (tails and fingers taper).
-pub(crate) const LEAF_LENGTH_FRACTION: f32 = 0.5;
-/// A joint counts as skinned when its vertex weights add up to at least this (half a
-/// vertex): joints nothing is weighted to are helpers (Fox's `_rootJoint`, `b_Root_00`).
-const MIN_SKIN_WEIGHT: f32 = 0.5;
 
 #[cfg(test)]
 pub(crate) mod tests;
