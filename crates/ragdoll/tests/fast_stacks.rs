@@ -81,30 +81,3 @@ fn a_stack_struck_from_below_rises_with_no_more_momentum_than_the_blow_gave() {
         }
     }
 }
-
-/// What the floor's help is for: a stack at rest stays at rest, its boxes neither sinking
-/// into each other nor climbing.
-#[test]
-fn a_resting_stack_stays_put() {
-    let (mut engine, _) = stack(8);
-    let mut before: Vec<BodyState> = Vec::new();
-    engine.body_states(&mut before);
-    for _ in 0..60 {
-        engine.step(DT);
-    }
-    let mut after: Vec<BodyState> = Vec::new();
-    engine.body_states(&mut after);
-    for (k, (a, b)) in before.iter().zip(&after).enumerate() {
-        let expected = SIDE_M * (k as f32 + 0.5);
-        let y = b.pose.translation.y;
-        assert!(
-            (y - expected).abs() < 0.01,
-            "box {k} at {y:.4} m after a second, {expected:.4} m stacked"
-        );
-        assert!(
-            (b.pose.translation - a.pose.translation).length() < 0.005,
-            "box {k} moved {:.4} m while at rest",
-            (b.pose.translation - a.pose.translation).length()
-        );
-    }
-}
