@@ -510,6 +510,9 @@ fn run_pile(
         metrics.max_penetration_m = metrics.max_penetration_m.max(m.max_penetration_m);
         metrics.max_joint_separation_m =
             metrics.max_joint_separation_m.max(m.max_joint_separation_m);
+        metrics.max_joint_separation_solver_m = metrics
+            .max_joint_separation_solver_m
+            .max(m.max_joint_separation_solver_m);
         metrics.energy_drift = metrics.energy_drift.max(m.energy_drift);
         metrics.max_bone_stretch = metrics.max_bone_stretch.max(m.max_bone_stretch);
         metrics.nan |= m.nan;

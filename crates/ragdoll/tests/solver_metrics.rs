@@ -1,6 +1,7 @@
 //! The limit metric read before the positional clamp (`max_limit_violation_solver_deg`)
 //! next to the one read after it: a clamp only lowers a violation, the two agree when there
-//! is no clamp, and in a pile, where the clamp does turn joints back, they differ.
+//! is no clamp, and in a pile, where the clamp does turn joints back, they differ. The
+//! same for joint gaps, which the rigid engine closes on positions too.
 
 mod common;
 
@@ -88,6 +89,45 @@ fn without_the_clamp_both_readings_are_the_same() {
         assert!(m.max_limit_violation_deg > 1.0, "{backend:?}: {m:?}");
         assert_eq!(
             m.max_limit_violation_solver_deg, m.max_limit_violation_deg,
+            "{backend:?}: {m:?}"
+        );
+    }
+}
+
+/// Joint gaps, like limits, are read before the rigid engine's projection narrows them: in
+/// the pile rapier opens joints wider than the millimetre the projection leaves, the
+/// recorded gap is within it, and with the projection of gaps off the two readings agree.
+#[test]
+fn joint_gaps_are_read_before_the_rigid_engine_narrows_them() {
+    let rigid = |gap_tolerance_m| {
+        pile(&WorldSettings {
+            backend: BackendConfig::Rigid(RigidConfig {
+                gap_tolerance_m,
+                ..Default::default()
+            }),
+            ..Default::default()
+        })
+    };
+    let closed = rigid(Some(0.001));
+    assert!(
+        closed.max_joint_separation_solver_m > 0.002,
+        "rapier held every joint in the pile? {closed:?}"
+    );
+    assert!(closed.max_joint_separation_m <= 0.001 + 1e-5, "{closed:?}");
+    let open = rigid(None);
+    assert_eq!(
+        open.max_joint_separation_solver_m, open.max_joint_separation_m,
+        "{open:?}"
+    );
+    assert!(open.max_joint_separation_m > 0.002, "{open:?}");
+    // The engines that narrow no gaps read the same twice.
+    for backend in [BackendKind::Fast, BackendKind::Particle] {
+        let m = pile(&WorldSettings {
+            backend: backend.into(),
+            ..Default::default()
+        });
+        assert_eq!(
+            m.max_joint_separation_solver_m, m.max_joint_separation_m,
             "{backend:?}: {m:?}"
         );
     }

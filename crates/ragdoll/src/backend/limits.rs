@@ -9,7 +9,7 @@
 //! runs it after the last of its collision substeps; an engine of someone else's can keep
 //! one too (the world no longer clamps on an engine's behalf).
 
-use glam::Quat;
+use glam::{Quat, Vec3};
 
 use super::ragdolls::{Held, Ragdolls};
 use super::tree::JointTree;
@@ -45,6 +45,7 @@ struct Ragdoll {
     joints: Vec<ResolvedJoint>,
     tree: JointTree,
     shapes: Vec<Shape>,
+    masses: Vec<f32>,
 }
 
 /// The joints of every ragdoll an engine holds, in the order added (so a [`JointId`] and a
@@ -91,9 +92,43 @@ struct Ragdoll {
 #[derive(Clone, Debug, Default)]
 pub struct LimitProjection {
     ragdolls: Ragdolls<Ragdoll>,
+    /// Joint gaps wider than this are narrowed to it, metres
+    /// ([`LimitProjection::closing_gaps`]);
+    /// `None` leaves gaps to the solver.
+    gap_tolerance_m: Option<f32>,
 }
 
 impl LimitProjection {
+    /// A projection that also narrows every joint gap wider than `tolerance_m` to it
+    /// (PhysX's and Unreal's joint projection): for an engine whose joints open for a step
+    /// now and then under an impact, which a skin bound to both sides shows as a tear. Both
+    /// sides of the joint move, each by the other's share of the mass, unless something
+    /// holds one (then the other moves alone); no body is moved into the ground.
+    pub fn closing_gaps(tolerance_m: f32) -> Self {
+        LimitProjection {
+            ragdolls: Ragdolls::default(),
+            gap_tolerance_m: Some(tolerance_m),
+        }
+    }
+
+    /// Whether it narrows joint gaps ([`LimitProjection::closing_gaps`]).
+    pub fn closes_gaps(&self) -> bool {
+        self.gap_tolerance_m.is_some()
+    }
+
+    /// The widest joint gap of the ragdolls with a dynamic body, metres, in `poses`: what
+    /// the solver left, read before [`LimitProjection::project`].
+    pub fn worst_separation(&self, poses: &[Transform], roles: &[BodyRole]) -> f32 {
+        let mut worst = 0.0f32;
+        for r in self.physical(roles) {
+            let p = &poses[r.first_body..r.first_body + r.shapes.len()];
+            for j in &r.joints {
+                worst = worst.max(j.separation(&p[j.parent], &p[j.child]));
+            }
+        }
+        worst
+    }
+
     /// Takes in a ragdoll whose first body has the engine's index `first_body`, with its
     /// joints (indices within the ragdoll, as [`super::Backend::add_ragdoll`] has them).
     pub fn add_ragdoll(&mut self, first_body: usize, bodies: &[BodyDesc], joints: &[JointDesc]) {
@@ -111,6 +146,7 @@ impl LimitProjection {
                 .collect(),
             tree: JointTree::new(bodies.len(), &links),
             shapes: bodies.iter().map(|b| b.shape).collect(),
+            masses: bodies.iter().map(|b| b.mass).collect(),
         };
         self.ragdolls.add(first_body, joints.len(), ragdoll);
     }
@@ -169,8 +205,9 @@ impl LimitProjection {
         worst
     }
 
-    /// Clamps every joint of the ragdolls with a dynamic body back into its limits, in
-    /// `poses`; returns the bodies moved (engine indices, each once, in order), for the
+    /// Clamps every joint of the ragdolls with a dynamic body back into its limits (and
+    /// narrows its gap, for a projection [`closing_gaps`](LimitProjection::closing_gaps)),
+    /// in `poses`; returns the bodies moved (engine indices, each once, in order), for the
     /// engine to set.
     ///
     /// Where turning a subtree would sink one of its bodies below `ground` (deeper than
@@ -191,82 +228,255 @@ impl LimitProjection {
             // As below: only a violation known to be small is skipped.
             let past = r.joints.iter().any(|j| {
                 let v = j.violation(&p[j.parent], &p[j.child]);
-                v >= tolerance || v.is_nan()
+                let gap = j.separation(&p[j.parent], &p[j.child]);
+                v >= tolerance || v.is_nan() || self.gap_tolerance_m.is_some_and(|t| gap > t)
             });
             if !past {
                 continue;
             }
             for &k in &r.tree.order {
-                project_joint(r, k, poses, roles, ground, &mut moved);
+                project_joint(r, k, poses, roles, ground, self.gap_tolerance_m, &mut moved);
             }
         }
         (0..poses.len()).filter(|&b| moved[b]).collect()
     }
 }
 
-/// Turns joint `k` of ragdoll `r` back into its limits, if it is past them.
+/// Turns joint `k` of ragdoll `r` back into its limits, if it is past them, and narrows
+/// its gap to `gap_tolerance_m` if it is wider.
 fn project_joint(
     r: &Held<Ragdoll>,
     k: usize,
     poses: &mut [Transform],
     roles: &[BodyRole],
     ground: Option<f32>,
+    gap_tolerance_m: Option<f32>,
     moved: &mut [bool],
 ) {
     let base = r.first_body;
     let j = &r.joints[k];
-    let (parent, child) = (poses[base + j.parent], poses[base + j.child]);
-    if j.violation(&parent, &child) < PROJECTION_TOLERANCE_DEG.to_radians() {
-        return;
-    }
-    let Some(rotation) = j.clamp_child_rotation(&parent, &child) else {
-        return;
-    };
-    let full = rotation * child.rotation.conjugate();
-    let anchor = child.transform_point(j.frame_child.translation);
-    let turn = |p: &Transform, delta: Quat| {
-        Transform::new(
-            anchor + delta * (p.translation - anchor),
-            (delta * p.rotation).normalize(),
-        )
-    };
     let held = |b: usize| roles[base + b].held;
     let subtree = r.tree.subtree(k);
-    let (turned, delta) = if subtree.iter().all(|&b| !held(b)) {
-        (subtree.to_vec(), full)
-    } else {
-        let rest: Vec<usize> = (0..r.shapes.len())
-            .filter(|&b| !r.tree.in_subtree(k, b))
-            .collect();
-        if rest.iter().any(|&b| held(b)) {
-            // Held on both sides: the holders decide.
-            return;
+    let rest: Vec<usize> = (0..r.shapes.len())
+        .filter(|&b| !r.tree.in_subtree(k, b))
+        .collect();
+    let subtree_free = subtree.iter().all(|&b| !held(b));
+    let rest_free = rest.iter().all(|&b| !held(b));
+    let (parent, child) = (poses[base + j.parent], poses[base + j.child]);
+    if j.violation(&parent, &child) >= PROJECTION_TOLERANCE_DEG.to_radians()
+        && let Some(rotation) = j.clamp_child_rotation(&parent, &child)
+    {
+        // The subtree turns about the anchor, unless something holds it: then the rest of
+        // the ragdoll turns the other way. Held on both sides, the holders decide.
+        let full = rotation * child.rotation.conjugate();
+        let anchor = child.transform_point(j.frame_child.translation);
+        let turn = |delta: Quat| {
+            move |_: usize, p: &Transform| {
+                Transform::new(
+                    anchor + delta * (p.translation - anchor),
+                    (delta * p.rotation).normalize(),
+                )
+            }
+        };
+        if subtree_free {
+            move_bodies(r, poses, roles, ground, moved, subtree, turn(full));
+        } else if rest_free {
+            move_bodies(
+                r,
+                poses,
+                roles,
+                ground,
+                moved,
+                &rest,
+                turn(full.conjugate()),
+            );
         }
-        (rest, full.conjugate())
+    }
+    let Some(tolerance) = gap_tolerance_m else {
+        return;
     };
-    // How far the turned bodies would sink below the ground beyond the slack (and beyond
-    // where they already were): the whole ragdoll is lifted by that much, so the limit
-    // wins without pushing a body into the floor.
+    let (parent, child) = (poses[base + j.parent], poses[base + j.child]);
+    let gap = parent.transform_point(j.frame_parent.translation)
+        - child.transform_point(j.frame_child.translation);
+    let width = gap.length();
+    // A NaN gap (a non-finite pose) is left alone too.
+    if width.is_nan() || width <= tolerance {
+        return;
+    }
+    // Narrowed to the tolerance, not closed: a gap a loaded joint keeps at rest is then
+    // moved once, not every step. Both sides move, each by the other's share of the mass,
+    // so the ragdoll's centre of mass stays where the solver left it (moving the child's
+    // side alone lifted a resting bird's chain a little every step: 1.5 % energy gained
+    // and still creeping after 6 s).
+    let close = gap * (1.0 - tolerance / width);
+    let mass_of = |bodies: &[usize]| bodies.iter().map(|&b| r.masses[b]).sum::<f32>();
+    let (m_sub, m_rest) = (mass_of(subtree), mass_of(&rest));
+    let (to_sub, to_rest) = match (subtree_free, rest_free) {
+        (true, true) if m_sub + m_rest > 0.0 => (
+            close * (m_rest / (m_sub + m_rest)),
+            -close * (m_sub / (m_sub + m_rest)),
+        ),
+        (true, _) => (close, Vec3::ZERO),
+        (false, true) => (Vec3::ZERO, -close),
+        (false, false) => return,
+    };
+    let all: Vec<usize> = (0..r.shapes.len()).collect();
+    move_bodies(r, poses, roles, ground, moved, &all, |b, p| {
+        let shift = if r.tree.in_subtree(k, b) {
+            to_sub
+        } else {
+            to_rest
+        };
+        Transform::new(p.translation + shift, p.rotation)
+    });
+}
+
+/// Moves `bodies` of ragdoll `r` by `motion` (given each body's index in the ragdoll and
+/// its pose). Where that would sink a body below `ground` (deeper than it already was,
+/// beyond a few millimetres), the whole ragdoll is lifted by that much instead: a limit
+/// wins without pushing a body into the floor.
+fn move_bodies(
+    r: &Held<Ragdoll>,
+    poses: &mut [Transform],
+    roles: &[BodyRole],
+    ground: Option<f32>,
+    moved: &mut [bool],
+    bodies: &[usize],
+    motion: impl Fn(usize, &Transform) -> Transform,
+) {
+    let base = r.first_body;
     let mut lift = 0.0f32;
     if let Some(g) = ground {
-        for &b in &turned {
+        for &b in bodies {
             let shape = &r.shapes[b];
             let before = shape.lowest_y(&poses[base + b]);
-            let after = shape.lowest_y(&turn(&poses[base + b], delta));
+            let after = shape.lowest_y(&motion(b, &poses[base + b]));
             let floor = (g - PROJECTION_GROUND_SLACK_M).min(before);
             lift = lift.max(floor - after);
         }
     }
-    for &b in &turned {
-        poses[base + b] = turn(&poses[base + b], delta);
-        moved[base + b] = true;
+    for &b in bodies {
+        let now = motion(b, &poses[base + b]);
+        if now != poses[base + b] {
+            poses[base + b] = now;
+            moved[base + b] = true;
+        }
     }
     // A held ragdoll is not lifted: its holder would pull it straight back.
-    let any_held = (0..r.shapes.len()).any(held);
+    let any_held = (0..r.shapes.len()).any(|b| roles[base + b].held);
     if lift > 0.0 && !any_held {
         for b in 0..r.shapes.len() {
             poses[base + b].translation.y += lift;
             moved[base + b] = true;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{Quat, Vec3};
+
+    /// A chain of three capsules hanging down from y = 3, joints at y = 2 and 1, every
+    /// joint a free ball (so only gaps are projected); the lowest body `drop_m` lower
+    /// than its joint allows.
+    fn chain(drop_m: f32) -> (LimitProjection, Vec<Transform>) {
+        let body = |y: f32| BodyDesc {
+            pose: Transform::new(Vec3::new(0.0, y, 0.0), Quat::IDENTITY),
+            shape: Shape::Capsule {
+                radius_m: 0.05,
+                length_m: 0.8,
+            },
+            extra_shapes: Vec::new(),
+            mass: 1.0,
+            linvel: Vec3::ZERO,
+            angvel: Vec3::ZERO,
+        };
+        let joint = |parent, child| JointDesc {
+            parent,
+            child,
+            frame_parent: Transform::new(Vec3::new(0.0, -0.5, 0.0), Quat::IDENTITY),
+            frame_child: Transform::new(Vec3::new(0.0, 0.5, 0.0), Quat::IDENTITY),
+            kind: JointKind::Ball,
+        };
+        let bodies = [body(2.5), body(1.5), body(0.5)];
+        let mut limits = LimitProjection::closing_gaps(0.001);
+        limits.add_ragdoll(0, &bodies, &[joint(0, 1), joint(1, 2)]);
+        let mut poses: Vec<Transform> = bodies.iter().map(|b| b.pose).collect();
+        poses[2].translation.y -= drop_m;
+        (limits, poses)
+    }
+
+    fn roles(held: [bool; 3]) -> Vec<BodyRole> {
+        held.map(|held| BodyRole {
+            dynamic: true,
+            held,
+        })
+        .to_vec()
+    }
+
+    #[test]
+    fn a_gap_past_the_tolerance_is_narrowed_to_it_keeping_the_centre_of_mass() {
+        let (limits, mut poses) = chain(0.005);
+        let r = roles([false; 3]);
+        let height = |p: &[Transform]| p.iter().map(|p| p.translation.y).sum::<f32>();
+        let before = height(&poses);
+        assert!((limits.worst_separation(&poses, &r) - 0.005).abs() < 1e-5);
+        assert_eq!(limits.project(&mut poses, &r, None), vec![0, 1, 2]);
+        assert!((limits.worst_separation(&poses, &r) - 0.001).abs() < 1e-5);
+        // The lowest body (a third of the mass) moved up two thirds of the 4 mm.
+        assert!((poses[2].translation.y - (0.495 + 0.004 * 2.0 / 3.0)).abs() < 1e-5);
+        assert!((height(&poses) - before).abs() < 1e-5);
+
+        // The lowest body held (a pin): the rest of the ragdoll comes down to it instead.
+        let (limits, mut poses) = chain(0.005);
+        let r = roles([false, false, true]);
+        assert_eq!(limits.project(&mut poses, &r, None), vec![0, 1]);
+        assert!((limits.worst_separation(&poses, &r) - 0.001).abs() < 1e-5);
+        assert!((poses[0].translation.y - 2.496).abs() < 1e-5);
+        assert!((poses[2].translation.y - 0.495).abs() < 1e-5);
+    }
+
+    #[test]
+    fn a_gap_within_the_tolerance_or_held_on_both_sides_is_left() {
+        let (limits, mut poses) = chain(0.0005);
+        assert!(
+            limits
+                .project(&mut poses, &roles([false; 3]), None)
+                .is_empty()
+        );
+        let (limits, mut poses) = chain(0.005);
+        assert!(
+            limits
+                .project(&mut poses, &roles([true, false, true]), None)
+                .is_empty()
+        );
+        // Without the tolerance, gaps are the solver's.
+        let (mut limits, mut poses) = chain(0.005);
+        limits.gap_tolerance_m = None;
+        assert!(
+            limits
+                .project(&mut poses, &roles([false; 3]), None)
+                .is_empty()
+        );
+    }
+
+    #[test]
+    fn narrowing_a_gap_pushes_no_body_into_the_ground() {
+        // The lowest body 5 cm above where its joint holds it, resting on the ground at
+        // y = 0.1: narrowing the gap would sink it 3 cm, so the whole ragdoll is lifted.
+        let (limits, mut poses) = chain(-0.05);
+        let r = roles([false; 3]);
+        let lowest = |p: &[Transform]| {
+            Shape::Capsule {
+                radius_m: 0.05,
+                length_m: 0.8,
+            }
+            .lowest_y(&p[2])
+        };
+        assert!((lowest(&poses) - 0.1).abs() < 1e-5);
+        assert_eq!(limits.project(&mut poses, &r, Some(0.1)), vec![0, 1, 2]);
+        assert!((limits.worst_separation(&poses, &r) - 0.001).abs() < 1e-5);
+        assert!(lowest(&poses) >= 0.1 - PROJECTION_GROUND_SLACK_M - 1e-5);
     }
 }

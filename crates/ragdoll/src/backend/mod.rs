@@ -158,6 +158,11 @@ pub struct StepReport {
     /// it, before that clamp. `None` for an engine that does not clamp: the world then
     /// reads the bodies as they are.
     pub limit_violation_before_clamp_rad: Option<f32>,
+    /// For an engine that also narrows joint gaps on positions after solving (the shared
+    /// [`limits::LimitProjection::closing_gaps`]): the widest gap as its solver left it,
+    /// metres, before that. `None` for an engine that does not: the world reads the
+    /// bodies as they are.
+    pub joint_separation_before_clamp_m: Option<f32>,
     /// Whether a body's state went non-finite in a way [`Backend::body_states`] does not
     /// show: rapier rolls such a body back, zeroes its velocities and disables it (its
     /// quarantine). The world then stops the run as for a non-finite state.
@@ -166,7 +171,7 @@ pub struct StepReport {
 
 impl StepReport {
     /// Folds in the report of a later step of the same world step: the worst limit
-    /// violation, any non-finite body, and the last step's penetration. The penetration
+    /// violation and joint gap before any clamp, any non-finite body, and the last step's penetration. The penetration
     /// of the collision substeps before the last is not read: the metric has always been
     /// the last substep's, and over all four the rigid engine lets a body 35 mm into the
     /// ground where the last reads 28 mm (10 kg of TNT 3 m from CesiumMan, the command
@@ -174,13 +179,18 @@ impl StepReport {
     /// until that engine keeps such a landing within the bound.
     pub(crate) fn absorb(&mut self, later: StepReport) {
         self.max_penetration_m = later.max_penetration_m;
-        self.limit_violation_before_clamp_rad = match (
-            self.limit_violation_before_clamp_rad,
-            later.limit_violation_before_clamp_rad,
-        ) {
+        let worst = |a: Option<f32>, b: Option<f32>| match (a, b) {
             (Some(a), Some(b)) => Some(a.max(b)),
             (a, b) => a.or(b),
         };
+        self.limit_violation_before_clamp_rad = worst(
+            self.limit_violation_before_clamp_rad,
+            later.limit_violation_before_clamp_rad,
+        );
+        self.joint_separation_before_clamp_m = worst(
+            self.joint_separation_before_clamp_m,
+            later.joint_separation_before_clamp_m,
+        );
         self.went_non_finite |= later.went_non_finite;
     }
 }

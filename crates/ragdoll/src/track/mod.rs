@@ -42,8 +42,16 @@ pub struct Metrics {
     /// (rapier's after its step, the particle backend's before its end-of-step pass), so
     /// unlike [`Metrics::max_limit_violation_deg`] it needs no second reading.
     pub max_penetration_m: f32,
-    /// Worst gap opening between the two sides of a joint anchor, metres.
+    /// Worst gap opening between the two sides of a joint anchor, metres, in what is
+    /// recorded: after any positional clamp that narrows gaps (see
+    /// [`Metrics::max_joint_separation_solver_m`]).
     pub max_joint_separation_m: f32,
+    /// The same, read before any such clamp: what the solver itself left (the rigid
+    /// engine narrows gaps on positions when its `gap_tolerance_m` asks it to, as PhysX's
+    /// joint projection does; otherwise the two readings agree). At least
+    /// [`Metrics::max_joint_separation_m`].
+    #[serde(default)]
+    pub max_joint_separation_solver_m: f32,
     /// Largest rise of total energy (kinetic + potential) between two output frames,
     /// relative to the energy at the start; 0 when it never rises. A passive ragdoll must
     /// not gain energy.

@@ -356,6 +356,14 @@ impl World {
         m.max_limit_violation_solver_deg =
             m.max_limit_violation_solver_deg.max(solver.to_degrees());
         self.measure_step();
+        // Likewise for joint gaps (after measuring what is recorded, which it bounds).
+        let m = &mut self.metrics;
+        let gap = self
+            .step_report
+            .joint_separation_before_clamp_m
+            .unwrap_or(0.0)
+            .max(m.max_joint_separation_m);
+        m.max_joint_separation_solver_m = m.max_joint_separation_solver_m.max(gap);
         self.record_frames_until(self.time);
     }
 

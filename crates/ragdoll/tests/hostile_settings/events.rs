@@ -376,6 +376,23 @@ fn world_settings_and_runs_are_bounded() {
         ..Default::default()
     });
     assert_eq!(setting_of(s.validate()).0, "substeps");
+    // A gap tolerance is a length: none below 0, none not finite; 0 is one.
+    for (tolerance, ok_) in [
+        (0.0, true),
+        (-0.001, false),
+        (f32::NAN, false),
+        (f32::INFINITY, false),
+    ] {
+        s.backend = world::BackendConfig::Rigid(world::RigidConfig {
+            gap_tolerance_m: Some(tolerance),
+            ..Default::default()
+        });
+        if ok_ {
+            s.validate().unwrap();
+        } else {
+            assert_eq!(setting_of(s.validate()).0, "gap_tolerance_m", "{tolerance}");
+        }
+    }
 
     // A run records at most MAX_TRACK_SAMPLES joint transforms: 100 s at 1000 fps is
     // 100 001 frames, so 99 joints fit and 100 do not.

@@ -133,6 +133,7 @@ impl Backend for FastBackend {
         StepReport {
             max_penetration_m: self.collide.max_penetration,
             limit_violation_before_clamp_rad: self.project_limits(),
+            joint_separation_before_clamp_m: None,
             went_non_finite: false,
         }
     }

@@ -401,6 +401,7 @@ impl Backend for ParticleBackend {
         StepReport {
             max_penetration_m: self.penetration,
             limit_violation_before_clamp_rad: Some(self.solver_violation),
+            joint_separation_before_clamp_m: None,
             went_non_finite: false,
         }
     }

@@ -161,7 +161,10 @@ impl RigidBackend {
             drives: Vec::new(),
             quarantined: false,
             ground: surroundings.ground,
-            limits: config.project_limits.then(LimitProjection::default),
+            limits: config.project_limits.then(|| match config.gap_tolerance_m {
+                Some(t) => LimitProjection::closing_gaps(t),
+                None => LimitProjection::default(),
+            }),
             world_substeps: config.collision_substeps.max(1),
             calls_this_step: 0,
             damping: JointDamping::default(),
@@ -258,9 +261,10 @@ impl RigidBackend {
         self.scratch_impulses = impulses;
     }
 
-    /// Turns every joint rapier left past its limits back inside them (see
-    /// [`LimitProjection`]); returns the worst violation before, radians.
-    fn project_limits(&mut self) -> Option<f32> {
+    /// Turns every joint rapier left past its limits back inside them and narrows the gaps
+    /// past the tolerance (see [`LimitProjection`]); returns the worst violation before,
+    /// radians, and the widest gap before, metres, if it narrows gaps.
+    fn project_limits(&mut self) -> Option<(f32, Option<f32>)> {
         let limits = self.limits.as_ref()?;
         let mut poses = Vec::with_capacity(self.bodies.len());
         let mut roles = Vec::with_capacity(self.bodies.len());
@@ -284,10 +288,13 @@ impl RigidBackend {
             }
         }
         let before = limits.worst_violation(&poses, &roles);
+        let gap_before = limits
+            .closes_gaps()
+            .then(|| limits.worst_separation(&poses, &roles));
         for b in limits.project(&mut poses, &roles, self.ground) {
             self.world.bodies[self.bodies[b]].set_position(pose(&poses[b]), false);
         }
-        Some(before)
+        Some((before, gap_before))
     }
 }
 
@@ -402,16 +409,17 @@ impl Backend for RigidBackend {
         self.quarantined |= !self.world.quarantine().is_empty();
         let max_penetration_m = self.max_penetration();
         self.calls_this_step += 1;
-        let mut limit_violation_before_clamp_rad = None;
+        let mut before_clamp = None;
         if self.calls_this_step >= self.world_substeps {
             self.calls_this_step = 0;
             if !self.quarantined {
-                limit_violation_before_clamp_rad = self.project_limits();
+                before_clamp = self.project_limits();
             }
         }
         StepReport {
             max_penetration_m,
-            limit_violation_before_clamp_rad,
+            limit_violation_before_clamp_rad: before_clamp.map(|(v, _)| v),
+            joint_separation_before_clamp_m: before_clamp.and_then(|(_, g)| g),
             went_non_finite: self.quarantined,
         }
     }
