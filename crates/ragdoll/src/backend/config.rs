@@ -244,7 +244,8 @@ impl BackendConfig {
     }
 
     /// Checks every count is within its bounds ([`MAX_SUBSTEPS`],
-    /// [`MAX_FAST_ITERATIONS`]) and the rigid engine's gap tolerance is a length; the error names the setting as the scene file does.
+    /// [`MAX_FAST_ITERATIONS`]) and the rigid engine's gap tolerance is a length; the
+    /// error names the setting as the scene file does.
     pub fn validate(&self) -> Result<()> {
         if let BackendConfig::Rigid(RigidConfig {
             gap_tolerance_m: Some(t),

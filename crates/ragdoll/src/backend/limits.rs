@@ -93,8 +93,7 @@ struct Ragdoll {
 pub struct LimitProjection {
     ragdolls: Ragdolls<Ragdoll>,
     /// Joint gaps wider than this are narrowed to it, metres
-    /// ([`LimitProjection::closing_gaps`]);
-    /// `None` leaves gaps to the solver.
+    /// ([`LimitProjection::closing_gaps`]); `None` leaves gaps to the solver.
     gap_tolerance_m: Option<f32>,
 }
 
@@ -103,7 +102,10 @@ impl LimitProjection {
     /// (PhysX's and Unreal's joint projection): for an engine whose joints open for a step
     /// now and then under an impact, which a skin bound to both sides shows as a tear. Both
     /// sides of the joint move, each by the other's share of the mass, unless something
-    /// holds one (then the other moves alone); no body is moved into the ground.
+    /// holds one (then the other moves alone); where that would sink a body into the
+    /// ground, the whole ragdoll is lifted instead, as for limits. Off by default: moves
+    /// of positions the solver did not make cost energy (see
+    /// [`RigidConfig::gap_tolerance_m`](super::RigidConfig::gap_tolerance_m)).
     pub fn closing_gaps(tolerance_m: f32) -> Self {
         LimitProjection {
             ragdolls: Ragdolls::default(),
@@ -257,11 +259,13 @@ fn project_joint(
     let j = &r.joints[k];
     let held = |b: usize| roles[base + b].held;
     let subtree = r.tree.subtree(k);
-    let rest: Vec<usize> = (0..r.shapes.len())
-        .filter(|&b| !r.tree.in_subtree(k, b))
-        .collect();
+    let rest = || -> Vec<usize> {
+        (0..r.shapes.len())
+            .filter(|&b| !r.tree.in_subtree(k, b))
+            .collect()
+    };
     let subtree_free = subtree.iter().all(|&b| !held(b));
-    let rest_free = rest.iter().all(|&b| !held(b));
+    let rest_free = || (0..r.shapes.len()).all(|b| r.tree.in_subtree(k, b) || !held(b));
     let (parent, child) = (poses[base + j.parent], poses[base + j.child]);
     if j.violation(&parent, &child) >= PROJECTION_TOLERANCE_DEG.to_radians()
         && let Some(rotation) = j.clamp_child_rotation(&parent, &child)
@@ -280,7 +284,8 @@ fn project_joint(
         };
         if subtree_free {
             move_bodies(r, poses, roles, ground, moved, subtree, turn(full));
-        } else if rest_free {
+        } else if rest_free() {
+            let rest = rest();
             move_bodies(
                 r,
                 poses,
@@ -310,8 +315,8 @@ fn project_joint(
     // and still creeping after 6 s).
     let close = gap * (1.0 - tolerance / width);
     let mass_of = |bodies: &[usize]| bodies.iter().map(|&b| r.masses[b]).sum::<f32>();
-    let (m_sub, m_rest) = (mass_of(subtree), mass_of(&rest));
-    let (to_sub, to_rest) = match (subtree_free, rest_free) {
+    let (m_sub, m_rest) = (mass_of(subtree), mass_of(&rest()));
+    let (to_sub, to_rest) = match (subtree_free, rest_free()) {
         (true, true) if m_sub + m_rest > 0.0 => (
             close * (m_rest / (m_sub + m_rest)),
             -close * (m_sub / (m_sub + m_rest)),
