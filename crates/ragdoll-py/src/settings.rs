@@ -43,6 +43,7 @@ fn set_engine(c: &mut BackendConfig, key: &str, v: &Bound<'_, PyAny>) -> PyResul
         (BackendConfig::Rigid(c), "iterations") => c.iterations = v.extract()?,
         (BackendConfig::Rigid(c), "collision_substeps") => c.collision_substeps = v.extract()?,
         (BackendConfig::Rigid(c), "project_limits") => c.project_limits = v.extract()?,
+        (BackendConfig::Rigid(c), "gap_tolerance_m") => c.gap_tolerance_m = v.extract()?,
         (BackendConfig::Particle(c), "collision_substeps") => c.collision_substeps = v.extract()?,
         (BackendConfig::Particle(c), "particle_substeps") => c.substeps = v.extract()?,
         (BackendConfig::Particle(c), "particle_iterations") => c.iterations = v.extract()?,
@@ -54,7 +55,7 @@ fn set_engine(c: &mut BackendConfig, key: &str, v: &Bound<'_, PyAny>) -> PyResul
         (BackendConfig::Fast(c), "project_limits") => c.project_limits = v.extract()?,
         (c, key) => {
             let owner = match key {
-                "substeps" | "iterations" => Some("rigid"),
+                "substeps" | "iterations" | "gap_tolerance_m" => Some("rigid"),
                 "project_limits" => Some("rigid and fast"),
                 "collision_substeps" => Some("rigid and particle"),
                 "particle_substeps" | "particle_iterations" => Some("particle"),

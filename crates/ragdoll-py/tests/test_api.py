@@ -145,6 +145,14 @@ def test_errors_are_exceptions_with_their_place(tmp_path):
     with pytest.raises(rd.BoundError) as e:
         rd.World("rigid", substeps=0)
     assert e.value.key == "substeps"
+    rd.World("rigid", gap_tolerance_m=0.001)
+    rd.World("rigid", gap_tolerance_m=None)
+    with pytest.raises(rd.BoundError) as e:
+        rd.World("rigid", gap_tolerance_m=-0.001)
+    assert e.value.key == "gap_tolerance_m"
+    with pytest.raises(rd.BoundError) as e:
+        rd.World("fast", gap_tolerance_m=0.001)
+    assert e.value.key == "gap_tolerance_m" and "rigid backend" in str(e.value)
     # Each engine reads its own settings: another engine's would change nothing.
     with pytest.raises(rd.BoundError) as e:
         rd.World("rigid", fast_iterations=2)
