@@ -121,14 +121,7 @@ impl LimitProjection {
     /// The widest joint gap of the ragdolls with a dynamic body, metres, in `poses`: what
     /// the solver left, read before [`LimitProjection::project`].
     pub fn worst_separation(&self, poses: &[Transform], roles: &[BodyRole]) -> f32 {
-        let mut worst = 0.0f32;
-        for r in self.physical(roles) {
-            let p = &poses[r.first_body..r.first_body + r.shapes.len()];
-            for j in &r.joints {
-                worst = worst.max(j.separation(&p[j.parent], &p[j.child]));
-            }
-        }
-        worst
+        self.worst_of(poses, roles, ResolvedJoint::separation)
     }
 
     /// Takes in a ragdoll whose first body has the engine's index `first_body`, with its
@@ -197,11 +190,21 @@ impl LimitProjection {
     /// in `poses` (every body's, engine order): what the solver left, read before
     /// [`LimitProjection::project`].
     pub fn worst_violation(&self, poses: &[Transform], roles: &[BodyRole]) -> f32 {
+        self.worst_of(poses, roles, ResolvedJoint::violation)
+    }
+
+    /// The largest `measure` of a joint of the ragdolls with a dynamic body, in `poses`.
+    fn worst_of(
+        &self,
+        poses: &[Transform],
+        roles: &[BodyRole],
+        measure: impl Fn(&ResolvedJoint, &Transform, &Transform) -> f32,
+    ) -> f32 {
         let mut worst = 0.0f32;
         for r in self.physical(roles) {
             let p = &poses[r.first_body..r.first_body + r.shapes.len()];
             for j in &r.joints {
-                worst = worst.max(j.violation(&p[j.parent], &p[j.child]));
+                worst = worst.max(measure(j, &p[j.parent], &p[j.child]));
             }
         }
         worst
@@ -230,8 +233,11 @@ impl LimitProjection {
             // As below: only a violation known to be small is skipped.
             let past = r.joints.iter().any(|j| {
                 let v = j.violation(&p[j.parent], &p[j.child]);
-                let gap = j.separation(&p[j.parent], &p[j.child]);
-                v >= tolerance || v.is_nan() || self.gap_tolerance_m.is_some_and(|t| gap > t)
+                v >= tolerance
+                    || v.is_nan()
+                    || self
+                        .gap_tolerance_m
+                        .is_some_and(|t| j.separation(&p[j.parent], &p[j.child]) > t)
             });
             if !past {
                 continue;
