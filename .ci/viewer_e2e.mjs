@@ -307,8 +307,15 @@ check(drops === hostile.sent, 'every malformed or hostile message is dropped wit
   `${drops} of ${hostile.sent} logged`);
 check(hostile.stillOpen, 'the connection that sent them stays open');
 check(hostile.bigClosed, 'a 2 MiB message closes only its own connection');
-// Every new connection started the simulation over (as a reload does): play again.
+// Every new connection started the simulation over (as a reload does): play again. The
+// button toggles by the last frame the page saw, so wait for the page to see the restart
+// (paused) before pressing it, and for it to see the simulation playing after.
+const seen = (playing) => page
+  .waitForFunction((p) => window.viewer.frame && window.viewer.frame.playing === p, playing, { timeout: 5000 })
+  .catch(() => {});
+await seen(false);
 await page.click('#play');
+await seen(true);
 await sleep(300);
 const a = await state();
 await sleep(500);

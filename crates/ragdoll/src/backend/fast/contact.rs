@@ -73,7 +73,7 @@ pub(super) struct Collide {
     /// Per pair: the fastest the two may close on each other in this step, m/s.
     pub closing: Vec<f32>,
     /// Per pair: its contact as last found, touching or apart, with
-    /// `FastConfig::keep_contacts` on (`kept.rs`).
+    /// `FastConfig::keep_contacts` on (`kept.rs`); empty with it off.
     pub kept: Vec<Option<Kept>>,
     /// Per ragdoll: the fastest any point of it moves at the step's start, m/s, and the
     /// farthest one may go in the step, metres.
@@ -212,17 +212,20 @@ impl FastBackend {
     /// (`split.rs`), which has no ground of its own, runs alone.
     pub(super) fn solve_pair_contacts(&mut self) {
         for k in 0..self.collide.pairs.len() {
+            // A pair that cannot touch yet, read first: most of a crowd's pairs wait.
+            if self
+                .collide
+                .wait
+                .get(k)
+                .is_some_and(|&t| t > self.collide.elapsed)
+            {
+                continue;
+            }
             let (a, b) = self.collide.pairs[k];
             let (a, b) = (a as usize, b as usize);
             let (oa, ob) = (self.owner[a] as usize, self.owner[b] as usize);
             // Two parts of one compound: their joints are frozen, they move as one.
-            if oa == ob
-                || self
-                    .collide
-                    .wait
-                    .get(k)
-                    .is_some_and(|&t| t > self.collide.elapsed)
-            {
+            if oa == ob {
                 continue;
             }
             for o in [oa, ob] {
