@@ -37,8 +37,8 @@ const LOOK_UP: Duration = Duration::from_millis(20);
 /// `start_pose` (`"first_frame"` or `"rest"`), `dt` and `joint_damping`, and the
 /// chosen backend's own: `substeps`, `iterations`, `collision_substeps`,
 /// `project_limits` and `gap_tolerance_m` (rigid: joint gaps wider than this many metres
-/// narrowed on positions, off by default as it costs energy), `collision_substeps`, `particle_substeps` and
-/// `particle_iterations` (particle), `fast_substeps`, `fast_iterations`,
+/// narrowed on positions, off by default as it costs energy), `collision_substeps`,
+/// `particle_substeps` and `particle_iterations` (particle), `fast_substeps`, `fast_iterations`,
 /// `fast_impact_passes`, `freeze_joints`, `keep_contacts` and `project_limits` (fast). Another
 /// backend's setting is refused.
 #[pyclass(module = "ragdoll_sim")]

@@ -320,8 +320,8 @@ fn project_joint(
     // side alone lifted a resting bird's chain a little every step: 1.5 % energy gained
     // and still creeping after 6 s).
     let close = gap * (1.0 - tolerance / width);
-    let mass_of = |bodies: &[usize]| bodies.iter().map(|&b| r.masses[b]).sum::<f32>();
-    let (m_sub, m_rest) = (mass_of(subtree), mass_of(&rest()));
+    let m_sub: f32 = subtree.iter().map(|&b| r.masses[b]).sum();
+    let m_rest = r.masses.iter().sum::<f32>() - m_sub;
     let (to_sub, to_rest) = match (subtree_free, rest_free()) {
         (true, true) if m_sub + m_rest > 0.0 => (
             close * (m_rest / (m_sub + m_rest)),

@@ -171,8 +171,8 @@ pub struct StepReport {
 
 impl StepReport {
     /// Folds in the report of a later step of the same world step: the worst limit
-    /// violation and joint gap before any clamp, any non-finite body, and the last step's penetration. The penetration
-    /// of the collision substeps before the last is not read: the metric has always been
+    /// violation and joint gap before any clamp, any non-finite body, and the last step's
+    /// penetration. The penetration of the collision substeps before the last is not read: the metric has always been
     /// the last substep's, and over all four the rigid engine lets a body 35 mm into the
     /// ground where the last reads 28 mm (10 kg of TNT 3 m from CesiumMan, the command
     /// line's blast test), past the 3 cm the tests hold every run to; reading them waits
