@@ -6,8 +6,9 @@ use std::path::Path;
 
 use super::SceneCharacter;
 use super::load::{Files, regular_file};
-use super::parse::{Ctx, Src, span_of};
+use super::parse::{Ctx, span_of};
 use super::raw::{RawCharacter, RawPowered, S};
+use super::source::Src;
 use crate::error::{Error, Result};
 use crate::skeleton::{Character, Source};
 use crate::spec::{self, BuildOptions, RagdollSpec, check_above, check_within};

@@ -7,8 +7,9 @@
 use rand_chacha::ChaCha8Rng;
 use rand_chacha::rand_core::{RngCore, SeedableRng};
 
-use super::parse::{Ctx, Src};
+use super::parse::Ctx;
 use super::raw::{Formation, RawCharacter, RawCrowd, S};
+use super::source::Src;
 use crate::bounds::MAX_SECONDS;
 use crate::error::Result;
 use crate::spec::check_within;

@@ -66,6 +66,7 @@ mod crowd;
 mod load;
 mod parse;
 mod raw;
+mod source;
 mod timeline;
 mod watch;
 pub mod wedge;

@@ -7,8 +7,9 @@ use std::ops::Range;
 
 use glam::Vec3;
 
-use super::parse::{Ctx, Src, span_of};
+use super::parse::{Ctx, span_of};
 use super::raw::{RawBlast, RawField, RawPin, RawProjectile, RawPush, S};
+use super::source::Src;
 use super::{Event, SceneCharacter};
 use crate::error::Result;
 use crate::events::{
